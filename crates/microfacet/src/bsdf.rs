@@ -1,0 +1,125 @@
+//! The BSDF interface shared by every lobe: evaluation, sampling and both
+//! directional pdfs, with the transport mode that makes refraction adjoint-correct.
+//!
+//! Conventions (SPEC §0): directions are in the shading frame (n = +z) and
+//! point away from the surface; `wi` is the query direction (towards the
+//! previous vertex of the subpath being built), `wo` the other one. Values
+//! returned by `eval` do not include the cosine |<wo,n>|.
+
+use glam::{Vec2, Vec3};
+
+use crate::conductor::Conductor;
+use crate::dielectric::Dielectric;
+use crate::lambertian::Lambertian;
+
+/// Which quantity a subpath carries (SPEC §0; Veach's thesis, ch. 5).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum TransportMode {
+    /// Camera subpaths: radiance is eta^2 brighter inside a dense medium, so
+    /// refraction carries (eta_i/eta_t)^2 relative to `Importance`.
+    Radiance,
+    /// Light subpaths: the adjoint BSDF, which conserves flux.
+    Importance,
+}
+
+/// A sampled outgoing direction with everything an integrator needs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BsdfSample {
+    /// The sampled direction, a unit vector.
+    pub wo: Vec3,
+    /// BSDF value f(wi, wo) without the cosine; for a delta lobe, the weight
+    /// of the delta (so that f |<wo,n>| / pdf is the sample's throughput).
+    pub f: Vec3,
+    /// Density of `wo` given `wi` (solid angle), or the discrete probability
+    /// of the chosen delta lobe.
+    pub pdf: f32,
+    /// Density of `wi` had it been sampled from `wo` (the reverse pdf BPT and
+    /// VCM need), in the same measure as `pdf`.
+    pub pdf_reverse: f32,
+    /// Relative index eta_t/eta_i crossed by a refraction; 1 for reflection.
+    pub eta: f32,
+    /// True when `wo` came from a delta lobe.
+    pub is_specular: bool,
+}
+
+/// A surface scattering function: one of the lobes of this crate.
+///
+/// A plain enum (no trait objects) keeps dispatch cheap and exhaustive.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Bsdf {
+    /// Ideal diffuse reflection.
+    Lambertian(Lambertian),
+    /// Rough or smooth metal.
+    Conductor(Conductor),
+    /// Rough or smooth glass-like interface.
+    Dielectric(Dielectric),
+}
+
+impl Bsdf {
+    /// f(wi, wo) (0 for delta lobes, which only `sample` can produce).
+    pub fn eval(&self, wi: Vec3, wo: Vec3, mode: TransportMode) -> Vec3 {
+        match self {
+            Bsdf::Lambertian(l) => l.eval(wi, wo),
+            Bsdf::Conductor(c) => c.eval(wi, wo),
+            Bsdf::Dielectric(d) => Vec3::splat(d.eval(wi, wo, mode)),
+        }
+    }
+
+    /// Samples `wo` given `wi` from two uniforms `u` and one more, `uc`, for
+    /// discrete choices. `None` when no valid direction results (never a NaN).
+    pub fn sample(&self, wi: Vec3, uc: f32, u: Vec2, mode: TransportMode) -> Option<BsdfSample> {
+        match self {
+            Bsdf::Lambertian(l) => l.sample(wi, u),
+            Bsdf::Conductor(c) => c.sample(wi, uc, u),
+            Bsdf::Dielectric(d) => d.sample(wi, uc, u, mode),
+        }
+    }
+
+    /// Density with which `sample` produces `wo` given `wi` (0 for delta lobes).
+    pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
+        match self {
+            Bsdf::Lambertian(l) => l.pdf(wi, wo),
+            Bsdf::Conductor(c) => c.pdf(wi, wo),
+            Bsdf::Dielectric(d) => d.pdf(wi, wo),
+        }
+    }
+
+    /// Density with which `sample` would produce `wi` given `wo`.
+    pub fn pdf_reverse(&self, wi: Vec3, wo: Vec3) -> f32 {
+        self.pdf(wo, wi)
+    }
+
+    /// True when the lobe is a delta (nothing to evaluate or connect through).
+    pub fn is_specular(&self) -> bool {
+        match self {
+            Bsdf::Lambertian(_) => false,
+            Bsdf::Conductor(c) => c.is_specular(),
+            Bsdf::Dielectric(d) => d.is_specular(),
+        }
+    }
+
+    /// The microfacet width, if the lobe has one.
+    pub fn alpha(&self) -> Option<f32> {
+        match self {
+            Bsdf::Lambertian(_) => None,
+            Bsdf::Conductor(c) => Some(c.model.alpha()),
+            Bsdf::Dielectric(d) => Some(d.model.alpha()),
+        }
+    }
+
+    /// The same BSDF with microfacet width `alpha` (regularization's alpha-hat);
+    /// a Lambertian lobe is returned unchanged.
+    pub fn with_alpha(&self, alpha: f32) -> Self {
+        match *self {
+            Bsdf::Lambertian(l) => Bsdf::Lambertian(l),
+            Bsdf::Conductor(c) => Bsdf::Conductor(Conductor {
+                model: c.model.with_alpha(alpha),
+                ..c
+            }),
+            Bsdf::Dielectric(d) => Bsdf::Dielectric(Dielectric {
+                model: d.model.with_alpha(alpha),
+                ..d
+            }),
+        }
+    }
+}

@@ -1,0 +1,92 @@
+//! Metal: Torrance-Sparrow microfacet reflection (SPEC §3), or a perfect
+//! mirror when alpha is below `SMOOTH_ALPHA`. Two-sided.
+
+use glam::{Vec2, Vec3};
+
+use crate::bsdf::BsdfSample;
+use crate::frame::{reflect, same_hemisphere};
+use crate::fresnel::Fresnel;
+use crate::model::MicrofacetModel;
+
+/// A conductor lobe.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Conductor {
+    /// Microfacet distribution and shadowing.
+    pub model: MicrofacetModel,
+    /// Reflectance model.
+    pub fresnel: Fresnel,
+}
+
+impl Conductor {
+    /// True when the lobe is a perfect mirror.
+    pub fn is_specular(&self) -> bool {
+        self.model.is_smooth()
+    }
+
+    /// f_r = F(<wi,h>) D(h) G(wi,wo) / (4 |<wi,n><wo,n>|), h = normalize(wi + wo)
+    /// (SPEC §3). 0 for opposite sides, grazing directions, or a mirror.
+    pub fn eval(&self, wi: Vec3, wo: Vec3) -> Vec3 {
+        match self.configuration(wi, wo) {
+            Some((wi, wo, h)) => {
+                let t = self.model.facet_terms(wi, wo, h);
+                self.fresnel.eval(wi.dot(h)) * t.d * t.g / (4.0 * wi.z * wo.z)
+            }
+            None => Vec3::ZERO,
+        }
+    }
+
+    /// pdf(wo) = pdf_h(wi, h) / (4 <wo,h>) (SPEC §3).
+    pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
+        match self.configuration(wi, wo) {
+            Some((wi, _, h)) => self.model.pdf_h(wi, h) / (4.0 * wi.dot(h)),
+            None => 0.0,
+        }
+    }
+
+    /// Samples a microfacet normal and reflects wi about it.
+    pub fn sample(&self, wi: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
+        if wi.z == 0.0 {
+            return None;
+        }
+        let side = wi.z.signum();
+        let wi = wi * side;
+        if self.is_specular() {
+            let wo = Vec3::new(-wi.x, -wi.y, wi.z);
+            return Some(BsdfSample {
+                wo: wo * side,
+                f: self.fresnel.eval(wi.z) / wi.z,
+                pdf: 1.0,
+                pdf_reverse: 1.0,
+                eta: 1.0,
+                is_specular: true,
+            });
+        }
+        let h = self.model.sample_h(wi, u, uc)?.h;
+        let wi_h = wi.dot(h);
+        let wo = reflect(wi, h).try_normalize()?;
+        if !(wi_h > 0.0 && wo.z > 0.0) {
+            return None;
+        }
+        let t = self.model.facet_terms(wi, wo, h);
+        Some(BsdfSample {
+            wo: wo * side,
+            f: self.fresnel.eval(wi_h) * t.d * t.g / (4.0 * wi.z * wo.z),
+            pdf: t.pdf_h_wi / (4.0 * wi_h),
+            pdf_reverse: t.pdf_h_wo / (4.0 * wi_h),
+            eta: 1.0,
+            is_specular: false,
+        })
+    }
+
+    /// (wi, wo, h) flipped to the upper hemisphere, if they form a valid
+    /// rough reflection: same side, not grazing, front-facing microfacet.
+    fn configuration(&self, wi: Vec3, wo: Vec3) -> Option<(Vec3, Vec3, Vec3)> {
+        if self.is_specular() || !same_hemisphere(wi, wo) {
+            return None;
+        }
+        let side = wi.z.signum();
+        let (wi, wo) = (wi * side, wo * side);
+        let h = (wi + wo).try_normalize()?;
+        (wi.dot(h) > 0.0 && h.z > 0.0).then_some((wi, wo, h))
+    }
+}

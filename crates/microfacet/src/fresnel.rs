@@ -1,0 +1,198 @@
+//! Fresnel reflectance (SPEC §3): exact unpolarised dielectric, complex-IOR
+//! conductor, and Schlick's approximation from F0.
+
+use glam::Vec3;
+
+/// Unpolarised Fresnel reflectance of a dielectric interface (Born & Wolf;
+/// pbrt-v4 `FrDielectric`).
+///
+/// `cos_theta_i` is the cosine between the incident direction and the normal
+/// on its side; a negative value means the direction is on the far side, and
+/// the interface is then seen with 1/eta. `eta` = eta_t / eta_i. Returns 1 on
+/// total internal reflection, 0 for eta = 1 (except at exactly grazing
+/// incidence, where it is 1), and a value in [0, 1] otherwise.
+pub fn dielectric(cos_theta_i: f32, eta: f32) -> f32 {
+    let (cos_i, eta) = if cos_theta_i < 0.0 {
+        (-cos_theta_i, 1.0 / eta)
+    } else {
+        (cos_theta_i, eta)
+    };
+    let cos_i = cos_i.min(1.0);
+    let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
+    if !(sin2_t < 1.0) {
+        return 1.0;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    let r_parallel = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    let r_perpendicular = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    (0.5 * (r_parallel * r_parallel + r_perpendicular * r_perpendicular)).clamp(0.0, 1.0)
+}
+
+/// Fresnel reflectance of a conductor with complex index eta + i k, per RGB
+/// channel (pbrt-v4 `FrComplex`; the same equations as `dielectric` with a
+/// complex eta, where total internal reflection cannot occur).
+/// `cos_theta_i` is clamped to [0, 1].
+pub fn conductor(cos_theta_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
+    let c = cos_theta_i.clamp(0.0, 1.0);
+    Vec3::new(
+        conductor_channel(c, eta.x, k.x),
+        conductor_channel(c, eta.y, k.y),
+        conductor_channel(c, eta.z, k.z),
+    )
+}
+
+fn conductor_channel(cos_i: f32, eta: f32, k: f32) -> f32 {
+    let eta = Complex::new(eta, k);
+    let sin2_i = 1.0 - cos_i * cos_i;
+    let sin2_t = Complex::real(sin2_i).div(eta.mul(eta));
+    let cos_t = Complex::real(1.0).sub(sin2_t).sqrt();
+    let ci = Complex::real(cos_i);
+    let r_parallel = eta.mul(ci).sub(cos_t).div(eta.mul(ci).add(cos_t));
+    let r_perpendicular = ci.sub(eta.mul(cos_t)).div(ci.add(eta.mul(cos_t)));
+    let f = 0.5 * (r_parallel.norm2() + r_perpendicular.norm2());
+    if f.is_finite() {
+        f.clamp(0.0, 1.0)
+    } else {
+        1.0
+    }
+}
+
+/// Schlick's approximation F0 + (1 - F0)(1 - cos)^5 (Schlick 1994), used for
+/// metals described by a base colour (glTF). `cos_theta_i` is clamped to [0, 1].
+pub fn schlick(cos_theta_i: f32, f0: Vec3) -> Vec3 {
+    let m = 1.0 - cos_theta_i.clamp(0.0, 1.0);
+    let m5 = (m * m) * (m * m) * m;
+    f0 + (Vec3::ONE - f0) * m5
+}
+
+/// How a conductor's reflectance is computed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Fresnel {
+    /// Complex index of refraction eta + i k per RGB channel.
+    Conductor {
+        /// Real part of the index.
+        eta: Vec3,
+        /// Extinction coefficient.
+        k: Vec3,
+    },
+    /// Schlick's approximation with normal-incidence reflectance `f0`.
+    Schlick {
+        /// Reflectance at normal incidence.
+        f0: Vec3,
+    },
+}
+
+impl Fresnel {
+    /// Reflectance for a microfacet at cosine `cos_theta_i` to the direction.
+    pub fn eval(&self, cos_theta_i: f32) -> Vec3 {
+        match *self {
+            Fresnel::Conductor { eta, k } => conductor(cos_theta_i, eta, k),
+            Fresnel::Schlick { f0 } => schlick(cos_theta_i, f0),
+        }
+    }
+}
+
+/// Just enough complex arithmetic for the conductor Fresnel equations.
+#[derive(Clone, Copy, Debug)]
+struct Complex {
+    re: f32,
+    im: f32,
+}
+
+impl Complex {
+    fn new(re: f32, im: f32) -> Self {
+        Self { re, im }
+    }
+    fn real(re: f32) -> Self {
+        Self { re, im: 0.0 }
+    }
+    fn add(self, o: Self) -> Self {
+        Self::new(self.re + o.re, self.im + o.im)
+    }
+    fn sub(self, o: Self) -> Self {
+        Self::new(self.re - o.re, self.im - o.im)
+    }
+    fn mul(self, o: Self) -> Self {
+        Self::new(
+            self.re * o.re - self.im * o.im,
+            self.re * o.im + self.im * o.re,
+        )
+    }
+    fn div(self, o: Self) -> Self {
+        let scale = 1.0 / o.norm2();
+        Self::new(
+            scale * (self.re * o.re + self.im * o.im),
+            scale * (self.im * o.re - self.re * o.im),
+        )
+    }
+    fn norm2(self) -> f32 {
+        self.re * self.re + self.im * self.im
+    }
+    /// Principal square root.
+    fn sqrt(self) -> Self {
+        let n = self.norm2().sqrt();
+        if n == 0.0 {
+            return Self::real(0.0);
+        }
+        let t1 = (0.5 * (n + self.re.abs())).sqrt();
+        let t2 = 0.5 * self.im / t1;
+        if self.re >= 0.0 {
+            Self::new(t1, t2)
+        } else {
+            Self::new(t2.abs(), t1.copysign(self.im))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dielectric_known_values() {
+        // Normal incidence: ((eta - 1)/(eta + 1))^2 = 0.04 for glass.
+        assert!((dielectric(1.0, 1.5) - 0.04).abs() < 1e-6);
+        // Brewster's angle: the parallel component vanishes.
+        let brewster = 1.5f32.atan();
+        let rs = {
+            let ci = brewster.cos();
+            let ct = (1.0 - (brewster.sin() / 1.5).powi(2)).sqrt();
+            ((ci - 1.5 * ct) / (ci + 1.5 * ct)).powi(2)
+        };
+        assert!((dielectric(brewster.cos(), 1.5) - 0.5 * rs).abs() < 1e-6);
+        // Total internal reflection from inside glass beyond the critical angle.
+        assert_eq!(dielectric(0.5, 1.0 / 1.5), 1.0);
+        assert_eq!(dielectric(-0.5, 1.5), 1.0);
+        // Reciprocity: the same interface seen from both sides.
+        let ci = 0.8f32;
+        let ct = (1.0 - (1.0 - ci * ci) / (1.5 * 1.5)).sqrt();
+        assert!((dielectric(ci, 1.5) - dielectric(ct, 1.0 / 1.5)).abs() < 1e-6);
+        // Index-matched.
+        assert_eq!(dielectric(0.7, 1.0), 0.0);
+    }
+
+    #[test]
+    fn conductor_reduces_to_dielectric_without_absorption() {
+        for c in [0.05, 0.3, 0.7, 1.0] {
+            let f = conductor(c, Vec3::splat(1.5), Vec3::ZERO);
+            assert!((f.x - dielectric(c, 1.5)).abs() < 1e-5, "{c}");
+        }
+    }
+
+    #[test]
+    fn conductor_known_value() {
+        // Gold at 600 nm, eta = 0.2 + 3.0 i: R(0) = ((n-1)^2 + k^2)/((n+1)^2 + k^2).
+        let f = conductor(1.0, Vec3::splat(0.2), Vec3::splat(3.0));
+        let expected = (0.64 + 9.0) / (1.44 + 9.0);
+        assert!((f.x - expected).abs() < 1e-5);
+        // Grazing incidence reflects everything.
+        assert!((conductor(0.0, Vec3::splat(0.2), Vec3::splat(3.0)).x - 1.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn schlick_endpoints() {
+        let f0 = Vec3::new(0.9, 0.6, 0.2);
+        assert!((schlick(1.0, f0) - f0).length() < 1e-7);
+        assert!((schlick(0.0, f0) - Vec3::ONE).length() < 1e-7);
+    }
+}

@@ -1,0 +1,177 @@
+//! A microfacet surface model: an NDF together with a shadowing model, and
+//! the visible-normal sampler that belongs to the pair (SPEC §1-§2).
+
+use glam::{Vec2, Vec3};
+
+use crate::ndf::{Ndf, NdfKind};
+use crate::shadowing::{Shadowing, g1_vcavity};
+use crate::vndf;
+
+/// Below this alpha a lobe is a delta (mirror or smooth refraction): its
+/// density would exceed 1/(4 pi alpha^2) = 8e6 per steradian, beyond what
+/// f32 directions resolve usefully, and integrators must not try to connect
+/// through it (SPEC §3) unless regularization widens it first.
+pub const SMOOTH_ALPHA: f32 = 1e-4;
+
+/// NDF + shadowing: everything a Torrance-Sparrow or Walter lobe needs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MicrofacetModel {
+    /// The normal distribution.
+    pub ndf: Ndf,
+    /// The masking-shadowing model.
+    pub shadowing: Shadowing,
+}
+
+/// D, G and both microfacet-normal densities of one configuration (wi, wo, h),
+/// computed once for a lobe's value, forward pdf and reverse pdf.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FacetTerms {
+    /// D(h).
+    pub d: f32,
+    /// G(wi, wo) for reflection or transmission, as the sides of wi and wo say.
+    pub g: f32,
+    /// `pdf_h` for the query from wi.
+    pub pdf_h_wi: f32,
+    /// `pdf_h` for the reverse query from wo (seen from its own side).
+    pub pdf_h_wo: f32,
+}
+
+/// A sampled microfacet normal and a fresh uniform for later choices.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HalfVectorSample {
+    /// The microfacet normal, h.z >= 0.
+    pub h: Vec3,
+    /// A uniform in [0, 1) independent of `h` (the input `uc`, rescaled if
+    /// the sampler consumed part of it).
+    pub uc: f32,
+}
+
+impl MicrofacetModel {
+    /// A model with NDF `kind` of width `alpha` (see `Ndf::new` for clamping).
+    pub fn new(kind: NdfKind, alpha: f32, shadowing: Shadowing) -> Self {
+        Self {
+            ndf: Ndf::new(kind, alpha),
+            shadowing,
+        }
+    }
+
+    /// The width alpha.
+    pub fn alpha(&self) -> f32 {
+        self.ndf.alpha()
+    }
+
+    /// The same model with another alpha (how regularization applies alpha-hat).
+    pub fn with_alpha(&self, alpha: f32) -> Self {
+        Self {
+            ndf: self.ndf.with_alpha(alpha),
+            shadowing: self.shadowing,
+        }
+    }
+
+    /// True when lobes built on this model are deltas (alpha < `SMOOTH_ALPHA`).
+    pub fn is_smooth(&self) -> bool {
+        self.alpha() < SMOOTH_ALPHA
+    }
+
+    /// True when `sample_h` draws visible normals; false for Smith Blinn-Phong,
+    /// which has no visible-normal sampler and draws from D(h)<h,n> (SPEC §1).
+    pub fn samples_visible_normals(&self) -> bool {
+        !(self.shadowing == Shadowing::Smith && self.ndf.kind() == NdfKind::BlinnPhong)
+    }
+
+    /// D(h).
+    pub fn d(&self, h: Vec3) -> f32 {
+        self.ndf.d(h)
+    }
+
+    /// Masking of `w` by microfacet `h`, zero unless (w.h)(w.n) > 0 (back-facing
+    /// microfacets are discarded, SPEC §3).
+    pub fn g1(&self, w: Vec3, h: Vec3) -> f32 {
+        match self.shadowing {
+            Shadowing::Smith if w.dot(h) * w.z > 0.0 => self.ndf.g1(w),
+            Shadowing::Smith => 0.0,
+            Shadowing::VCavity => g1_vcavity(w, h),
+        }
+    }
+
+    /// Shadowing-masking G(wi, wo) for microfacet `h` (SPEC §2): reflection
+    /// when wi and wo are on the same side, transmission otherwise. Symmetric.
+    pub fn g(&self, wi: Vec3, wo: Vec3, h: Vec3) -> f32 {
+        self.shadowing
+            .g(self.g1(wi, h), self.g1(wo, h), wi.z * wo.z > 0.0)
+    }
+
+    /// Supremum of G1(w)/|<w,n>| over directions (supp. §2), +infinity for the
+    /// V-cavity model, whose ratio is unbounded at grazing.
+    pub fn g1_over_cos_sup(&self) -> f32 {
+        match self.shadowing {
+            Shadowing::Smith => self.ndf.g1_over_cos_sup(),
+            Shadowing::VCavity => f32::INFINITY,
+        }
+    }
+
+    /// Samples a microfacet normal for a query from `wi` (wi.z > 0): visible
+    /// normals for GGX and Beckmann with Smith (Heitz 2018; Heitz & d'Eon
+    /// 2014) and for every NDF with V-cavity; D(h)<h,n> for Smith Blinn-Phong.
+    /// Its density is `pdf_h`. `None` if wi is not above the surface or the
+    /// sampler degenerates.
+    pub fn sample_h(&self, wi: Vec3, u: Vec2, uc: f32) -> Option<HalfVectorSample> {
+        if !(wi.z > 0.0) {
+            return None;
+        }
+        let alpha = self.alpha();
+        let h = match (self.shadowing, self.ndf.kind()) {
+            (Shadowing::VCavity, _) => {
+                let (h, uc) = vndf::sample_vcavity(&self.ndf, wi, u, uc)?;
+                return Some(HalfVectorSample { h, uc });
+            }
+            (Shadowing::Smith, NdfKind::Ggx) => vndf::sample_ggx(wi, alpha, u)?,
+            (Shadowing::Smith, NdfKind::Beckmann) => vndf::sample_beckmann(wi, alpha, u)?,
+            (Shadowing::Smith, NdfKind::BlinnPhong) => self.ndf.sample_d_cos(u),
+        };
+        Some(HalfVectorSample { h, uc })
+    }
+
+    /// D, G and the densities of `sample_h` from both directions, for wi
+    /// above the surface (wi.z > 0), wo on either side and h.z > 0. Equal to
+    /// `d(h)`, `g(wi, wo, h)`, `pdf_h(wi, h)` and `pdf_h(wo_up, h)` with
+    /// wo_up = wo flipped above the surface, at the cost of one D and two G1.
+    pub fn facet_terms(&self, wi: Vec3, wo: Vec3, h: Vec3) -> FacetTerms {
+        let d = self.d(h);
+        let (g1_wi, g1_wo) = (self.g1(wi, h), self.g1(wo, h));
+        let g = self.shadowing.g(g1_wi, g1_wo, wo.z > 0.0);
+        let (pdf_h_wi, pdf_h_wo) = if self.samples_visible_normals() {
+            // G1 is zero unless (w.h)(w.n) > 0, so |w.h| / |w.n| is safe here.
+            (
+                g1_wi * wi.dot(h).abs() * d / wi.z,
+                g1_wo * wo.dot(h).abs() * d / wo.z.abs(),
+            )
+        } else {
+            let p = d * h.z;
+            (p, p)
+        };
+        FacetTerms {
+            d,
+            g,
+            pdf_h_wi,
+            pdf_h_wo,
+        }
+    }
+
+    /// Density of `sample_h` per solid angle of h (SPEC §1):
+    /// D_wi(h) = G1(wi, h) max(0, <wi,h>) D(h) / <wi,n>, or D(h)<h,n> for Smith
+    /// Blinn-Phong. 0 unless wi.z > 0 and h.z > 0.
+    pub fn pdf_h(&self, wi: Vec3, h: Vec3) -> f32 {
+        if !(wi.z > 0.0 && h.z > 0.0) {
+            return 0.0;
+        }
+        if !self.samples_visible_normals() {
+            return self.ndf.pdf_d_cos(h);
+        }
+        let wi_h = wi.dot(h);
+        if wi_h <= 0.0 {
+            return 0.0;
+        }
+        self.g1(wi, h) * wi_h * self.d(h) / wi.z
+    }
+}

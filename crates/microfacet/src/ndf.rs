@@ -1,0 +1,390 @@
+//! Normal distribution functions D(h) (SPEC §1, supp. §1) with their Smith
+//! masking functions and D(h)<h,n> sampling.
+//!
+//! All three are isotropic and normalised so that the integral of
+//! D(h)<h,n> over the hemisphere is 1. `alpha` is the width parameter itself
+//! (glTF's perceptual roughness r maps to alpha = r^2).
+
+use std::f32::consts::PI;
+use std::f64::consts::PI as PI64;
+
+use glam::{Vec2, Vec3};
+
+use crate::frame::sin2_theta;
+use crate::special::{beta_inc, erfc, ln_gamma};
+
+/// Smallest alpha the NDFs accept; smaller values (and NaN) are raised to it.
+/// At 1e-7, 1/(pi alpha^2) = 3.2e13 is still far from f32 overflow, and
+/// every lobe is treated as a delta long before (`SMOOTH_ALPHA` in `model`).
+pub const ALPHA_MIN: f32 = 1e-7;
+
+/// Largest alpha the NDFs accept; larger values are lowered to it. GGX's
+/// maximum alpha^2/pi stays finite in f32 far beyond it.
+pub const ALPHA_MAX: f32 = 1e4;
+
+/// Blinn-Phong needs alpha <= 1 (exponent n = 2/alpha^2 - 2 >= 0, SPEC §3
+/// "Domain"); larger values are lowered to it.
+pub const BLINN_PHONG_ALPHA_MAX: f32 = 1.0;
+
+/// Beckmann's maximum leaves h = n above this alpha (supp. eq. 3): 1/sqrt(2).
+pub const BECKMANN_PEAK_SHIFT_ALPHA: f32 = std::f32::consts::FRAC_1_SQRT_2;
+
+/// Below this alpha, Blinn-Phong uses Beckmann's Lambda instead of its exact
+/// one. The two differ by about 0.3 alpha^2 in G1 (3e-5 here), while the exact
+/// form's continued fraction needs O(1/alpha) steps.
+pub const BLINN_PHONG_EXACT_LAMBDA_MIN_ALPHA: f32 = 0.01;
+
+/// Measured excess of the supremum over angles of Smith-Beckmann G1/cos over
+/// max(1, 2 sqrt(pi)/alpha): at most 1.6 % (near alpha = 3.55), so bounds are
+/// scaled by 1.02 (SPEC §2).
+pub const BECKMANN_G1_OVER_COS_SAFETY: f32 = 1.02;
+
+/// The microfacet normal distributions of supp. §1.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum NdfKind {
+    /// GGX / Trowbridge-Reitz (supp. eq. 1).
+    Ggx,
+    /// Beckmann-Spizzichino (supp. eq. 2).
+    Beckmann,
+    /// Normalised Blinn-Phong with exponent n = 2/alpha^2 - 2 (supp. eq. 5).
+    BlinnPhong,
+}
+
+/// An isotropic normal distribution: a kind and its width alpha.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ndf {
+    kind: NdfKind,
+    alpha: f32,
+}
+
+impl Ndf {
+    /// An NDF of `kind` with width `alpha`, clamped to
+    /// [`ALPHA_MIN`, `ALPHA_MAX`] ([`ALPHA_MIN`, 1] for Blinn-Phong); NaN
+    /// becomes `ALPHA_MIN`.
+    pub fn new(kind: NdfKind, alpha: f32) -> Self {
+        let max = match kind {
+            NdfKind::BlinnPhong => BLINN_PHONG_ALPHA_MAX,
+            NdfKind::Ggx | NdfKind::Beckmann => ALPHA_MAX,
+        };
+        Self {
+            kind,
+            alpha: alpha.max(ALPHA_MIN).min(max),
+        }
+    }
+
+    /// The distribution family.
+    pub fn kind(&self) -> NdfKind {
+        self.kind
+    }
+
+    /// The width parameter alpha (after clamping).
+    pub fn alpha(&self) -> f32 {
+        self.alpha
+    }
+
+    /// The same family with another alpha.
+    pub fn with_alpha(&self, alpha: f32) -> Self {
+        Self::new(self.kind, alpha)
+    }
+
+    /// Blinn-Phong exponent n = 2/alpha^2 - 2 equivalent to this alpha (supp. eq. 5).
+    pub fn blinn_phong_exponent(&self) -> f64 {
+        2.0 / f64::from(self.alpha).powi(2) - 2.0
+    }
+
+    /// D(h) (supp. eq. 1, 2, 5) for a unit microfacet normal h; 0 when h is
+    /// not strictly above the surface (h.z <= 0).
+    pub fn d(&self, h: Vec3) -> f32 {
+        if h.z <= 0.0 {
+            return 0.0;
+        }
+        let a2 = self.alpha * self.alpha;
+        let s2 = sin2_theta(h);
+        let c2 = h.z * h.z;
+        match self.kind {
+            // 1 / (pi a^2 (c^2 + s^2/a^2)^2): finite for every h, no tan^2 overflow.
+            NdfKind::Ggx => {
+                let t = c2 + s2 / a2;
+                1.0 / (PI * a2 * t * t)
+            }
+            // exp(-tan^2/a^2) / (pi a^2 c^4), in f64: c^4 a^2 underflows f32 at grazing.
+            NdfKind::Beckmann => {
+                let (a2, s2, c2) = (f64::from(a2), f64::from(s2), f64::from(c2));
+                ((-s2 / (a2 * c2)).exp() / (PI64 * a2 * c2 * c2)) as f32
+            }
+            // c^n / (pi a^2), c^n = exp(n/2 ln c^2) with ln c^2 = ln(1 - s^2)
+            // near the normal (exact there) and ln(c^2) towards grazing.
+            NdfKind::BlinnPhong => {
+                let n = self.blinn_phong_exponent();
+                let ln_c2 = if s2 < 0.5 {
+                    (-f64::from(s2)).ln_1p()
+                } else {
+                    f64::from(c2).ln()
+                };
+                let cn = if n == 0.0 {
+                    1.0
+                } else {
+                    (0.5 * n * ln_c2).exp()
+                };
+                (cn / (PI64 * f64::from(a2))) as f32
+            }
+        }
+    }
+
+    /// The supremum of D over all h (SPEC §1 table, supp. eq. 1-3, 5).
+    ///
+    /// 1/(pi alpha^2) at h = n, except GGX with alpha > 1 (alpha^2/pi, at
+    /// grazing) and Beckmann with alpha > 1/sqrt(2) (supp. eq. 3, at
+    /// <h,n> = 1/(sqrt(2) alpha)).
+    pub fn d_max(&self) -> f32 {
+        let a = self.alpha;
+        match self.kind {
+            NdfKind::Ggx if a > 1.0 => a * a / PI,
+            NdfKind::Beckmann if a > BECKMANN_PEAK_SHIFT_ALPHA => {
+                let a = f64::from(a);
+                (4.0 * a * a * (1.0 / (a * a) - 2.0).exp() / PI64) as f32
+            }
+            _ => 1.0 / (PI * a * a),
+        }
+    }
+
+    /// An upper bound of D that can be inverted for alpha: `d_max` except for
+    /// Beckmann with alpha > 1/sqrt(2), where it is supp. eq. 4,
+    /// (4 alpha^2 + 2(e^2 - 1)) / (pi e^2).
+    pub fn d_max_bound(&self) -> f32 {
+        match self.kind {
+            NdfKind::Beckmann if self.alpha > BECKMANN_PEAK_SHIFT_ALPHA => {
+                let e2 = std::f32::consts::E * std::f32::consts::E;
+                (4.0 * self.alpha * self.alpha + 2.0 * (e2 - 1.0)) / (PI * e2)
+            }
+            _ => self.d_max(),
+        }
+    }
+
+    /// Smith's Lambda(w) (SPEC §1); depends on |cos theta| only. 0 at normal
+    /// incidence, +infinity for w in the tangent plane.
+    ///
+    /// Blinn-Phong uses its exact Lambda (see `lambda_blinn_phong`), not
+    /// Beckmann's: with Beckmann's, a lossless Blinn-Phong lobe at alpha = 1
+    /// reflects up to 30 % more energy than it receives.
+    pub fn lambda(&self, w: Vec3) -> f32 {
+        let c2 = w.z * w.z;
+        if c2 == 0.0 {
+            return f32::INFINITY;
+        }
+        let s2 = sin2_theta(w);
+        match self.kind {
+            NdfKind::Ggx => {
+                // (sqrt(1 + x) - 1)/2 = x / (2 (1 + sqrt(1 + x))), x = a^2 tan^2: no cancellation.
+                let x = self.alpha * self.alpha * s2 / c2;
+                if x.is_finite() {
+                    x / (2.0 * (1.0 + (1.0 + x).sqrt()))
+                } else {
+                    f32::INFINITY
+                }
+            }
+            NdfKind::Beckmann => lambda_beckmann(self.alpha, s2, c2),
+            NdfKind::BlinnPhong if self.alpha < BLINN_PHONG_EXACT_LAMBDA_MIN_ALPHA => {
+                lambda_beckmann(self.alpha, s2, c2)
+            }
+            NdfKind::BlinnPhong => lambda_blinn_phong(self.alpha, s2, c2),
+        }
+    }
+
+    /// Smith's masking G1(w) = 1 / (1 + Lambda(w)), in [0, 1].
+    pub fn g1(&self, w: Vec3) -> f32 {
+        1.0 / (1.0 + self.lambda(w))
+    }
+
+    /// lim G1(w)/|<w,n>| as <w,n> -> 0 (supp. §2): 2/alpha for GGX,
+    /// 2 sqrt(pi)/alpha for Beckmann. Blinn-Phong: the limit of its exact
+    /// Lambda, (2a - 1) sqrt(pi) Gamma(a) / Gamma(a + 1/2) with a = 1/alpha^2,
+    /// which tends to Beckmann's value as alpha -> 0.
+    pub fn g1_over_cos_limit(&self) -> f32 {
+        let a = f64::from(self.alpha);
+        let limit = match self.kind {
+            NdfKind::Ggx => 2.0 / a,
+            NdfKind::Beckmann => 2.0 * PI64.sqrt() / a,
+            NdfKind::BlinnPhong if self.alpha < BLINN_PHONG_EXACT_LAMBDA_MIN_ALPHA => {
+                2.0 * PI64.sqrt() / a
+            }
+            NdfKind::BlinnPhong => {
+                let p = 1.0 / (a * a);
+                (2.0 * p - 1.0) * PI64.sqrt() * (ln_gamma(p) - ln_gamma(p + 0.5)).exp()
+            }
+        };
+        limit as f32
+    }
+
+    /// The supremum over all directions of G1(w)/|<w,n>| (SPEC §2): at normal
+    /// incidence the ratio is 1, so the bound is max(1, limit); for Beckmann
+    /// the ratio has an interior maximum near alpha = 3.6, covered by
+    /// `BECKMANN_G1_OVER_COS_SAFETY`.
+    pub fn g1_over_cos_sup(&self) -> f32 {
+        let bound = self.g1_over_cos_limit().max(1.0);
+        match self.kind {
+            NdfKind::Ggx => bound,
+            NdfKind::Beckmann | NdfKind::BlinnPhong => bound * BECKMANN_G1_OVER_COS_SAFETY,
+        }
+    }
+
+    /// Samples a microfacet normal with density D(h)<h,n> (per solid angle of h).
+    ///
+    /// theta_h by inverting the marginal CDF: tan^2 = a^2 u/(1-u) for GGX,
+    /// -a^2 ln(1-u) for Beckmann, cos^2 = u^(a^2) for Blinn-Phong; phi = 2 pi u.y.
+    /// Computed in f64 through cos^2 and sin^2 directly, so u.x = 0 or 1 and
+    /// tiny alpha give finite unit vectors.
+    pub fn sample_d_cos(&self, u: Vec2) -> Vec3 {
+        let a2 = f64::from(self.alpha).powi(2);
+        let u1 = f64::from(u.x);
+        let (cos2, sin2) = match self.kind {
+            NdfKind::Ggx => {
+                let denominator = (1.0 - u1) + a2 * u1;
+                ((1.0 - u1) / denominator, a2 * u1 / denominator)
+            }
+            NdfKind::Beckmann => {
+                let tan2 = -a2 * (-u1).ln_1p();
+                if tan2.is_finite() {
+                    (1.0 / (1.0 + tan2), tan2 / (1.0 + tan2))
+                } else {
+                    (0.0, 1.0)
+                }
+            }
+            NdfKind::BlinnPhong => {
+                let ln_cos2 = a2 * u1.ln();
+                (ln_cos2.exp(), -ln_cos2.exp_m1())
+            }
+        };
+        let phi = 2.0 * PI64 * f64::from(u.y);
+        let sin_theta = sin2.max(0.0).sqrt();
+        Vec3::new(
+            (sin_theta * phi.cos()) as f32,
+            (sin_theta * phi.sin()) as f32,
+            cos2.max(0.0).sqrt() as f32,
+        )
+    }
+
+    /// Density of `sample_d_cos`: D(h)<h,n>.
+    pub fn pdf_d_cos(&self, h: Vec3) -> f32 {
+        self.d(h) * h.z.max(0.0)
+    }
+}
+
+/// Beckmann's Lambda (Walter et al. 2007) with m = 1/(a tan theta):
+/// (erf(m) - 1)/2 + exp(-m^2)/(2 m sqrt(pi)) = (exp(-m^2)/(m sqrt(pi)) - erfc(m))/2,
+/// in f64 with the f32-exact erfc (SPEC §1: not Walter's rational fit).
+fn lambda_beckmann(alpha: f32, s2: f32, c2: f32) -> f32 {
+    if s2 == 0.0 {
+        return 0.0;
+    }
+    let m = (f64::from(c2) / f64::from(s2)).sqrt() / f64::from(alpha);
+    let lambda = 0.5 * ((-m * m).exp() / (m * PI64.sqrt()) - erfc(m));
+    lambda.max(0.0) as f32
+}
+
+/// Exact Smith Lambda of the Blinn-Phong NDF.
+///
+/// Its slope distribution is P22 = D cos^4 = (n+2)/(2 pi) (1 + r^2)^-(n+4)/2,
+/// whose 1-D marginal is P2(q) = C (1 + q^2)^-(p + 1/2) with p = 1/alpha^2
+/// and C = Gamma(p + 1/2) / (sqrt(pi) Gamma(p)) (a scaled Student t). With
+/// mu = cot theta, Smith's Lambda (1/mu) int_mu^inf (q - mu) P2(q) dq becomes
+/// Lambda = [C (1 + mu^2)^(1/2 - p) / (2p - 1) - (mu/2) I_x(p, 1/2)] / mu,
+/// x = 1/(1 + mu^2), I the regularized incomplete beta function.
+fn lambda_blinn_phong(alpha: f32, s2: f32, c2: f32) -> f32 {
+    if s2 == 0.0 {
+        return 0.0;
+    }
+    let p = 1.0 / f64::from(alpha).powi(2);
+    let mu2 = f64::from(c2) / f64::from(s2);
+    let mu = mu2.sqrt();
+    let c = (ln_gamma(p + 0.5) - ln_gamma(p)).exp() / PI64.sqrt();
+    let upper = c * ((0.5 - p) * mu2.ln_1p()).exp() / (2.0 * p - 1.0);
+    let tail = 0.5 * mu * beta_inc(p, 0.5, 1.0 / (1.0 + mu2));
+    ((upper - tail) / mu).max(0.0) as f32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn alpha_is_clamped_to_the_domain() {
+        assert_eq!(Ndf::new(NdfKind::Ggx, 0.0).alpha(), ALPHA_MIN);
+        assert_eq!(Ndf::new(NdfKind::Ggx, f32::NAN).alpha(), ALPHA_MIN);
+        assert_eq!(Ndf::new(NdfKind::Beckmann, 1e9).alpha(), ALPHA_MAX);
+        assert_eq!(Ndf::new(NdfKind::BlinnPhong, 3.0).alpha(), 1.0);
+        assert_eq!(Ndf::new(NdfKind::Ggx, 3.0).alpha(), 3.0);
+    }
+
+    #[test]
+    fn peak_values_match_the_table() {
+        for kind in [NdfKind::Ggx, NdfKind::Beckmann, NdfKind::BlinnPhong] {
+            let ndf = Ndf::new(kind, 0.3);
+            let expected = 1.0 / (PI * 0.09);
+            assert!((ndf.d(Vec3::Z) / expected - 1.0).abs() < 1e-6, "{kind:?}");
+            assert!((ndf.d_max() / expected - 1.0).abs() < 1e-6, "{kind:?}");
+        }
+        // Blinn-Phong with alpha = 1 is the constant 1/pi.
+        let flat = Ndf::new(NdfKind::BlinnPhong, 1.0);
+        assert!((flat.d(Vec3::new(0.6, 0.0, 0.8)) - 1.0 / PI).abs() < 1e-7);
+    }
+
+    #[test]
+    fn beckmann_off_normal_maximum() {
+        let a = 1.5f32;
+        let ndf = Ndf::new(NdfKind::Beckmann, a);
+        let c = 1.0 / (2f32.sqrt() * a);
+        let h = Vec3::new((1.0 - c * c).sqrt(), 0.0, c);
+        assert!((ndf.d(h) / ndf.d_max() - 1.0).abs() < 1e-5);
+        assert!(ndf.d_max_bound() >= ndf.d_max());
+        // Continuity of eq. 3 and eq. 4 with 1/(pi alpha^2) at alpha = 1/sqrt(2).
+        let at = Ndf::new(NdfKind::Beckmann, BECKMANN_PEAK_SHIFT_ALPHA);
+        let just_above = Ndf::new(NdfKind::Beckmann, BECKMANN_PEAK_SHIFT_ALPHA * (1.0 + 1e-6));
+        assert!((at.d_max() / just_above.d_max() - 1.0).abs() < 1e-4);
+        assert!((at.d_max() / just_above.d_max_bound() - 1.0).abs() < 1e-4);
+    }
+
+    #[test]
+    fn blinn_phong_exact_lambda_at_alpha_one() {
+        // n = 0: Lambda = (sqrt(1 + mu^2) - mu) / (2 mu) in closed form.
+        let ndf = Ndf::new(NdfKind::BlinnPhong, 1.0);
+        for c in [0.05f32, 0.3, 0.7, 0.99] {
+            let w = Vec3::new((1.0 - c * c).sqrt(), 0.0, c);
+            let mu = c / (1.0 - c * c).sqrt();
+            let expected = ((1.0 + mu * mu).sqrt() - mu) / (2.0 * mu);
+            assert!((ndf.lambda(w) / expected - 1.0).abs() < 1e-5, "c {c}");
+        }
+        assert!((ndf.g1_over_cos_limit() - 2.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn blinn_phong_lambda_tends_to_beckmann() {
+        // Just above and below the switch to Beckmann's Lambda: close to each other.
+        let w = Vec3::new(0.995f32.sqrt(), 0.0, 0.005f32.sqrt());
+        let exact = Ndf::new(NdfKind::BlinnPhong, BLINN_PHONG_EXACT_LAMBDA_MIN_ALPHA);
+        let beckmann = Ndf::new(NdfKind::Beckmann, BLINN_PHONG_EXACT_LAMBDA_MIN_ALPHA);
+        assert!(
+            (exact.g1(w) - beckmann.g1(w)).abs() < 1e-4,
+            "{} {}",
+            exact.g1(w),
+            beckmann.g1(w)
+        );
+    }
+
+    #[test]
+    fn d_cos_sampling_edges_stay_finite() {
+        for kind in [NdfKind::Ggx, NdfKind::Beckmann, NdfKind::BlinnPhong] {
+            for alpha in [1e-7, 0.5, 1.0, 10.0] {
+                let ndf = Ndf::new(kind, alpha);
+                for u in [Vec2::ZERO, Vec2::new(1.0, 0.999_999_9), Vec2::new(0.5, 0.5)] {
+                    let h = ndf.sample_d_cos(u);
+                    assert!(
+                        h.is_finite() && (h.length() - 1.0).abs() < 1e-5,
+                        "{kind:?} {alpha} {u} {h}"
+                    );
+                    assert!(h.z >= 0.0);
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,61 @@
+//! `cargo xtask <task>`: project automation that is not part of the renderer.
+//!
+//! Tasks:
+//! - `bench [--quick]`: runs the criterion micro-benchmarks of the math crates
+//!   and writes one table (markdown and JSON, with the machine's core count)
+//!   to `target/bench/`, for comparing commits side by side.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode};
+
+mod bench;
+
+const USAGE: &str = "usage: cargo xtask <task>
+
+tasks:
+  bench [--quick]   run the criterion micro-benchmarks (crates/*/benches) and
+                    write target/bench/micro.md and target/bench/micro.json
+                    (--quick: 0.3 s warm-up and 1 s measurement per benchmark)
+  help              print this text";
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let result = match args.first().map(String::as_str) {
+        Some("bench") => bench::run(&workspace_root(), &args[1..]),
+        Some("help" | "--help" | "-h") | None => {
+            println!("{USAGE}");
+            Ok(())
+        }
+        Some(other) => Err(format!("unknown task `{other}`\n\n{USAGE}")),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("error: {message}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// The workspace root: the parent of this crate's manifest directory.
+fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("."))
+}
+
+/// Runs `cargo` with `args` in `root`, inheriting the terminal.
+fn cargo(root: &Path, args: &[&str]) -> Result<(), String> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());
+    let status = Command::new(&cargo)
+        .args(args)
+        .current_dir(root)
+        .status()
+        .map_err(|e| format!("could not run {cargo}: {e}"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("`cargo {}` failed ({status})", args.join(" ")))
+    }
+}
