@@ -1,0 +1,26 @@
+//! Microfacet model regularization (Jendersie & Grosch, "Microfacet Model
+//! Regularization for Robust Light Transport", EGSR 2019; SPEC §5-§6).
+//!
+//! Before a microfacet lobe is evaluated or sampled, its roughness is raised
+//! to alpha-hat, just enough that the lobe's peak density stays below a bound
+//! tau; tau grows with the iteration number, so the blur shrinks and the
+//! estimate converges (biased but consistent).
+//!
+//! - [`tau`]: what tau bounds, in one place, and alpha-hat for reflection,
+//!   transmission and the strict variant.
+//! - [`schedule`]: the progressive tau_N (supp. §5) and the cone <-> tau maps.
+//! - [`selective`]: off / uniform / selective modes and the per-vertex tau_k
+//!   carried along a subpath.
+//! - [`pdf`]: the MIS pdf correction p-hat (paper eq. 13, supp. §4).
+//!
+//! Pure math on top of `microfacet`: no I/O, no threads, no global state.
+
+pub mod pdf;
+pub mod schedule;
+pub mod selective;
+pub mod tau;
+
+pub use pdf::p_hat;
+pub use schedule::{Schedule, ScheduleError, cone_of_tau, tau_of_cone};
+pub use selective::{Mode, PathRegularization, Subpath};
+pub use tau::{AlphaHat, Bound, Lobe, StrictError, alpha_hat, alpha_hat_strict, regularize};

@@ -1,0 +1,143 @@
+//! Selective regularization, the "path diffusion" heuristic (SPEC §5): how
+//! much a vertex may be blurred depends on how blurred the path already is.
+//!
+//! The paper's exact formula is not at hand; SPEC §5 fixes this definition:
+//! on camera subpaths, with rho the largest alpha (clamped to 1; diffuse
+//! counts 1) of the vertices between the camera and this one, tau_k =
+//! tau_N / max(rho^2, 1e-8), i.e. alpha_tau,k = alpha_tau,N rho; on light
+//! subpaths tau_k = tau_N. What is seen directly or only through mirrors stays
+//! sharp; a glass sphere seen on a diffuse floor is regularized.
+
+use glam::Vec3;
+use microfacet::Bsdf;
+
+use crate::tau::{AlphaHat, regularize};
+
+/// Floor of rho^2 in tau_N / rho^2 (SPEC §5): keeps tau finite (at most
+/// 1e8 tau_N, far beyond any roughness f32 resolves) while rho = 0.
+pub const MIN_RHO_SQUARED: f64 = 1e-8;
+
+/// Regularization mode of an integrator.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Mode {
+    /// No regularization: every tau is +infinity.
+    Off,
+    /// tau_k = tau_N at every vertex, including the first camera vertex.
+    Uniform,
+    /// The path-diffusion rule above (the default).
+    Selective,
+}
+
+/// Which end a subpath starts from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Subpath {
+    /// Traced from the camera (Radiance).
+    Camera,
+    /// Traced from a light (Importance).
+    Light,
+}
+
+/// Regularization state carried along a subpath: yields tau and alpha-hat
+/// for the next vertex, and is updated with each vertex's roughness.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathRegularization {
+    mode: Mode,
+    subpath: Subpath,
+    tau_n: f64,
+    /// Largest alpha (clamped to 1) of the vertices so far.
+    rho: f32,
+}
+
+impl PathRegularization {
+    /// State at the start of a subpath, with the iteration's tau_N.
+    pub fn new(mode: Mode, subpath: Subpath, tau_n: f64) -> Self {
+        Self {
+            mode,
+            subpath,
+            tau_n,
+            rho: 0.0,
+        }
+    }
+
+    /// The bound tau_k for the next vertex (+infinity when nothing is regularized).
+    pub fn tau(&self) -> f64 {
+        match (self.mode, self.subpath) {
+            (Mode::Off, _) => f64::INFINITY,
+            (Mode::Uniform, _) | (Mode::Selective, Subpath::Light) => self.tau_n,
+            (Mode::Selective, Subpath::Camera) => {
+                self.tau_n / (f64::from(self.rho) * f64::from(self.rho)).max(MIN_RHO_SQUARED)
+            }
+        }
+    }
+
+    /// The next vertex's BSDF, regularized for a query from `wi`, and its
+    /// alpha-hat (`None` for lobes without roughness). Store the result in
+    /// the vertex: every later use must see the same alpha-hat (SPEC §5).
+    pub fn regularize(&self, bsdf: &Bsdf, wi: Vec3) -> (Bsdf, Option<AlphaHat>) {
+        match self.mode {
+            Mode::Off => (*bsdf, None),
+            Mode::Uniform | Mode::Selective => regularize(bsdf, wi, self.tau()),
+        }
+    }
+
+    /// The state after a vertex with BSDF `bsdf` (its original roughness; a
+    /// Lambertian lobe counts as alpha = 1).
+    pub fn after_vertex(self, bsdf: &Bsdf) -> Self {
+        let alpha = bsdf.alpha().unwrap_or(1.0).min(1.0);
+        Self {
+            rho: self.rho.max(alpha),
+            ..self
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use microfacet::{Conductor, Fresnel, Lambertian, MicrofacetModel, NdfKind, Shadowing};
+
+    fn mirror() -> Bsdf {
+        Bsdf::Conductor(Conductor {
+            model: MicrofacetModel::new(NdfKind::Ggx, 0.0, Shadowing::Smith),
+            fresnel: Fresnel::Schlick { f0: Vec3::ONE },
+        })
+    }
+
+    #[test]
+    fn camera_paths_stay_sharp_until_a_rough_vertex() {
+        let start = PathRegularization::new(Mode::Selective, Subpath::Camera, 10.0);
+        // Seen directly: tau = 1e9, effectively no blur.
+        assert_eq!(start.tau(), 10.0 / MIN_RHO_SQUARED);
+        let after_mirror = start.after_vertex(&mirror());
+        assert!(after_mirror.tau() > 1e8);
+        let after_diffuse = after_mirror.after_vertex(&Bsdf::Lambertian(Lambertian {
+            reflectance: Vec3::ONE,
+        }));
+        assert_eq!(after_diffuse.tau(), 10.0);
+        // Light subpaths and uniform mode use tau_N throughout.
+        assert_eq!(
+            PathRegularization::new(Mode::Selective, Subpath::Light, 10.0).tau(),
+            10.0
+        );
+        assert_eq!(
+            PathRegularization::new(Mode::Uniform, Subpath::Camera, 10.0).tau(),
+            10.0
+        );
+        assert_eq!(
+            PathRegularization::new(Mode::Off, Subpath::Light, 10.0).tau(),
+            f64::INFINITY
+        );
+    }
+
+    #[test]
+    fn regularized_mirror_becomes_glossy() {
+        let state = PathRegularization::new(Mode::Uniform, Subpath::Camera, 7.5);
+        let (bsdf, hat) = state.regularize(&mirror(), Vec3::Z);
+        assert!(mirror().is_specular());
+        assert!(!bsdf.is_specular());
+        assert!((hat.unwrap().alpha - 0.103).abs() < 1e-3);
+        let (off, none) =
+            PathRegularization::new(Mode::Off, Subpath::Camera, 7.5).regularize(&mirror(), Vec3::Z);
+        assert_eq!((off, none), (mirror(), None));
+    }
+}
