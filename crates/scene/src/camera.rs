@@ -1,0 +1,122 @@
+//! The perspective pinhole camera.
+
+use glam::{UVec2, Vec3};
+
+/// A pinhole camera: position, orthonormal frame, vertical field of view and
+/// image resolution. Looks along `forward`; `up` is the image's up direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Centre of projection.
+    pub position: Vec3,
+    /// Viewing direction (unit).
+    pub forward: Vec3,
+    /// Image up (unit, orthogonal to `forward`).
+    pub up: Vec3,
+    /// Image right (unit): forward x up.
+    pub right: Vec3,
+    /// Vertical field of view in radians, in (0, pi).
+    pub vertical_fov: f32,
+    /// Image size in pixels.
+    pub resolution: UVec2,
+}
+
+impl Camera {
+    /// A camera at `from` looking at `at`, with `up` as the approximate image
+    /// up and `vertical_fov_degrees` in (0, 180). Errors name the problem.
+    pub fn look_at(
+        from: Vec3,
+        at: Vec3,
+        up: Vec3,
+        vertical_fov_degrees: f32,
+        resolution: UVec2,
+    ) -> Result<Self, String> {
+        if !(from.is_finite() && at.is_finite() && up.is_finite()) {
+            return Err("camera position, target and up must be finite".into());
+        }
+        let forward = (at - from)
+            .try_normalize()
+            .ok_or("camera target equals its position")?;
+        let right = forward
+            .cross(up)
+            .try_normalize()
+            .ok_or("camera up is parallel to the viewing direction")?;
+        if !(vertical_fov_degrees > 0.0 && vertical_fov_degrees < 180.0) {
+            return Err(format!(
+                "vertical field of view must be in (0, 180) degrees, got {vertical_fov_degrees}"
+            ));
+        }
+        if resolution.x == 0 || resolution.y == 0 {
+            return Err(format!(
+                "resolution must be at least 1x1, got {}x{}",
+                resolution.x, resolution.y
+            ));
+        }
+        Ok(Self {
+            position: from,
+            forward,
+            up: right.cross(forward),
+            right,
+            vertical_fov: vertical_fov_degrees.to_radians(),
+            resolution,
+        })
+    }
+
+    /// A camera that frames the box [min, max]: looking along -z from in front
+    /// of it (the usual glTF/OBJ view), far enough that the bounding sphere
+    /// fits the vertical field of view of 40 degrees.
+    pub fn framing(min: Vec3, max: Vec3, resolution: UVec2) -> Self {
+        const FOV_DEGREES: f32 = 40.0;
+        let (min, max) = if min.is_finite() && max.is_finite() && min.cmple(max).all() {
+            (min, max)
+        } else {
+            (Vec3::splat(-1.0), Vec3::splat(1.0))
+        };
+        let centre = 0.5 * (min + max);
+        let radius = (0.5 * (max - min).length()).max(1e-3);
+        let distance = radius / (0.5 * FOV_DEGREES.to_radians()).sin();
+        let from = centre + Vec3::Z * distance;
+        let resolution = resolution.max(UVec2::ONE);
+        Self::look_at(from, centre, Vec3::Y, FOV_DEGREES, resolution).unwrap_or(Self {
+            // Bounds so large that the camera position overflows: look at the origin.
+            position: Vec3::new(0.0, 0.0, 5.0),
+            forward: Vec3::NEG_Z,
+            up: Vec3::Y,
+            right: Vec3::X,
+            vertical_fov: FOV_DEGREES.to_radians(),
+            resolution,
+        })
+    }
+
+    /// Width over height.
+    pub fn aspect(&self) -> f32 {
+        self.resolution.x as f32 / self.resolution.y as f32
+    }
+}
+
+/// A camera as a file describes it, before the resolution is known.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraSpec {
+    /// Position.
+    pub from: Vec3,
+    /// A point on the viewing axis.
+    pub at: Vec3,
+    /// Approximate image up.
+    pub up: Vec3,
+    /// Vertical field of view in degrees.
+    pub vertical_fov_degrees: f32,
+    /// Width over height, if the file gives one.
+    pub aspect: Option<f32>,
+}
+
+impl CameraSpec {
+    /// The camera at `resolution`.
+    pub fn camera(&self, resolution: UVec2) -> Result<Camera, String> {
+        Camera::look_at(
+            self.from,
+            self.at,
+            self.up,
+            self.vertical_fov_degrees,
+            resolution,
+        )
+    }
+}

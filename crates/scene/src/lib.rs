@@ -1,0 +1,138 @@
+//! The scene model every integrator sees, and every file format that fills it.
+//!
+//! [`load`] reads a `scene.toml` manifest, a glTF 2.0 file (`.gltf`, `.glb`)
+//! or a Wavefront OBJ file and returns one in-memory [`Scene`]: world-space
+//! triangles with shading normals and texture coordinates, materials as
+//! `microfacet` lobes (mapping in [`material`]), lights, a pinhole camera.
+//! Bad input is a [`SceneError`] naming the file and element, never a panic.
+//! [`SceneFeatures`] summarises what a scene contains.
+
+pub mod camera;
+pub mod error;
+pub mod features;
+pub mod gltf;
+pub mod light;
+pub mod manifest;
+pub mod material;
+pub mod obj;
+pub mod scene;
+pub mod shapes;
+pub mod texture;
+
+use std::path::Path;
+
+use glam::{UVec2, Vec3};
+use microfacet::{NdfKind, Shadowing};
+
+pub use camera::{Camera, CameraSpec};
+pub use error::SceneError;
+pub use features::SceneFeatures;
+pub use light::Light;
+pub use material::{Material, Surface};
+pub use scene::{LoadReport, RenderSettings, Scene};
+pub use texture::Texture;
+
+/// Resolution when neither the manifest nor the caller gives one: 512 pixels
+/// wide, and high as the file's camera aspect says (square without one).
+pub const DEFAULT_WIDTH: u32 = 512;
+
+/// Radiance of the environment added to model files that bring no light at all
+/// (glTF sample models expect image-based lighting).
+pub const DEFAULT_ENVIRONMENT: f32 = 1.0;
+
+/// Options of [`load`].
+#[derive(Clone, Debug, Default)]
+pub struct LoadOptions {
+    /// Use the glTF camera of this name instead of the first one.
+    pub camera_name: Option<String>,
+    /// Image resolution, overriding the manifest's.
+    pub resolution: Option<UVec2>,
+}
+
+/// Loads a scene from a manifest (`.toml`), glTF (`.gltf`, `.glb`) or OBJ (`.obj`) file.
+pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
+    let extension = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let (builder, camera, resolution, render) = if extension.as_deref() == Some("toml") {
+        let m = manifest::load(path, options.camera_name.as_deref())?;
+        (m.builder, m.camera, m.resolution, m.render)
+    } else {
+        let (mut builder, camera) = load_model(path, options.camera_name.as_deref())?;
+        let has_emission = builder.materials.iter().any(Material::is_emissive);
+        if builder.lights.is_empty() && !has_emission {
+            builder.lights.push(Light::Environment {
+                radiance: Vec3::splat(DEFAULT_ENVIRONMENT),
+            });
+            builder.report.warnings.push(format!(
+                "{}: no lights in the file: added a constant white environment (radiance {DEFAULT_ENVIRONMENT})",
+                path.display()
+            ));
+        }
+        (builder, camera, None, RenderSettings::default())
+    };
+    let resolution = options.resolution.or(resolution).unwrap_or_else(|| {
+        let aspect = camera
+            .and_then(|c| c.aspect)
+            .filter(|a| a.is_finite() && *a > 0.0)
+            .unwrap_or(1.0);
+        UVec2::new(
+            DEFAULT_WIDTH,
+            ((DEFAULT_WIDTH as f32 / aspect).round() as u32).max(1),
+        )
+    });
+    let camera = camera
+        .map(|spec| {
+            spec.camera(resolution)
+                .map_err(|e| SceneError::invalid(path, "camera", e))
+        })
+        .transpose()?;
+    Ok(builder.finish(camera, resolution, render))
+}
+
+/// One model file (OBJ or glTF) and the camera it carries, if any.
+pub(crate) fn load_model(
+    path: &Path,
+    camera_name: Option<&str>,
+) -> Result<(scene::SceneBuilder, Option<CameraSpec>), SceneError> {
+    match path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .as_deref()
+    {
+        Some("obj") => Ok((obj::load(path)?, None)),
+        Some("gltf" | "glb") => {
+            let g = gltf::load(path, camera_name)?;
+            Ok((g.builder, g.camera))
+        }
+        _ => Err(SceneError::unsupported(
+            path,
+            "unknown file type: expected .toml (manifest), .gltf, .glb or .obj",
+        )),
+    }
+}
+
+/// Parses an NDF name: `ggx`, `beckmann` or `blinn-phong`.
+pub fn parse_ndf(name: &str) -> Result<NdfKind, String> {
+    match name {
+        "ggx" => Ok(NdfKind::Ggx),
+        "beckmann" => Ok(NdfKind::Beckmann),
+        "blinn-phong" => Ok(NdfKind::BlinnPhong),
+        other => Err(format!(
+            "unknown NDF \"{other}\" (expected ggx, beckmann or blinn-phong)"
+        )),
+    }
+}
+
+/// Parses a shadowing model name: `smith` or `v-cavity`.
+pub fn parse_shadowing(name: &str) -> Result<Shadowing, String> {
+    match name {
+        "smith" => Ok(Shadowing::Smith),
+        "v-cavity" => Ok(Shadowing::VCavity),
+        other => Err(format!(
+            "unknown shadowing \"{other}\" (expected smith or v-cavity)"
+        )),
+    }
+}

@@ -1,0 +1,526 @@
+//! `scene.toml`: which model files to load, camera, resolution, extra lights
+//! and shapes, material overrides by name, and default render settings.
+//!
+//! ```toml
+//! resolution = [512, 512]
+//! [camera]                      # look-from, look-at, up, vertical fov in degrees
+//! from = [0, 1, 3.5]
+//! at = [0, 1, 0]
+//! up = [0, 1, 0]                # optional, default +y
+//! fov = 40
+//! # name = "render_camera"      # or: use this glTF camera instead
+//! [render]                      # defaults; the command line overrides them
+//! integrator = "pt"
+//! iterations = 64
+//! max_depth = 16
+//! regularize = "selective"
+//! tau0 = 7.5
+//! [[model]]
+//! file = "cornell.obj"          # relative to this file; .obj, .gltf, .glb
+//! [[material]]                  # overrides a model's material of that name,
+//! name = "floor"                # or defines one for shapes
+//! type = "conductor"            # diffuse | conductor | dielectric (optional for overrides)
+//! alpha = 0.02                  # or roughness = r (alpha = r^2)
+//! ndf = "ggx"                   # ggx | beckmann | blinn-phong
+//! shadowing = "smith"           # smith | v-cavity
+//! reflectance = [0.9, 0.9, 0.9] # diffuse albedo, or conductor F0 (Schlick)
+//! # eta = [..], k = [..]        # conductor complex index instead of F0
+//! # ior = 1.5                   # dielectric
+//! # emission = [10, 10, 10]
+//! [[shape]]
+//! type = "sphere"               # sphere | quad
+//! material = "glass"
+//! center = [0, 0.5, 0]
+//! radius = 0.5
+//! # axis = [0, 1, 0], cap = 180 (degrees), inside = false, rings = 64
+//! # quad: origin = [..], u = [..], v = [..] (faces u x v)
+//! [[light]]
+//! type = "point"                # point | spot | directional | environment
+//! position = [0, 1.9, 0]
+//! intensity = [5, 5, 5]         # W/sr (point, spot); irradiance (directional); radiance (environment)
+//! # direction = [..], inner = 20, outer = 30 (degrees, spot)
+//! ```
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use glam::{UVec2, Vec3};
+use microfacet::{Fresnel, MicrofacetModel, NdfKind, Shadowing};
+use serde::Deserialize;
+
+use crate::camera::CameraSpec;
+use crate::error::SceneError;
+use crate::light::Light;
+use crate::material::{Material, Surface};
+use crate::scene::{RenderSettings, SceneBuilder};
+use crate::shapes;
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Manifest {
+    description: Option<String>,
+    resolution: Option<[u32; 2]>,
+    camera: Option<CameraSection>,
+    render: Option<RenderSection>,
+    #[serde(default, rename = "model")]
+    models: Vec<ModelSection>,
+    #[serde(default, rename = "material")]
+    materials: Vec<MaterialSection>,
+    #[serde(default, rename = "shape")]
+    shapes: Vec<ShapeSection>,
+    #[serde(default, rename = "light")]
+    lights: Vec<LightSection>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraSection {
+    from: Option<[f32; 3]>,
+    at: Option<[f32; 3]>,
+    up: Option<[f32; 3]>,
+    fov: Option<f32>,
+    name: Option<String>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RenderSection {
+    integrator: Option<String>,
+    iterations: Option<u32>,
+    max_depth: Option<u32>,
+    regularize: Option<String>,
+    tau0: Option<f64>,
+    seed: Option<u64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ModelSection {
+    file: String,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MaterialSection {
+    name: String,
+    #[serde(rename = "type")]
+    kind: Option<String>,
+    alpha: Option<f32>,
+    roughness: Option<f32>,
+    ndf: Option<String>,
+    shadowing: Option<String>,
+    reflectance: Option<[f32; 3]>,
+    eta: Option<[f32; 3]>,
+    k: Option<[f32; 3]>,
+    ior: Option<f32>,
+    emission: Option<[f32; 3]>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ShapeSection {
+    #[serde(rename = "type")]
+    kind: String,
+    material: String,
+    center: Option<[f32; 3]>,
+    radius: Option<f32>,
+    axis: Option<[f32; 3]>,
+    cap: Option<f32>,
+    inside: Option<bool>,
+    rings: Option<u32>,
+    origin: Option<[f32; 3]>,
+    u: Option<[f32; 3]>,
+    v: Option<[f32; 3]>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LightSection {
+    #[serde(rename = "type")]
+    kind: String,
+    position: Option<[f32; 3]>,
+    direction: Option<[f32; 3]>,
+    intensity: [f32; 3],
+    inner: Option<f32>,
+    outer: Option<f32>,
+}
+
+/// A parsed manifest, ready to be turned into a scene.
+pub struct LoadedManifest {
+    /// Geometry, materials and lights of the models, shapes and lights.
+    pub builder: SceneBuilder,
+    /// The camera, from the manifest or the glTF camera it names.
+    pub camera: Option<CameraSpec>,
+    /// Resolution, if given.
+    pub resolution: Option<UVec2>,
+    /// Suggested render settings.
+    pub render: RenderSettings,
+    /// The description line, if any.
+    pub description: Option<String>,
+}
+
+/// Loads `path` and everything it references.
+pub fn load(path: &Path, camera_name: Option<&str>) -> Result<LoadedManifest, SceneError> {
+    let text = std::fs::read_to_string(path).map_err(|e| SceneError::io(path, e))?;
+    let manifest: Manifest =
+        toml::from_str(&text).map_err(|e| SceneError::malformed(path, toml_message(&text, &e)))?;
+    let directory = path.parent().unwrap_or(Path::new("."));
+    let mut builder = SceneBuilder::default();
+    let mut camera = None;
+    let camera_name = camera_name.or(manifest.camera.as_ref().and_then(|c| c.name.as_deref()));
+    for model in &manifest.models {
+        let file = directory.join(&model.file);
+        let (part, model_camera) = crate::load_model(&file, camera_name)?;
+        camera = camera.or(model_camera);
+        builder.append(part);
+    }
+    apply_materials(path, &manifest.materials, &mut builder)?;
+    add_shapes(path, &manifest.shapes, &mut builder)?;
+    for (i, light) in manifest.lights.iter().enumerate() {
+        builder.lights.push(parse_light(path, i, light)?);
+    }
+    if let Some(c) = &manifest.camera
+        && c.name.is_none()
+    {
+        let element = "[camera]";
+        let missing = |field: &str| {
+            SceneError::invalid(
+                path,
+                element,
+                format!("`{field}` is required (or give `name` of a glTF camera)"),
+            )
+        };
+        camera = Some(CameraSpec {
+            from: Vec3::from_array(c.from.ok_or_else(|| missing("from"))?),
+            at: Vec3::from_array(c.at.ok_or_else(|| missing("at"))?),
+            up: Vec3::from_array(c.up.unwrap_or([0.0, 1.0, 0.0])),
+            vertical_fov_degrees: c.fov.ok_or_else(|| missing("fov"))?,
+            aspect: None,
+        });
+    }
+    let resolution = match manifest.resolution {
+        Some([w, h]) if w > 0 && h > 0 && w <= MAX_RESOLUTION && h <= MAX_RESOLUTION => {
+            Some(UVec2::new(w, h))
+        }
+        Some([w, h]) => {
+            return Err(SceneError::invalid(
+                path,
+                "resolution",
+                format!("must be between 1 and {MAX_RESOLUTION} pixels per side, got {w}x{h}"),
+            ));
+        }
+        None => None,
+    };
+    let render = manifest
+        .render
+        .map_or_else(RenderSettings::default, |r| RenderSettings {
+            integrator: r.integrator,
+            iterations: r.iterations,
+            max_depth: r.max_depth,
+            regularize: r.regularize,
+            tau0: r.tau0,
+            seed: r.seed,
+        });
+    Ok(LoadedManifest {
+        builder,
+        camera,
+        resolution,
+        render,
+        description: manifest.description,
+    })
+}
+
+/// Largest image side a manifest may ask for (a 64k x 64k RGB f64 film is 100 GB).
+pub const MAX_RESOLUTION: u32 = 65_536;
+
+/// toml's message with the line and column of the error.
+fn toml_message(text: &str, e: &toml::de::Error) -> String {
+    let message = e.message().to_string();
+    match e.span() {
+        Some(span) => {
+            let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
+            format!("line {line}: {message}")
+        }
+        None => message,
+    }
+}
+
+fn vec3(a: Option<[f32; 3]>) -> Option<Vec3> {
+    a.map(Vec3::from_array)
+}
+
+fn apply_materials(
+    path: &Path,
+    sections: &[MaterialSection],
+    builder: &mut SceneBuilder,
+) -> Result<(), SceneError> {
+    let existing: HashMap<String, usize> = builder
+        .materials
+        .iter()
+        .enumerate()
+        .map(|(i, m)| (m.name.clone(), i))
+        .collect();
+    for section in sections {
+        let element = format!("material \"{}\"", section.name);
+        let invalid = |message: String| SceneError::invalid(path, element.clone(), message);
+        let alpha = match (section.alpha, section.roughness) {
+            (Some(_), Some(_)) => {
+                return Err(invalid("give `alpha` or `roughness`, not both".into()));
+            }
+            (Some(a), None) => Some(a),
+            (None, Some(r)) => Some(r * r),
+            (None, None) => None,
+        };
+        if let Some(a) = alpha.filter(|a| !(a.is_finite() && *a >= 0.0)) {
+            return Err(invalid(format!("alpha must be >= 0, got {a}")));
+        }
+        if let Some(ior) = section.ior.filter(|i| !(i.is_finite() && *i > 0.0)) {
+            return Err(invalid(format!("ior must be > 0, got {ior}")));
+        }
+        for (name, value) in [
+            ("reflectance", section.reflectance),
+            ("emission", section.emission),
+            ("eta", section.eta),
+            ("k", section.k),
+        ] {
+            if let Some(v) = vec3(value).filter(|v| !(v.is_finite() && v.min_element() >= 0.0)) {
+                return Err(invalid(format!(
+                    "{name} must be finite and non-negative, got {v}"
+                )));
+            }
+        }
+        let ndf = section
+            .ndf
+            .as_deref()
+            .map(crate::parse_ndf)
+            .transpose()
+            .map_err(|e| invalid(format!("ndf: {e}")))?;
+        let shadowing = section
+            .shadowing
+            .as_deref()
+            .map(crate::parse_shadowing)
+            .transpose()
+            .map_err(|e| invalid(format!("shadowing: {e}")))?;
+        let target = existing.get(&section.name).copied();
+        let base = target.map(|i| builder.materials[i].clone());
+        let surface = match (&section.kind, &base) {
+            (Some(kind), _) => {
+                let model = MicrofacetModel::new(
+                    ndf.unwrap_or(NdfKind::Ggx),
+                    alpha.unwrap_or(0.0),
+                    shadowing.unwrap_or(Shadowing::Smith),
+                );
+                let reflectance = vec3(section.reflectance);
+                match kind.as_str() {
+                    "diffuse" => Surface::Diffuse {
+                        reflectance: reflectance.unwrap_or(Vec3::splat(0.8)).min(Vec3::ONE),
+                    },
+                    "conductor" => Surface::Conductor {
+                        model,
+                        fresnel: conductor_fresnel(section, reflectance),
+                    },
+                    "dielectric" => Surface::Dielectric {
+                        model,
+                        ior: section.ior.unwrap_or(1.5),
+                    },
+                    other => {
+                        return Err(invalid(format!(
+                            "unknown type \"{other}\" (expected diffuse, conductor or dielectric)"
+                        )));
+                    }
+                }
+            }
+            (None, Some(base)) => {
+                override_surface(base.surface, section, alpha, ndf, shadowing).map_err(invalid)?
+            }
+            (None, None) => {
+                return Err(invalid(
+                    "no model material has this name; give `type` to define a new one".into(),
+                ));
+            }
+        };
+        let emission = vec3(section.emission)
+            .or(base.as_ref().map(|b| b.emission))
+            .unwrap_or(Vec3::ZERO);
+        let material = Material {
+            name: section.name.clone(),
+            surface,
+            emission,
+        };
+        match target {
+            Some(i) => builder.materials[i] = material,
+            None => {
+                builder.add_material(material);
+            }
+        }
+    }
+    Ok(())
+}
+
+fn conductor_fresnel(section: &MaterialSection, reflectance: Option<Vec3>) -> Fresnel {
+    match (vec3(section.eta), vec3(section.k)) {
+        (Some(eta), Some(k)) => Fresnel::Conductor { eta, k },
+        _ => Fresnel::Schlick {
+            f0: reflectance.unwrap_or(Vec3::ONE).min(Vec3::ONE),
+        },
+    }
+}
+
+/// Changes only the parameters the section gives.
+fn override_surface(
+    surface: Surface,
+    section: &MaterialSection,
+    alpha: Option<f32>,
+    ndf: Option<NdfKind>,
+    shadowing: Option<Shadowing>,
+) -> Result<Surface, String> {
+    let remodel = |m: MicrofacetModel| {
+        MicrofacetModel::new(
+            ndf.unwrap_or(m.ndf.kind()),
+            alpha.unwrap_or(m.alpha()),
+            shadowing.unwrap_or(m.shadowing),
+        )
+    };
+    let wants_microfacet = alpha.is_some() || ndf.is_some() || shadowing.is_some();
+    Ok(match surface {
+        Surface::Diffuse { reflectance } if !wants_microfacet => Surface::Diffuse {
+            reflectance: vec3(section.reflectance)
+                .unwrap_or(reflectance)
+                .min(Vec3::ONE),
+        },
+        Surface::Diffuse { .. } => {
+            return Err("is diffuse: set `type` to give it a microfacet roughness".into());
+        }
+        Surface::Conductor { model, fresnel } => Surface::Conductor {
+            model: remodel(model),
+            fresnel: if section.reflectance.is_some() || section.eta.is_some() {
+                conductor_fresnel(section, vec3(section.reflectance))
+            } else {
+                fresnel
+            },
+        },
+        Surface::Dielectric { model, ior } => Surface::Dielectric {
+            model: remodel(model),
+            ior: section.ior.unwrap_or(ior),
+        },
+        Surface::Textured(mut pbr) => {
+            pbr.ndf = ndf.unwrap_or(pbr.ndf);
+            pbr.shadowing = shadowing.unwrap_or(pbr.shadowing);
+            if let Some(a) = alpha {
+                pbr.roughness = a.sqrt();
+            }
+            Surface::Textured(pbr)
+        }
+    })
+}
+
+fn add_shapes(
+    path: &Path,
+    sections: &[ShapeSection],
+    builder: &mut SceneBuilder,
+) -> Result<(), SceneError> {
+    for (i, s) in sections.iter().enumerate() {
+        let element = format!("shape {} ({})", i + 1, s.kind);
+        let invalid = |message: String| SceneError::invalid(path, element.clone(), message);
+        let material = builder
+            .materials
+            .iter()
+            .position(|m| m.name == s.material)
+            .ok_or_else(|| invalid(format!("material \"{}\" is not defined", s.material)))?
+            as u32;
+        let need = |v: Option<[f32; 3]>, name: &str| {
+            vec3(v).ok_or_else(|| invalid(format!("`{name}` is required")))
+        };
+        let triangles = match s.kind.as_str() {
+            "sphere" => {
+                let radius = s
+                    .radius
+                    .ok_or_else(|| invalid("`radius` is required".into()))?;
+                if !(radius > 0.0 && radius.is_finite()) {
+                    return Err(invalid(format!("radius must be > 0, got {radius}")));
+                }
+                let rings = s.rings.unwrap_or(48).clamp(2, 1024);
+                let axis = vec3(s.axis).unwrap_or(Vec3::Y);
+                shapes::sphere(
+                    need(s.center, "center")?,
+                    radius,
+                    axis,
+                    s.cap.unwrap_or(180.0),
+                    rings,
+                    s.inside.unwrap_or(false),
+                )
+            }
+            "quad" => shapes::quad(need(s.origin, "origin")?, need(s.u, "u")?, need(s.v, "v")?),
+            other => {
+                return Err(invalid(format!(
+                    "unknown shape type \"{other}\" (expected sphere or quad)"
+                )));
+            }
+        };
+        for (t, (p, n, uv)) in triangles.into_iter().enumerate() {
+            builder.add_triangle(
+                path,
+                &|| format!("{element}, triangle {t}"),
+                p,
+                Some(n),
+                Some(uv),
+                material,
+            )?;
+        }
+    }
+    Ok(())
+}
+
+fn parse_light(path: &Path, index: usize, l: &LightSection) -> Result<Light, SceneError> {
+    let element = format!("light {} ({})", index + 1, l.kind);
+    let invalid = |message: String| SceneError::invalid(path, element.clone(), message);
+    let intensity = Vec3::from_array(l.intensity);
+    if !(intensity.is_finite() && intensity.min_element() >= 0.0) {
+        return Err(invalid(format!(
+            "intensity must be finite and non-negative, got {intensity}"
+        )));
+    }
+    let need = |v: Option<[f32; 3]>, name: &str| {
+        vec3(v)
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| invalid(format!("`{name}` is required and must be finite")))
+    };
+    let direction = |v| {
+        need(v, "direction")?
+            .try_normalize()
+            .ok_or_else(|| invalid("direction must not be zero".into()))
+    };
+    Ok(match l.kind.as_str() {
+        "point" => Light::Point {
+            position: need(l.position, "position")?,
+            intensity,
+        },
+        "spot" => {
+            let (inner, outer) = (l.inner.unwrap_or(0.0), l.outer.unwrap_or(45.0));
+            if !(0.0..=90.0).contains(&outer) || !(0.0..=outer).contains(&inner) {
+                return Err(invalid(format!(
+                    "need 0 <= inner <= outer <= 90 degrees, got {inner} and {outer}"
+                )));
+            }
+            Light::Spot {
+                position: need(l.position, "position")?,
+                direction: direction(l.direction)?,
+                intensity,
+                cos_inner: inner.to_radians().cos(),
+                cos_outer: outer.to_radians().cos(),
+            }
+        }
+        "directional" => Light::Directional {
+            direction: direction(l.direction)?,
+            irradiance: intensity,
+        },
+        "environment" => Light::Environment {
+            radiance: intensity,
+        },
+        other => {
+            return Err(invalid(format!(
+                "unknown light type \"{other}\" (expected point, spot, directional or environment)"
+            )));
+        }
+    })
+}

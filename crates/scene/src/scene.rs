@@ -1,0 +1,251 @@
+//! The in-memory scene every integrator sees, and the builder loaders fill.
+
+use std::path::Path;
+
+use glam::{Vec2, Vec3};
+
+use crate::camera::Camera;
+use crate::error::SceneError;
+use crate::light::Light;
+use crate::material::Material;
+use crate::texture::Texture;
+
+/// Render settings a manifest may suggest; the CLI validates and may override them.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RenderSettings {
+    /// Integrator name (`pt`, `bpt`, `ppm`, `vcm`).
+    pub integrator: Option<String>,
+    /// Number of iterations.
+    pub iterations: Option<u32>,
+    /// Maximum path length.
+    pub max_depth: Option<u32>,
+    /// Regularization mode (`off`, `uniform`, `selective`).
+    pub regularize: Option<String>,
+    /// Initial regularization bound tau_0.
+    pub tau0: Option<f64>,
+    /// Random seed.
+    pub seed: Option<u64>,
+}
+
+/// What a load skipped or noticed (nothing is dropped silently).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LoadReport {
+    /// Zero-area triangles that were skipped.
+    pub degenerate_triangles: usize,
+    /// Edges shared by more than two triangles (kept: ray tracing does not need manifolds).
+    pub non_manifold_edges: usize,
+    /// Human-readable warnings, each naming the file and element.
+    pub warnings: Vec<String>,
+}
+
+/// A triangle scene in world space.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// Triangle vertices, counter-clockwise seen from the front.
+    pub triangles: Vec<[Vec3; 3]>,
+    /// Shading normals per triangle vertex (unit; the geometric normal where the file has none).
+    pub normals: Vec<[Vec3; 3]>,
+    /// Texture coordinates per triangle vertex (zero where the file has none).
+    pub uvs: Vec<[Vec2; 3]>,
+    /// Material index per triangle.
+    pub triangle_materials: Vec<u32>,
+    /// Materials.
+    pub materials: Vec<Material>,
+    /// Textures referenced by materials.
+    pub textures: Vec<Texture>,
+    /// Lights, including one `Light::Area` per emissive triangle.
+    pub lights: Vec<Light>,
+    /// The camera.
+    pub camera: Camera,
+    /// Suggested render settings.
+    pub render: RenderSettings,
+    /// What the load skipped or noticed.
+    pub report: LoadReport,
+}
+
+impl Scene {
+    /// Axis-aligned bounds of all triangles ((0, 0) for an empty scene).
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        bounds_of(&self.triangles)
+    }
+
+    /// Area of triangle `i`.
+    pub fn triangle_area(&self, i: usize) -> f32 {
+        let [a, b, c] = self.triangles[i];
+        0.5 * (b - a).cross(c - a).length()
+    }
+
+    /// Geometric normal of triangle `i` (unit, from the winding).
+    pub fn geometric_normal(&self, i: usize) -> Vec3 {
+        let [a, b, c] = self.triangles[i];
+        (b - a).cross(c - a).normalize_or_zero()
+    }
+}
+
+pub(crate) fn bounds_of(triangles: &[[Vec3; 3]]) -> (Vec3, Vec3) {
+    let mut min = Vec3::splat(f32::INFINITY);
+    let mut max = Vec3::splat(f32::NEG_INFINITY);
+    for v in triangles.iter().flatten() {
+        min = min.min(*v);
+        max = max.max(*v);
+    }
+    if triangles.is_empty() {
+        (Vec3::ZERO, Vec3::ZERO)
+    } else {
+        (min, max)
+    }
+}
+
+/// Geometry and materials as loaders produce them, before lights and camera.
+#[derive(Clone, Debug, Default)]
+pub struct SceneBuilder {
+    pub(crate) triangles: Vec<[Vec3; 3]>,
+    pub(crate) normals: Vec<[Vec3; 3]>,
+    pub(crate) uvs: Vec<[Vec2; 3]>,
+    pub(crate) triangle_materials: Vec<u32>,
+    pub(crate) materials: Vec<Material>,
+    pub(crate) textures: Vec<Texture>,
+    pub(crate) lights: Vec<Light>,
+    pub(crate) report: LoadReport,
+}
+
+impl SceneBuilder {
+    /// Adds a material and returns its index.
+    pub(crate) fn add_material(&mut self, material: Material) -> u32 {
+        self.materials.push(material);
+        (self.materials.len() - 1) as u32
+    }
+
+    /// Adds a texture and returns its index.
+    pub(crate) fn add_texture(&mut self, texture: Texture) -> usize {
+        self.textures.push(texture);
+        self.textures.len() - 1
+    }
+
+    /// Adds one triangle. Non-finite positions are an error naming `element`;
+    /// zero-area triangles are skipped and counted; missing or invalid
+    /// shading normals fall back to the geometric normal.
+    pub(crate) fn add_triangle(
+        &mut self,
+        path: &Path,
+        element: &dyn Fn() -> String,
+        positions: [Vec3; 3],
+        normals: Option<[Vec3; 3]>,
+        uvs: Option<[Vec2; 3]>,
+        material: u32,
+    ) -> Result<(), SceneError> {
+        if !positions.iter().all(|p| p.is_finite()) {
+            return Err(SceneError::invalid(
+                path,
+                element(),
+                "vertex position is NaN or infinite",
+            ));
+        }
+        let [a, b, c] = positions;
+        let Some(geometric) = (b - a).cross(c - a).try_normalize() else {
+            self.report.degenerate_triangles += 1;
+            return Ok(());
+        };
+        let normals = normals.map_or([geometric; 3], |ns| {
+            ns.map(|n| n.try_normalize().unwrap_or(geometric))
+        });
+        let uvs = uvs
+            .filter(|t| t.iter().all(|uv| uv.is_finite()))
+            .unwrap_or([Vec2::ZERO; 3]);
+        self.triangles.push(positions);
+        self.normals.push(normals);
+        self.uvs.push(uvs);
+        self.triangle_materials.push(material);
+        Ok(())
+    }
+
+    /// Appends everything of `other`, re-indexing its materials and textures.
+    pub(crate) fn append(&mut self, other: SceneBuilder) {
+        let material_offset = self.materials.len() as u32;
+        let texture_offset = self.textures.len();
+        let triangle_offset = self.triangles.len() as u32;
+        self.triangles.extend(other.triangles);
+        self.normals.extend(other.normals);
+        self.uvs.extend(other.uvs);
+        self.triangle_materials
+            .extend(other.triangle_materials.iter().map(|m| m + material_offset));
+        self.materials
+            .extend(other.materials.into_iter().map(|mut m| {
+                if let crate::material::Surface::Textured(ref mut pbr) = m.surface {
+                    pbr.base_color_texture = pbr.base_color_texture.map(|t| t + texture_offset);
+                    pbr.metallic_roughness_texture =
+                        pbr.metallic_roughness_texture.map(|t| t + texture_offset);
+                }
+                m
+            }));
+        self.textures.extend(other.textures);
+        self.lights
+            .extend(other.lights.into_iter().map(|l| match l {
+                Light::Area { triangle } => Light::Area {
+                    triangle: triangle + triangle_offset,
+                },
+                other => other,
+            }));
+        self.report.degenerate_triangles += other.report.degenerate_triangles;
+        self.report.non_manifold_edges += other.report.non_manifold_edges;
+        self.report.warnings.extend(other.report.warnings);
+    }
+
+    /// The finished scene: area lights for emissive triangles, non-manifold
+    /// edges counted, and `camera` (or one framing the geometry).
+    pub(crate) fn finish(
+        mut self,
+        camera: Option<Camera>,
+        resolution: glam::UVec2,
+        render: RenderSettings,
+    ) -> Scene {
+        self.lights.retain(|l| !matches!(l, Light::Area { .. }));
+        for (i, &m) in self.triangle_materials.iter().enumerate() {
+            if self.materials[m as usize].is_emissive() {
+                self.lights.push(Light::Area { triangle: i as u32 });
+            }
+        }
+        self.report.non_manifold_edges = count_non_manifold_edges(&self.triangles);
+        if self.triangles.is_empty() {
+            self.report
+                .warnings
+                .push("the scene has no geometry".into());
+        }
+        if self.lights.is_empty() {
+            self.report
+                .warnings
+                .push("the scene has no lights: it renders black".into());
+        }
+        let (min, max) = bounds_of(&self.triangles);
+        let camera = camera.unwrap_or_else(|| Camera::framing(min, max, resolution));
+        Scene {
+            triangles: self.triangles,
+            normals: self.normals,
+            uvs: self.uvs,
+            triangle_materials: self.triangle_materials,
+            materials: self.materials,
+            textures: self.textures,
+            lights: self.lights,
+            camera,
+            render,
+            report: self.report,
+        }
+    }
+}
+
+/// Edges (by exact vertex positions) used by more than two triangles.
+fn count_non_manifold_edges(triangles: &[[Vec3; 3]]) -> usize {
+    use std::collections::HashMap;
+    let key = |v: Vec3| v.to_array().map(f32::to_bits);
+    let mut uses: HashMap<([u32; 3], [u32; 3]), u32> =
+        HashMap::with_capacity(triangles.len() * 3 / 2);
+    for t in triangles {
+        for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+            let (ka, kb) = (key(a), key(b));
+            *uses
+                .entry(if ka < kb { (ka, kb) } else { (kb, ka) })
+                .or_default() += 1;
+        }
+    }
+    uses.values().filter(|&&n| n > 2).count()
+}
