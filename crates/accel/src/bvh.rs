@@ -1,0 +1,582 @@
+//! Triangle BVH: obvhs builds and traverses the tree; this module owns the
+//! triangles, the ray/triangle test and the mapping back to caller ids.
+
+use std::ops::ControlFlow;
+
+use glam::{Vec3, Vec3A};
+use obvhs::{
+    BvhBuildParams,
+    aabb::Aabb,
+    bvh2::{Bvh2, leaf_collapser::collapse, reinsertion::ReinsertionOptimizer},
+    cwbvh::{CwBvh, bvh2_to_cwbvh::bvh2_to_cwbvh},
+    ploc::PlocBuilder,
+    splits::split_aabbs_preset,
+    triangle::Triangle,
+};
+
+use crate::traverse::{NodeRay, traverse_binary, traverse_wide};
+use crate::triangle::{RayTransform, is_degenerate};
+
+/// Triangles with a vertex coordinate beyond this magnitude are ignored (never
+/// hit): the builder's surface-area costs would overflow f32.
+pub const MAX_COORDINATE: f32 = 1e15;
+
+/// Deepest CWBVH this crate traverses: obvhs' CWBVH traversal stack holds 32
+/// entries and silently overwrites the last one when full, so deeper trees
+/// (only seen with adversarial inputs) are traversed as a BVH2 instead.
+const MAX_WIDE_DEPTH: usize = 24;
+
+/// A ray hit: distance, caller triangle id and barycentrics.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Ray parameter of the hit, in units of the direction's length:
+    /// the hit point is `origin + t * direction`.
+    pub t: f32,
+    /// Index of the hit triangle in the slice given to [`Bvh::build`].
+    pub triangle: u32,
+    /// Barycentric weight of the triangle's vertex 1.
+    pub b1: f32,
+    /// Barycentric weight of the triangle's vertex 2 (vertex 0 weighs
+    /// `1 - b1 - b2`).
+    pub b2: f32,
+}
+
+/// Tree layout built by obvhs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Layout {
+    /// 8-wide compressed BVH (Ylitie et al. 2017, 80 bytes per node), built by
+    /// converting the PLOC BVH2; SIMD node tests. Fastest traversal.
+    #[default]
+    Wide,
+    /// Binary BVH (PLOC, reinsertion, leaf collapse). Faster to build.
+    Binary,
+}
+
+/// obvhs build preset (`BvhBuildParams::*_build`), from fastest build to
+/// best tree.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum BuildQuality {
+    /// PLOC search distance 1, no reinsertion, one primitive per leaf.
+    Fastest,
+    /// Search distance 1, 1% reinsertion.
+    VeryFast,
+    /// Search distance 6, 2% reinsertion.
+    Fast,
+    /// Search distance 14, 5% reinsertion ("about Embree build time").
+    #[default]
+    Medium,
+    /// Search distance 24, 20% reinsertion, pre-splits of large triangles.
+    Slow,
+    /// Search distance 14, full reinsertion, pre-splits of large triangles.
+    VerySlow,
+}
+
+impl BuildQuality {
+    /// Every preset, fastest build first.
+    pub const ALL: [Self; 6] = [
+        Self::Fastest,
+        Self::VeryFast,
+        Self::Fast,
+        Self::Medium,
+        Self::Slow,
+        Self::VerySlow,
+    ];
+
+    fn params(self) -> BvhBuildParams {
+        match self {
+            Self::Fastest => BvhBuildParams::fastest_build(),
+            Self::VeryFast => BvhBuildParams::very_fast_build(),
+            Self::Fast => BvhBuildParams::fast_build(),
+            Self::Medium => BvhBuildParams::medium_build(),
+            Self::Slow => BvhBuildParams::slow_build(),
+            Self::VerySlow => BvhBuildParams::very_slow_build(),
+        }
+    }
+}
+
+/// How [`Bvh::build_with`] builds the tree. The default is the measured best
+/// trade-off for a renderer that builds once and traces many rays (see the
+/// crate documentation).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct BuildOptions {
+    /// Tree layout.
+    pub layout: Layout,
+    /// Build preset.
+    pub quality: BuildQuality,
+}
+
+enum Tree {
+    Empty,
+    Wide(CwBvh),
+    /// With its number of levels.
+    Binary(Bvh2, usize),
+}
+
+/// A bounding volume hierarchy over a triangle list, answering closest-hit
+/// ([`Bvh::intersect`]) and any-hit ([`Bvh::occluded`]) ray queries.
+///
+/// Triangles are two-sided. Triangles with zero area (coincident or exactly
+/// collinear vertices, tested in f64), with a non-finite coordinate, or with a
+/// coordinate beyond [`MAX_COORDINATE`] are kept out of the tree and never hit;
+/// they still count in [`Bvh::triangle_count`] and keep their ids. An empty
+/// (or all-degenerate) list gives a BVH that never hits.
+///
+/// Queries do not allocate and take `&self`: share one `Bvh` between threads.
+pub struct Bvh {
+    tree: Tree,
+    /// Triangles in obvhs' primitive slot order.
+    triangles: Vec<[Vec3A; 3]>,
+    /// Caller id of each slot.
+    ids: Vec<u32>,
+    triangle_count: usize,
+    bounds: (Vec3, Vec3),
+    /// floor(log2) of the largest coordinate magnitude of the scene.
+    scene_exponent: i32,
+}
+
+impl Default for Bvh {
+    /// An empty BVH.
+    fn default() -> Self {
+        Self::build(&[])
+    }
+}
+
+impl std::fmt::Debug for Bvh {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Bvh")
+            .field("layout", &self.layout())
+            .field("triangle_count", &self.triangle_count)
+            .field("bounds", &self.bounds)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Per-ray state of both queries, in the triangle test's `t` units (see
+/// [`Bvh::prepare`]).
+struct PreparedRay {
+    transform: RayTransform,
+    node: NodeRay,
+    t_max: f32,
+    /// Triangle-test `t` to the caller's `t`: multiply by both (exact).
+    to_caller: (f32, f32),
+}
+
+impl Bvh {
+    /// Builds a BVH over `triangles` with the default [`BuildOptions`], in
+    /// parallel on the current rayon pool.
+    ///
+    /// # Panics
+    /// If there are more than `u32::MAX` triangles (ids are `u32`).
+    #[must_use]
+    pub fn build(triangles: &[[Vec3; 3]]) -> Self {
+        Self::build_with(triangles, BuildOptions::default())
+    }
+
+    /// Builds a BVH over `triangles` with explicit options.
+    ///
+    /// # Panics
+    /// If there are more than `u32::MAX` triangles (ids are `u32`).
+    #[must_use]
+    pub fn build_with(triangles: &[[Vec3; 3]], options: BuildOptions) -> Self {
+        assert!(
+            u32::try_from(triangles.len()).is_ok(),
+            "accel::Bvh supports at most u32::MAX triangles"
+        );
+        let mut min = Vec3::INFINITY;
+        let mut max = Vec3::NEG_INFINITY;
+        let mut valid_ids = Vec::with_capacity(triangles.len());
+        for (id, tri) in triangles.iter().enumerate() {
+            if !tri
+                .iter()
+                .all(|v| v.is_finite() && v.abs().max_element() <= MAX_COORDINATE)
+            {
+                continue;
+            }
+            for v in tri {
+                min = min.min(*v);
+                max = max.max(*v);
+            }
+            if !is_degenerate(tri) {
+                valid_ids.push(id as u32);
+            }
+        }
+        let bounds = if min.x <= max.x {
+            (min, max)
+        } else {
+            (Vec3::ZERO, Vec3::ZERO)
+        };
+        let mut bvh = Self {
+            tree: Tree::Empty,
+            triangles: Vec::new(),
+            ids: Vec::new(),
+            triangle_count: triangles.len(),
+            bounds,
+            scene_exponent: 0,
+        };
+        if valid_ids.is_empty() {
+            return bvh;
+        }
+        let prims: Vec<Triangle> = valid_ids
+            .iter()
+            .map(|&id| {
+                let [v0, v1, v2] = triangles[id as usize];
+                Triangle {
+                    v0: v0.into(),
+                    v1: v1.into(),
+                    v2: v2.into(),
+                }
+            })
+            .collect();
+        let (tree, slots) = build_tree(&prims, options);
+        bvh.triangles = slots
+            .iter()
+            .map(|&s| {
+                let t = &prims[s as usize];
+                [t.v0, t.v1, t.v2]
+            })
+            .collect();
+        bvh.ids = slots.iter().map(|&s| valid_ids[s as usize]).collect();
+        bvh.tree = tree;
+        let scene_scale = bounds.0.abs().max(bounds.1.abs()).max_element();
+        bvh.scene_exponent = exponent(scene_scale).clamp(-100, 100);
+        bvh
+    }
+
+    /// Number of triangles given to the build, including those that can
+    /// never be hit.
+    #[must_use]
+    pub fn triangle_count(&self) -> usize {
+        self.triangle_count
+    }
+
+    /// Axis-aligned bounds `(min, max)` of all triangles with finite
+    /// coordinates within [`MAX_COORDINATE`] (degenerate ones included);
+    /// `(0, 0)` when there are none.
+    #[must_use]
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.bounds
+    }
+
+    /// The layout actually built: [`Layout::Binary`] when the BVH is empty or
+    /// when a wide tree came out too deep for obvhs' fixed traversal stack.
+    #[must_use]
+    pub fn layout(&self) -> Layout {
+        match self.tree {
+            Tree::Wide(_) => Layout::Wide,
+            Tree::Binary(..) | Tree::Empty => Layout::Binary,
+        }
+    }
+
+    /// Closest hit along `origin + t * direction` with `0 < t < t_max`.
+    ///
+    /// `direction` need not be normalized (`t` is in units of its length);
+    /// `t_max` may be `f32::INFINITY`. Returns `None` when nothing is hit, and
+    /// for a zero or non-finite direction, a non-finite origin, or a `t_max`
+    /// that is not positive (or NaN). No epsilon is applied: start secondary
+    /// rays at [`offset_ray_origin`](crate::offset_ray_origin).
+    ///
+    /// When several triangles are hit at the same `t` (a ray through a shared
+    /// edge), one of them is returned; which one depends only on the BVH.
+    #[must_use]
+    pub fn intersect(&self, origin: Vec3, direction: Vec3, t_max: f32) -> Option<Hit> {
+        let r = self.prepare(origin, direction, t_max)?;
+        let mut best: Option<(usize, f32, f32)> = None;
+        let mut t_int = r.t_max;
+        let test = |slot: usize, t_max: &mut f32| {
+            if let Some((t, b1, b2)) = r.transform.intersect(&self.triangles[slot], *t_max) {
+                *t_max = t;
+                t_int = t;
+                best = Some((slot, b1, b2));
+            }
+            ControlFlow::Continue(())
+        };
+        match &self.tree {
+            Tree::Empty => {}
+            Tree::Wide(bvh) => traverse_wide(bvh, &r.node, r.t_max, test),
+            Tree::Binary(bvh, depth) => traverse_binary(bvh, *depth, &r.node, r.t_max, test),
+        }
+        let (slot, b1, b2) = best?;
+        let t = t_int * r.to_caller.0 * r.to_caller.1;
+        self.refine(slot, origin, direction, t_max, (t, b1, b2))
+    }
+
+    /// The hit on the triangle in `slot` recomputed in f64 (Möller–Trumbore
+    /// on the f32 inputs). The watertight f32 test decides which triangle is
+    /// hit; its distance and barycentrics carry an absolute error
+    /// proportional to the vertices' distance from the origin, which is large
+    /// relative to short hits and to the barycentrics of grazing hits. The
+    /// result is kept inside the triangle (`b1, b2 >= 0`, `b1 + b2 <= 1`) and
+    /// inside `(0, t_max)`, where the f32 test put it. `None` only for a hit
+    /// beyond f32 range.
+    #[inline]
+    fn refine(
+        &self,
+        slot: usize,
+        origin: Vec3,
+        direction: Vec3,
+        t_max: f32,
+        fallback: (f32, f32, f32),
+    ) -> Option<Hit> {
+        let [v0, v1, v2] = self.triangles[slot].map(|v| v.as_dvec3());
+        let d = direction.as_dvec3();
+        let e1 = v1 - v0;
+        let e2 = v2 - v0;
+        let p = d.cross(e2);
+        let s = origin.as_dvec3() - v0;
+        let q = s.cross(e1);
+        let inv_det = 1.0 / e1.dot(p);
+        let t = (e2.dot(q) * inv_det) as f32;
+        let (mut b1, mut b2) = ((s.dot(p) * inv_det) as f32, (d.dot(q) * inv_det) as f32);
+        if !(b1.is_finite() && b2.is_finite()) {
+            (b1, b2) = (fallback.1, fallback.2);
+        }
+        let b1 = b1.clamp(0.0, 1.0);
+        let b2 = b2.clamp(0.0, 1.0 - b1);
+        // At the ends of the range, where rounding decides, keep the f32
+        // test's verdict: the hit stays, just inside the range.
+        let t = if t > 0.0 && t < t_max {
+            t
+        } else if fallback.0 > 0.0 && fallback.0 < t_max {
+            fallback.0
+        } else if t.is_nan() || t <= 0.0 {
+            f32::from_bits(1)
+        } else {
+            f32::from_bits(t_max.to_bits() - 1)
+        };
+        t.is_finite().then_some(Hit {
+            t,
+            triangle: self.ids[slot],
+            b1,
+            b2,
+        })
+    }
+
+    /// Whether any triangle is hit along `origin + t * direction` with
+    /// `0 < t < t_max` (any-hit query with early exit, for shadow and
+    /// connection rays).
+    ///
+    /// Same conventions as [`Bvh::intersect`]; degenerate rays are never
+    /// occluded.
+    #[must_use]
+    pub fn occluded(&self, origin: Vec3, direction: Vec3, t_max: f32) -> bool {
+        let Some(r) = self.prepare(origin, direction, t_max) else {
+            return false;
+        };
+        let mut occluded = false;
+        let test = |slot: usize, t_max: &mut f32| {
+            if r.transform
+                .intersect(&self.triangles[slot], *t_max)
+                .is_some()
+            {
+                occluded = true;
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        };
+        match &self.tree {
+            Tree::Empty => {}
+            Tree::Wide(bvh) => traverse_wide(bvh, &r.node, r.t_max, test),
+            Tree::Binary(bvh, depth) => traverse_binary(bvh, *depth, &r.node, r.t_max, test),
+        }
+        occluded
+    }
+
+    /// Validates a query and sets up the triangle test and the node tests.
+    ///
+    /// With `k` = floor(log2) of the direction's largest component and `m` one
+    /// more than floor(log2) of the largest coordinate of the scene and the
+    /// origin, both run on direction `d * 2^-k` with coordinates scaled by
+    /// `2^-m`: exact power-of-two scalings (the caller's `t` is `2^(m - k)`
+    /// times theirs) that keep the triangle test's quadratic terms in f32
+    /// range for any scene size and direction length.
+    ///
+    /// Reciprocal directions are clamped to `2^80` times the reciprocal of
+    /// the largest direction component: beyond any slab distance in range,
+    /// small enough that no node test multiplies zero by infinity or
+    /// overflows.
+    #[inline]
+    fn prepare(&self, origin: Vec3, direction: Vec3, t_max: f32) -> Option<PreparedRay> {
+        if matches!(self.tree, Tree::Empty)
+            || !origin.is_finite()
+            || !direction.is_finite()
+            || direction == Vec3::ZERO
+            || !(t_max > 0.0)
+        {
+            return None;
+        }
+        let k = exponent(direction.abs().max_element()).clamp(-126, 126);
+        let unit = direction * pow2(-k);
+        // (An origin beyond 2^126 is clamped and may miss.)
+        let m = (self
+            .scene_exponent
+            .max(exponent(origin.abs().max_element()))
+            + 1)
+        .clamp(-126, 126);
+        let node_direction = Vec3A::from(unit) * pow2(m);
+        let max_inv = pow2((80 - m).clamp(-126, 126));
+        let inv = |c: f32| -> f32 {
+            if c == 0.0 {
+                max_inv
+            } else {
+                (1.0 / c).clamp(-max_inv, max_inv)
+            }
+        };
+        Some(PreparedRay {
+            transform: RayTransform::new(origin, unit, pow2(-m)),
+            node: NodeRay {
+                origin: origin.into(),
+                direction: node_direction,
+                inv_direction: Vec3A::new(
+                    inv(node_direction.x),
+                    inv(node_direction.y),
+                    inv(node_direction.z),
+                ),
+            },
+            t_max: t_max * pow2(k) * pow2(-m),
+            to_caller: (pow2(m), pow2(-k)),
+        })
+    }
+}
+
+/// Builds the obvhs tree (the steps of obvhs' `build_*_from_tris` helpers,
+/// without their debug-build validation pass) and returns it with the slot ->
+/// input index map.
+fn build_tree(prims: &[Triangle], options: BuildOptions) -> (Tree, Vec<u32>) {
+    let config = options.quality.params();
+    let indices: Vec<u32> = (0..prims.len() as u32).collect();
+    let mut bvh2 = if config.pre_split {
+        let mut largest_half_area = 0.0f32;
+        let mut total_half_area = 0.0f64;
+        let mut aabbs: Vec<Aabb> = prims
+            .iter()
+            .map(|t| {
+                let aabb = t.aabb();
+                let half_area = aabb.half_area();
+                largest_half_area = largest_half_area.max(half_area);
+                total_half_area += f64::from(half_area);
+                aabb
+            })
+            .collect();
+        let mut indices = indices;
+        let avg_half_area = (total_half_area / prims.len() as f64) as f32;
+        split_aabbs_preset(
+            &mut aabbs,
+            &mut indices,
+            prims,
+            avg_half_area,
+            largest_half_area,
+        );
+        PlocBuilder::with_capacity(aabbs.len()).build(
+            config.ploc_search_distance,
+            &aabbs,
+            indices,
+            config.sort_precision,
+            config.search_depth_threshold,
+        )
+    } else {
+        PlocBuilder::with_capacity(prims.len()).build(
+            config.ploc_search_distance,
+            prims,
+            indices,
+            config.sort_precision,
+            config.search_depth_threshold,
+        )
+    };
+    bvh2.uses_spatial_splits = config.pre_split;
+    let mut reinsertion = ReinsertionOptimizer::default();
+    reinsertion.run(&mut bvh2, config.reinsertion_batch_ratio, None);
+
+    if options.layout == Layout::Wide {
+        let wide = bvh2_to_cwbvh(&bvh2, config.max_prims_per_leaf.clamp(1, 3), true, false);
+        if wide_depth(&wide) <= MAX_WIDE_DEPTH {
+            let slots = wide.primitive_indices.clone();
+            return (Tree::Wide(wide), slots);
+        }
+    }
+    collapse(
+        &mut bvh2,
+        config.max_prims_per_leaf.clamp(1, 255),
+        config.collapse_traversal_cost,
+    );
+    reinsertion.run(
+        &mut bvh2,
+        config.reinsertion_batch_ratio * config.post_collapse_reinsertion_batch_ratio_multiplier,
+        None,
+    );
+    let depth = binary_depth(&bvh2);
+    let slots = bvh2.primitive_indices.clone();
+    (Tree::Binary(bvh2, depth), slots)
+}
+
+/// Number of node levels of a CWBVH (0 when empty).
+fn wide_depth(bvh: &CwBvh) -> usize {
+    let mut max = 0;
+    let mut stack = Vec::new();
+    if !bvh.nodes.is_empty() {
+        stack.push((0u32, 1usize));
+    }
+    while let Some((index, depth)) = stack.pop() {
+        max = max.max(depth);
+        let node = &bvh.nodes[index as usize];
+        for child in 0..8 {
+            if !node.is_child_empty(child) && !node.is_leaf(child) {
+                stack.push((node.child_node_index(child), depth + 1));
+            }
+        }
+    }
+    max
+}
+
+/// Number of node levels of a BVH2 (0 when empty).
+fn binary_depth(bvh: &Bvh2) -> usize {
+    let mut max = 0;
+    let mut stack = Vec::new();
+    if !bvh.nodes.is_empty() {
+        stack.push((0u32, 1usize));
+    }
+    while let Some((index, depth)) = stack.pop() {
+        max = max.max(depth);
+        let node = &bvh.nodes[index as usize];
+        if !node.is_leaf() {
+            stack.push((node.first_index, depth + 1));
+            stack.push((node.first_index + 1, depth + 1));
+        }
+    }
+    max
+}
+
+/// floor(log2(|x|)) for a finite non-zero `x` (denormals included).
+fn exponent(x: f32) -> i32 {
+    let bits = x.abs().to_bits();
+    let biased = (bits >> 23) as i32;
+    if biased == 0 {
+        // Denormal: 2^-149 * mantissa.
+        -149 + 31 - (bits.leading_zeros() as i32)
+    } else {
+        biased - 127
+    }
+}
+
+/// 2^e for -126 <= e <= 127.
+fn pow2(e: i32) -> f32 {
+    f32::from_bits(((e + 127) as u32) << 23)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exponent_and_pow2() {
+        assert_eq!(exponent(1.0), 0);
+        assert_eq!(exponent(1.5), 0);
+        assert_eq!(exponent(-2.0), 1);
+        assert_eq!(exponent(0.75), -1);
+        assert_eq!(exponent(1e-40), (1e-40f64).log2().floor() as i32);
+        assert_eq!(exponent(f32::from_bits(1)), -149);
+        assert_eq!(pow2(0), 1.0);
+        assert_eq!(pow2(-126), f32::MIN_POSITIVE);
+        assert_eq!(pow2(127), 2f32.powi(127));
+    }
+}

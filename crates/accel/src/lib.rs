@@ -1,0 +1,42 @@
+//! Ray-tracing acceleration for the renderer, behind a narrow API so that the
+//! BVH library can be swapped by editing this crate only:
+//!
+//! - [`Bvh`]: a triangle BVH built by [obvhs] (PLOC + reinsertion, converted
+//!   to an 8-wide compressed BVH), with closest-hit ([`Bvh::intersect`]) and
+//!   any-hit ([`Bvh::occluded`]) queries that return caller triangle ids and
+//!   barycentrics. The ray/triangle test is this crate's own watertight test
+//!   (Woop et al. 2013); obvhs only traverses nodes.
+//! - [`offset_ray_origin`]: self-intersection avoidance for secondary rays
+//!   (Wächter and Binder, Ray Tracing Gems ch. 6), instead of a scene-scale
+//!   epsilon.
+//! - [`HashGrid`]: a hashed uniform grid for photon range search
+//!   ([`HashGrid::for_each_within`]), rebuilt in parallel every iteration
+//!   without reallocating.
+//!
+//! No obvhs type appears in the API.
+//!
+//! # Robustness
+//! - Empty triangle lists, degenerate (zero-area) triangles and non-finite
+//!   inputs never panic; such triangles are simply never hit.
+//! - Queries are exact with respect to obvhs' known numerical shortcuts: its
+//!   CWBVH node test ignores everything closer than `t = 1e-4` and its
+//!   `Ray::new` clamps small direction components; the traversal ray is
+//!   therefore built here (exact power-of-two direction scaling and our own
+//!   reciprocal), see [`Bvh::intersect`].
+//!
+//! # Choice of layout and preset
+//! The default [`BuildOptions`] (wide CWBVH, `medium` preset) were picked from
+//! the `cargo bench -p accel` numbers; see `benches/bvh.rs` and the
+//! crate's README section in the report for the measurements.
+//!
+//! [obvhs]: https://crates.io/crates/obvhs
+
+mod bvh;
+mod grid;
+mod offset;
+mod traverse;
+mod triangle;
+
+pub use bvh::{BuildOptions, BuildQuality, Bvh, Hit, Layout, MAX_COORDINATE};
+pub use grid::HashGrid;
+pub use offset::offset_ray_origin;

@@ -1,0 +1,580 @@
+//! The BVH against an f64 brute-force reference, robustness of the origin
+//! offset, and degenerate inputs.
+
+mod common;
+
+use accel::{BuildOptions, BuildQuality, Bvh, Layout, offset_ray_origin};
+use common::*;
+use glam::Vec3;
+use stats::Pcg32;
+
+/// Every layout, with the fastest and the default preset, plus a pre-split one.
+fn option_sets() -> Vec<BuildOptions> {
+    let mut v = Vec::new();
+    for layout in [Layout::Wide, Layout::Binary] {
+        for quality in [
+            BuildQuality::Fastest,
+            BuildQuality::Medium,
+            BuildQuality::Slow,
+        ] {
+            v.push(BuildOptions { layout, quality });
+        }
+    }
+    v
+}
+
+/// Checks every ray on every BVH (built from `tris` with different options)
+/// against brute force, closest hit and occlusion, and fails with the first
+/// few mismatches.
+fn assert_rays(
+    name: &str,
+    bvhs: &[Bvh],
+    tris: &[[Vec3; 3]],
+    rays: impl IntoIterator<Item = (Vec3, Vec3, f32)>,
+) {
+    let mut errors = Vec::new();
+    let mut count = 0;
+    for ray @ (o, d, t_max) in rays {
+        count += 1;
+        let reference = reference_closest(tris, o, d, f32::INFINITY);
+        for bvh in bvhs {
+            if let Err(e) = check_ray(bvh, tris, ray, reference) {
+                errors.push(format!("{:?}: {e}", bvh.layout()));
+            }
+            // Occlusion agrees with brute force, at t_max and around the hit.
+            let mut t_maxes = vec![t_max];
+            if let Some(h) = bvh.intersect(o, d, t_max) {
+                t_maxes.extend([h.t * 0.999, h.t * 1.001]);
+            }
+            for tm in t_maxes {
+                if let Some(want) = reference_occluded(reference, tm)
+                    && bvh.occluded(o, d, tm) != want
+                {
+                    errors.push(format!("occluded({o:?}, {d:?}, {tm}) != {want}"));
+                }
+            }
+        }
+    }
+    assert!(
+        errors.is_empty(),
+        "{name}: {} of {count} rays wrong, first: {:#?}",
+        errors.len(),
+        &errors[..errors.len().min(5)]
+    );
+}
+
+/// One BVH per option set.
+fn build_all(tris: &[[Vec3; 3]]) -> Vec<Bvh> {
+    option_sets()
+        .into_iter()
+        .map(|o| Bvh::build_with(tris, o))
+        .collect()
+}
+
+fn random_rays(rng: &mut Pcg32, n: usize, lo: Vec3, hi: Vec3) -> Vec<(Vec3, Vec3, f32)> {
+    (0..n)
+        .map(|i| {
+            let o = random_in_box(rng, lo, hi);
+            // Mix unit and non-unit directions, infinite and finite t_max.
+            let d = random_unit(rng) * if i % 3 == 0 { 0.37 } else { 1.0 };
+            let t_max = if i % 4 == 0 {
+                0.5 + 2.0 * rng.uniform_f32()
+            } else {
+                f32::INFINITY
+            };
+            (o, d, t_max)
+        })
+        .collect()
+}
+
+#[test]
+fn random_soups_match_brute_force() {
+    let mut rng = Pcg32::new(1, 0);
+    for (count, size) in [(1, 0.5), (7, 0.5), (300, 0.3), (3000, 0.15)] {
+        let tris = random_soup(&mut rng, count, size);
+        let rays = random_rays(&mut rng, 400, Vec3::splat(-1.5), Vec3::splat(1.5));
+        let bvhs = build_all(&tris);
+        for bvh in &bvhs {
+            assert_eq!(bvh.triangle_count(), count);
+        }
+        assert_rays(&format!("soup {count}"), &bvhs, &tris, rays);
+    }
+}
+
+#[test]
+fn closed_meshes_match_brute_force_and_never_leak() {
+    let mut rng = Pcg32::new(2, 0);
+    for mesh in [unit_box(), cube_sphere(12, 1.0), cube_sphere(3, 1.0)] {
+        let tris = mesh.triangles();
+        let bvhs = build_all(&tris);
+        // From inside, every ray hits (watertight), and matches brute force.
+        let inside: Vec<_> = (0..400)
+            .map(|_| {
+                (
+                    random_in_box(&mut rng, Vec3::splat(-0.5), Vec3::splat(0.5)),
+                    random_unit(&mut rng),
+                    f32::INFINITY,
+                )
+            })
+            .collect();
+        for bvh in &bvhs {
+            for &(o, d, _) in &inside {
+                assert!(bvh.intersect(o, d, f32::INFINITY).is_some(), "leak {o} {d}");
+                assert!(bvh.occluded(o, d, f32::INFINITY));
+            }
+        }
+        assert_rays("closed inside", &bvhs, &tris, inside);
+        let outside = random_rays(&mut rng, 400, Vec3::splat(-3.0), Vec3::splat(3.0));
+        assert_rays("closed outside", &bvhs, &tris, outside);
+    }
+}
+
+/// Rays through points of shared edges and vertices: from inside closed meshes
+/// (must hit: no cracks), and from either side at angles that cross every
+/// face around the point transversally (so the reference answer is not
+/// decided by rounding), including grazing ones.
+#[test]
+fn rays_through_edges_and_vertices() {
+    let mut rng = Pcg32::new(3, 0);
+    for (mesh, closed) in [
+        (unit_box(), true),
+        (cube_sphere(8, 1.0), true),
+        (height_field(16), false),
+    ] {
+        let tris = mesh.triangles();
+        let normals: Vec<Vec3> = tris.iter().map(geometric_normal).collect();
+        let edges = mesh.interior_edges();
+        let mut around: Vec<Vec<usize>> = vec![Vec::new(); mesh.vertices.len()];
+        for (t, idx) in mesh.indices.iter().enumerate() {
+            for &v in idx {
+                around[v as usize].push(t);
+            }
+        }
+        let boundary = mesh.boundary_vertices();
+        let bvhs = build_all(&tris);
+        let mut rays = Vec::new();
+        let mut must_hit = Vec::new();
+        for k in 0..600 {
+            let (ta, tb, i, j) = edges[k % edges.len()];
+            let (a, b) = (mesh.vertices[i as usize], mesh.vertices[j as usize]);
+            // A point on the edge, or one of its vertices (not on the border
+            // of an open mesh, where hit or miss is decided by rounding).
+            let (target, faces) = match k % 5 {
+                0 if !boundary[i as usize] => (a, around[i as usize].clone()),
+                1 if !boundary[j as usize] => (b, around[j as usize].clone()),
+                _ => (a + (b - a) * rng.uniform_f32(), vec![ta, tb]),
+            };
+            if closed {
+                let o = random_in_box(&mut rng, Vec3::splat(-0.3), Vec3::splat(0.3));
+                rays.push((o, target - o, f32::INFINITY));
+                must_hit.push((o, target - o));
+            }
+            // From the front of every face around the point (outside for closed
+            // meshes), then from the back of all (inside; below the field).
+            for side in [1.0f32, -1.0] {
+                let crosses =
+                    |d: Vec3, cos: f32| faces.iter().all(|&f| d.dot(normals[f] * side) < -cos);
+                if let Some(d) = (0..100)
+                    .map(|_| random_unit(&mut rng))
+                    .find(|&d| crosses(d, 0.2))
+                {
+                    let dist = 0.5 + 2.0 * rng.uniform_f32();
+                    rays.push((target - d * dist, d, f32::INFINITY));
+                }
+                // Grazing: 0.05 from the plane of the first face.
+                let na = normals[faces[0]] * side;
+                if let Some(d) = (0..100)
+                    .map(|_| direction_at_angle(&mut rng, -na, 0.05))
+                    .find(|&d| crosses(d, 0.049))
+                {
+                    rays.push((target - d * 1.5, d, f32::INFINITY));
+                }
+            }
+        }
+        for bvh in &bvhs {
+            for &(o, d) in &must_hit {
+                assert!(
+                    bvh.intersect(o, d, f32::INFINITY).is_some(),
+                    "crack at {o} {d}"
+                );
+            }
+        }
+        assert_rays(
+            &format!("edges closed={closed} n={}", tris.len()),
+            &bvhs,
+            &tris,
+            rays,
+        );
+    }
+}
+
+/// Rays starting on surfaces, offset with `offset_ray_origin`, leaving in
+/// random directions (some grazing), against brute force.
+#[test]
+fn rays_from_offset_surface_points_match_brute_force() {
+    let mut rng = Pcg32::new(4, 0);
+    let meshes = [
+        height_field(24).triangles(),
+        cube_sphere(10, 1.0).triangles(),
+        random_soup(&mut Pcg32::new(5, 0), 1000, 0.3),
+    ];
+    for tris in meshes {
+        let bvhs = build_all(&tris);
+        let mut rays = Vec::new();
+        for _ in 0..800 {
+            let id = (rng.next_u32() as usize) % tris.len();
+            let tri = tris[id];
+            let p = random_point_on(&mut rng, &tri);
+            let n = geometric_normal(&tri);
+            let cos = match rng.next_u32() % 4 {
+                0 => 0.01,
+                _ => rng.uniform_f32() * 2.0 - 1.0,
+            };
+            let d = direction_at_angle(&mut rng, n, cos);
+            let n_side = if d.dot(n) > 0.0 { n } else { -n };
+            let o = offset_ray_origin(p, n_side);
+            rays.push((o, d, f32::INFINITY));
+            for bvh in &bvhs {
+                assert_ne!(
+                    bvh.intersect(o, d, f32::INFINITY).map(|h| h.triangle),
+                    Some(id as u32),
+                    "self-intersection"
+                );
+            }
+        }
+        assert_rays("offset origins", &bvhs, &tris, rays);
+    }
+}
+
+/// Rays leaving a surface point (computed from barycentrics, offset along the
+/// normal on the side they leave to) never hit the triangle they left, for
+/// meshes from 1e-4 to 1e5 in size, at the origin and 1e4 sizes away.
+#[test]
+fn no_self_intersection_across_scales() {
+    let mut rng = Pcg32::new(6, 0);
+    let sphere = cube_sphere(10, 1.0);
+    let field = height_field(12);
+    for scale in [1e-4f32, 1e-2, 1.0, 1e2, 1e5] {
+        for far in [0.0f32, 1e4] {
+            let offset = Vec3::new(1.0, -0.7, 0.3) * far * scale;
+            for (is_sphere, mesh) in [(true, &sphere), (false, &field)] {
+                let mesh = mesh.transformed(scale, offset);
+                // Rounding the translated vertices may break exact convexity.
+                let convex = is_sphere && is_convex(&mesh, 1e-6);
+                assert!(convex || !is_sphere || far > 0.0);
+                let tris = mesh.triangles();
+                let bvh = Bvh::build(&tris);
+                let mut self_hits = 0;
+                let mut convex_escapes_hit = 0;
+                for k in 0..1500 {
+                    let id = k % tris.len();
+                    let tri = tris[id];
+                    let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
+                    let p = random_point_on(&mut rng, &tri);
+                    let nu = n.normalize();
+                    let cos = match k % 3 {
+                        0 => [1e-3, -1e-3, 1e-2, -1e-2][k / 3 % 4],
+                        _ => rng.uniform_f32() * 2.0 - 1.0,
+                    };
+                    let d = direction_at_angle(&mut rng, nu, cos);
+                    let n_side = if d.dot(n) > 0.0 { n } else { -n };
+                    let o = offset_ray_origin(p, n_side);
+                    let hit = bvh.intersect(o, d, f32::INFINITY);
+                    if hit.is_some_and(|h| h.triangle as usize == id) {
+                        self_hits += 1;
+                    }
+                    // Leaving a convex closed mesh outwards: nothing to hit.
+                    if convex
+                        && d.dot(n) > 0.0
+                        && (hit.is_some() || bvh.occluded(o, d, f32::INFINITY))
+                    {
+                        convex_escapes_hit += 1;
+                    }
+                    // Occlusion over the first 1e-3 (relative to size) of travel
+                    // along the leaving ray never reports the source either:
+                    // only the source could be that close on a convex mesh.
+                    if convex && d.dot(n) > 0.0 {
+                        assert!(!bvh.occluded(o, d, 1e-3 * scale));
+                    }
+                    // A second bounce from the hit point, computed from the
+                    // hit's barycentrics as a renderer does.
+                    if let Some(h) = hit {
+                        let t2 = tris[h.triangle as usize];
+                        let q = t2[0] * (1.0 - h.b1 - h.b2) + t2[1] * h.b1 + t2[2] * h.b2;
+                        let n2 = (t2[1] - t2[0]).cross(t2[2] - t2[0]);
+                        let cos2 = rng.uniform_f32() * 2.0 - 1.0;
+                        let d2 = direction_at_angle(&mut rng, n2.normalize(), cos2);
+                        let n2_side = if d2.dot(n2) > 0.0 { n2 } else { -n2 };
+                        let o2 = offset_ray_origin(q, n2_side);
+                        if bvh
+                            .intersect(o2, d2, f32::INFINITY)
+                            .is_some_and(|h2| h2.triangle == h.triangle)
+                        {
+                            self_hits += 1;
+                        }
+                    }
+                }
+                assert_eq!(
+                    self_hits, 0,
+                    "self hits: scale {scale} far {far} sphere {is_sphere}"
+                );
+                assert_eq!(
+                    convex_escapes_hit, 0,
+                    "escapes hit: scale {scale} far {far}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn degenerate_and_invalid_triangles_are_never_hit() {
+    let mut rng = Pcg32::new(7, 0);
+    let mut tris = height_field(20).triangles();
+    let n = tris.len();
+    for k in (0..n).step_by(7) {
+        let [a, b, _] = tris[k];
+        tris[k] = match k % 4 {
+            0 => [a, b, a],
+            1 => [a, a, a],
+            // Exactly collinear along an axis.
+            2 => [
+                a,
+                Vec3::new(a.x + 0.5, a.y, a.z),
+                Vec3::new(a.x - 0.25, a.y, a.z),
+            ],
+            _ => [a, b, b],
+        };
+    }
+    tris[3] = [Vec3::NAN, Vec3::ZERO, Vec3::X];
+    tris[5] = [Vec3::INFINITY, Vec3::ZERO, Vec3::X];
+    tris[9] = [Vec3::splat(1e20), Vec3::ZERO, Vec3::X];
+    let reference: Vec<_> = tris
+        .iter()
+        .map(|t| {
+            if t.iter()
+                .all(|v| v.is_finite() && v.abs().max_element() <= accel::MAX_COORDINATE)
+            {
+                *t
+            } else {
+                [Vec3::ZERO; 3]
+            }
+        })
+        .collect();
+    let bvhs = build_all(&tris);
+    for bvh in &bvhs {
+        assert_eq!(bvh.triangle_count(), n);
+        let (lo, hi) = bvh.bounds();
+        assert!(lo.is_finite() && hi.is_finite());
+    }
+    let rays = random_rays(
+        &mut rng,
+        600,
+        Vec3::new(-1.5, -1.0, -1.5),
+        Vec3::new(1.5, 1.5, 1.5),
+    );
+    assert_rays("degenerate", &bvhs, &reference, rays);
+}
+
+#[test]
+fn empty_and_all_degenerate_inputs_never_hit() {
+    let all_degenerate = vec![
+        [Vec3::ONE; 3],
+        [Vec3::ZERO, Vec3::X, Vec3::X * 2.0],
+        [Vec3::NAN; 3],
+    ];
+    for tris in [Vec::new(), all_degenerate] {
+        for options in option_sets() {
+            let bvh = Bvh::build_with(&tris, options);
+            assert_eq!(bvh.triangle_count(), tris.len());
+            assert!(
+                bvh.intersect(Vec3::new(0.5, 1.0, 0.0), Vec3::NEG_Y, f32::INFINITY)
+                    .is_none()
+            );
+            assert!(!bvh.occluded(Vec3::new(0.5, 1.0, 0.0), Vec3::NEG_Y, f32::INFINITY));
+        }
+    }
+    assert_eq!(Bvh::build(&[]).bounds(), (Vec3::ZERO, Vec3::ZERO));
+    assert!(Bvh::default().intersect(Vec3::ZERO, Vec3::X, 1.0).is_none());
+    assert_eq!(
+        Bvh::build(&[[Vec3::ONE; 3], [Vec3::NAN; 3]]).bounds(),
+        (Vec3::ONE, Vec3::ONE)
+    );
+}
+
+#[test]
+fn invalid_rays_return_no_hit() {
+    let tris = cube_sphere(4, 1.0).triangles();
+    let bvh = Bvh::build(&tris);
+    let o = Vec3::new(0.1, 0.2, 0.0);
+    assert!(bvh.intersect(o, Vec3::X, f32::INFINITY).is_some());
+    for (o, d, t) in [
+        (o, Vec3::ZERO, f32::INFINITY),
+        (o, Vec3::NAN, f32::INFINITY),
+        (o, Vec3::new(f32::INFINITY, 0.0, 0.0), f32::INFINITY),
+        (Vec3::NAN, Vec3::X, f32::INFINITY),
+        (o, Vec3::X, 0.0),
+        (o, Vec3::X, -1.0),
+        (o, Vec3::X, f32::NAN),
+    ] {
+        assert!(bvh.intersect(o, d, t).is_none());
+        assert!(!bvh.occluded(o, d, t));
+    }
+}
+
+/// Axis-parallel rays, tiny and huge direction lengths, tiny and huge scenes:
+/// the cases obvhs' own ray setup (direction clamp, node-test epsilon) gets wrong.
+#[test]
+fn axis_parallel_rays_and_extreme_scales() {
+    let mut rng = Pcg32::new(8, 0);
+    for scale in [1e-6f32, 1e-4, 1.0, 1e5, 1e12] {
+        let tris = cube_sphere(6, 1.0)
+            .transformed(scale, Vec3::ZERO)
+            .triangles();
+        let bvhs: Vec<Bvh> = [Layout::Wide, Layout::Binary]
+            .into_iter()
+            .map(|layout| {
+                Bvh::build_with(
+                    &tris,
+                    BuildOptions {
+                        layout,
+                        ..Default::default()
+                    },
+                )
+            })
+            .collect();
+        {
+            let mut rays = Vec::new();
+            for _ in 0..200 {
+                let o = random_in_box(
+                    &mut rng,
+                    Vec3::splat(-0.5 * scale),
+                    Vec3::splat(0.5 * scale),
+                );
+                let axis = [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z]
+                    [(rng.next_u32() % 6) as usize];
+                let len = [1e-20f32, 1e-3, 1.0, 1e20][(rng.next_u32() % 4) as usize];
+                rays.push((o, axis * len, f32::INFINITY));
+                // Nearly axis-parallel: one component below obvhs' 1.2e-7 clamp.
+                let d = (axis + Vec3::new(3e-8, -5e-9, 1e-10)).normalize() * len;
+                rays.push((o, d, f32::INFINITY));
+                // Outside, aimed at the surface along an axis.
+                let o2 = Vec3::new(o.x, o.y, -2.0 * scale);
+                rays.push((o2, Vec3::Z * len, f32::INFINITY));
+            }
+            assert_rays(&format!("scale {scale}"), &bvhs, &tris, rays);
+        }
+    }
+}
+
+#[test]
+fn single_triangles_and_tiny_counts() {
+    let mut rng = Pcg32::new(9, 0);
+    // Axis-aligned (flat bounds), single triangle, duplicates.
+    let quad = vec![
+        [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0)],
+        [Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0), Vec3::Y],
+    ];
+    let one = vec![quad[0]];
+    let dupes = vec![quad[0]; 300];
+    for tris in [quad, one, dupes] {
+        let bvhs = build_all(&tris);
+        {
+            let rays: Vec<_> = (0..300)
+                .map(|_| {
+                    let target = random_in_box(
+                        &mut rng,
+                        Vec3::new(-0.2, -0.2, 0.0),
+                        Vec3::new(1.2, 1.2, 0.0),
+                    );
+                    let o = target + random_unit(&mut rng) * 2.0;
+                    (o, target - o, f32::INFINITY)
+                })
+                .collect();
+            assert_rays("tiny", &bvhs, &tris, rays);
+        }
+    }
+}
+
+/// Adversarial geometry (exponentially spaced triangles) gives deep trees;
+/// the queries must stay exact (a too-deep CWBVH falls back to a BVH2).
+#[test]
+fn deep_trees_stay_exact() {
+    let mut rng = Pcg32::new(10, 0);
+    let tris: Vec<[Vec3; 3]> = (0..400)
+        .map(|i| {
+            let x = 1.09f32.powi(i);
+            let s = x * 0.3;
+            [
+                Vec3::new(x, 0.0, -s),
+                Vec3::new(x, s, s),
+                Vec3::new(x, -s, s),
+            ]
+        })
+        .collect();
+    let bvhs = build_all(&tris);
+    for bvh in &bvhs {
+        // Too deep for obvhs' CWBVH traversal stack: built as a BVH2.
+        assert_eq!(bvh.layout(), Layout::Binary);
+    }
+    {
+        let rays: Vec<_> = (0..600)
+            .map(|_| {
+                let i = (rng.next_u32() % 400) as i32;
+                let x = 1.09f32.powi(i);
+                let o = Vec3::new(
+                    x * (0.5 + rng.uniform_f32()),
+                    x * 0.3 * (rng.uniform_f32() - 0.5),
+                    x * 0.3 * (rng.uniform_f32() - 0.5),
+                );
+                (
+                    o,
+                    Vec3::new(-1.0, 0.01 * (rng.uniform_f32() - 0.5), 0.0),
+                    f32::INFINITY,
+                )
+            })
+            .collect();
+        assert_rays("deep", &bvhs, &tris, rays);
+    }
+}
+
+/// The same build on 1 and 2 threads answers every query identically
+/// (including which triangle of a tie is reported).
+#[test]
+fn build_is_independent_of_thread_count() -> Result<(), rayon::ThreadPoolBuildError> {
+    let mut rng = Pcg32::new(11, 0);
+    let tris = height_field(60).triangles();
+    let rays: Vec<_> = (0..2000)
+        .map(|_| {
+            let target = random_in_box(
+                &mut rng,
+                Vec3::new(-1.0, 0.0, -1.0),
+                Vec3::new(1.0, 0.0, 1.0),
+            );
+            // Aim at lattice lines (shared edges) half of the time.
+            let target = if rng.next_u32().is_multiple_of(2) {
+                (target * 30.0).round() / 30.0
+            } else {
+                target
+            };
+            (
+                Vec3::new(target.x * 0.5, 2.0, target.z * 0.5),
+                Vec3::new(target.x * 0.5, -2.0, target.z * 0.5),
+            )
+        })
+        .collect();
+    for options in option_sets() {
+        let answers = |threads: usize| -> Result<Vec<_>, rayon::ThreadPoolBuildError> {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()?;
+            let bvh = pool.install(|| Bvh::build_with(&tris, options));
+            Ok(rays
+                .iter()
+                .map(|&(o, d)| (bvh.intersect(o, d, f32::INFINITY), bvh.occluded(o, d, 1.0)))
+                .collect())
+        };
+        assert_eq!(answers(1)?, answers(2)?, "{options:?}");
+    }
+    Ok(())
+}
