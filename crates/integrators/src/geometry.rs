@@ -1,0 +1,138 @@
+//! Surface points: the shading frame and the data of a ray hit.
+
+use accel::Hit;
+use glam::{Vec2, Vec3};
+use scene::Scene;
+
+/// An orthonormal frame around a normal; BSDFs work in it with the normal as +z.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame {
+    /// First tangent.
+    pub s: Vec3,
+    /// Second tangent.
+    pub t: Vec3,
+    /// The normal.
+    pub n: Vec3,
+}
+
+impl Frame {
+    /// A frame around unit `n` (Duff et al. 2017, "Building an orthonormal
+    /// basis, revisited"), exact for every unit `n` including n.z = -1.
+    pub fn from_normal(n: Vec3) -> Self {
+        let sign = 1.0f32.copysign(n.z);
+        let a = -1.0 / (sign + n.z);
+        let b = n.x * n.y * a;
+        Self {
+            s: Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+            t: Vec3::new(b, sign + n.y * n.y * a, -n.y),
+            n,
+        }
+    }
+
+    /// World direction in frame coordinates.
+    pub fn to_local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
+    }
+
+    /// Frame direction in world coordinates.
+    pub fn to_world(&self, v: Vec3) -> Vec3 {
+        self.s * v.x + self.t * v.y + self.n * v.z
+    }
+
+    /// The same frame seen from the other side (normal negated, right-handed).
+    pub fn flipped(&self) -> Self {
+        Self {
+            s: self.t,
+            t: self.s,
+            n: -self.n,
+        }
+    }
+}
+
+/// What a ray hit: position, normals, texture coordinates and material.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfacePoint {
+    /// Position, interpolated from the triangle's vertices (more accurate
+    /// than origin + t direction far from the origin).
+    pub p: Vec3,
+    /// Unit geometric normal from the triangle's winding: the emitting side of
+    /// an area light.
+    pub n_winding: Vec3,
+    /// Unit geometric normal, on the side of the shading normal.
+    pub ng: Vec3,
+    /// Shading frame around the interpolated normal.
+    pub frame: Frame,
+    /// Texture coordinates.
+    pub uv: Vec2,
+    /// Triangle index.
+    pub triangle: u32,
+    /// Material index.
+    pub material: u32,
+}
+
+impl SurfacePoint {
+    /// The surface point of `hit` in `scene`.
+    pub fn new(scene: &Scene, hit: &Hit) -> Self {
+        let i = hit.triangle as usize;
+        let b = Vec3::new(1.0 - hit.b1 - hit.b2, hit.b1, hit.b2);
+        let interpolate = |v: [Vec3; 3]| v[0] * b.x + v[1] * b.y + v[2] * b.z;
+        let [a, b1, b2] = scene.triangles[i];
+        let n_winding = (b1 - a).cross(b2 - a).normalize_or_zero();
+        let ns = interpolate(scene.normals[i])
+            .try_normalize()
+            .unwrap_or(n_winding);
+        let ng = if ns.dot(n_winding) < 0.0 {
+            -n_winding
+        } else {
+            n_winding
+        };
+        let uv = scene.uvs[i];
+        Self {
+            p: interpolate(scene.triangles[i]),
+            n_winding,
+            ng,
+            frame: Frame::from_normal(ns),
+            uv: uv[0] * b.x + uv[1] * b.y + uv[2] * b.z,
+            triangle: hit.triangle,
+            material: scene.triangle_materials[i],
+        }
+    }
+
+    /// The geometric normal on the side of `w` (for ray-origin offsetting).
+    pub fn ng_towards(&self, w: Vec3) -> Vec3 {
+        if self.ng.dot(w) < 0.0 {
+            -self.ng
+        } else {
+            self.ng
+        }
+    }
+
+    /// Origin of a ray leaving in direction `w` (Wächter and Binder offset).
+    pub fn spawn_origin(&self, w: Vec3) -> Vec3 {
+        accel::offset_ray_origin(self.p, self.ng_towards(w))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frames_are_orthonormal_and_round_trip() {
+        for n in [
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::X,
+            Vec3::new(0.3, -0.5, 0.81).normalize(),
+            Vec3::new(1e-8, 0.0, -1.0).normalize(),
+        ] {
+            for f in [Frame::from_normal(n), Frame::from_normal(n).flipped()] {
+                assert!((f.s.cross(f.t) - f.n).length() < 1e-5, "{n}");
+                assert!(f.s.dot(f.t).abs() < 1e-6 && f.s.dot(f.n).abs() < 1e-6);
+                let v = Vec3::new(0.2, -0.7, 0.4);
+                assert!((f.to_world(f.to_local(v)) - v).length() < 1e-6);
+                assert!((f.to_local(f.n) - Vec3::Z).length() < 1e-6);
+            }
+        }
+    }
+}

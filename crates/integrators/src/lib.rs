@@ -1,0 +1,31 @@
+//! Light transport: the film, deterministic samplers, camera rays, light
+//! sampling, the shared path vertex, and the integrators.
+//!
+//! This integrator is path tracing (`pt`) with next-event
+//! estimation, BSDF sampling and MIS, regularized per SPEC §5-§6. A
+//! [`Renderer`] holds a scene prepared for rendering with one
+//! [`RenderConfig`]; [`Renderer::render_iteration`] renders one iteration
+//! (one sample per pixel) into per-pixel estimates, which a [`Film`]
+//! accumulates with their noise.
+//!
+//! Everything here is deterministic: the value of a pixel is a pure function
+//! of (seed, iteration, pixel), whatever the thread count.
+
+pub mod camera;
+pub mod config;
+pub mod film;
+pub mod geometry;
+pub mod image_io;
+pub mod lights;
+mod pt;
+pub mod render;
+pub mod sampler;
+pub mod vertex;
+
+pub use config::{
+    Algorithm, ConfigError, DEFAULT_MAX_DEPTH, DEFAULT_TAU_0, Regularization, RenderConfig,
+    Strategies, mode_name, parse_mode,
+};
+pub use film::Film;
+pub use regularization::Mode;
+pub use render::Renderer;

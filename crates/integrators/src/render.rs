@@ -1,0 +1,231 @@
+//! The renderer: a scene prepared for ray queries and light sampling, and
+//! one iteration of the configured algorithm over the image.
+
+use std::fmt::Write as _;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use accel::Bvh;
+use glam::Vec3;
+use rayon::prelude::*;
+use regularization::tau::{alpha_cap, alpha_tau};
+use regularization::{Lobe, Mode};
+use scene::{Scene, SceneFeatures};
+
+use crate::camera::CameraRays;
+use crate::config::{Algorithm, RenderConfig, Strategies, mode_name};
+use crate::film::Film;
+use crate::lights::Lights;
+use crate::sampler::Sampler;
+
+/// A scene ready to render with one configuration.
+pub struct Renderer {
+    pub(crate) scene: Scene,
+    pub(crate) bvh: Bvh,
+    pub(crate) lights: Lights,
+    pub(crate) config: RenderConfig,
+    camera: CameraRays,
+    features: SceneFeatures,
+    /// Samples that were NaN or infinite and were dropped (set to zero).
+    invalid_samples: AtomicU64,
+}
+
+impl Renderer {
+    /// Prepares `scene` (builds the BVH on the current rayon pool).
+    pub fn new(scene: Scene, config: RenderConfig) -> Self {
+        let bvh = Bvh::build(&scene.triangles);
+        let lights = Lights::new(&scene);
+        let features = SceneFeatures::of(&scene);
+        Self {
+            camera: CameraRays::new(scene.camera),
+            scene,
+            bvh,
+            lights,
+            config,
+            features,
+            invalid_samples: AtomicU64::new(0),
+        }
+    }
+
+    /// The scene.
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &RenderConfig {
+        &self.config
+    }
+
+    /// What the scene contains.
+    pub fn features(&self) -> &SceneFeatures {
+        &self.features
+    }
+
+    /// Image size (width, height).
+    pub fn resolution(&self) -> (u32, u32) {
+        let r = self.scene.camera.resolution;
+        (r.x, r.y)
+    }
+
+    /// An empty film of the image size.
+    pub fn new_film(&self) -> Film {
+        let (w, h) = self.resolution();
+        Film::new(w, h)
+    }
+
+    /// Number of samples so far that were NaN or infinite and were replaced
+    /// by zero (a correct renderer keeps this at 0; tests assert it).
+    pub fn invalid_samples(&self) -> u64 {
+        self.invalid_samples.load(Ordering::Relaxed)
+    }
+
+    /// tau_N at iteration `n` (infinity when regularization is off).
+    pub fn tau_at(&self, n: u64) -> f64 {
+        self.config.regularization.tau_at(n)
+    }
+
+    /// True when regularization with bound `tau` can raise the roughness of
+    /// some surface of the scene. Selective mode only ever uses bounds at
+    /// least tau_N, so tau_N decides for it too. Transmission can be blurred
+    /// up to the cap alpha_max; textured roughness may be below its factor.
+    pub fn regularization_matters(&self, tau: f64) -> bool {
+        let Some(smallest) = self.features.smallest_alpha else {
+            return false;
+        };
+        if !tau.is_finite() {
+            return false;
+        }
+        let widest = if self.features.transmission || self.features.textured {
+            f64::from(alpha_cap(microfacet::NdfKind::Ggx))
+        } else {
+            alpha_tau(Lobe::Reflection, tau)
+        };
+        f64::from(smallest) < widest
+    }
+
+    /// The regularization mode used at bound `tau_n`: `Off` when nothing
+    /// would change, so that such renders are bit-identical to unregularized
+    /// ones and cost the same (DESIGN.md, "pay only for what a scene uses").
+    pub(crate) fn effective_mode(&self, tau_n: f64) -> Mode {
+        if self.regularization_matters(tau_n) {
+            self.config.regularization.mode
+        } else {
+            Mode::Off
+        }
+    }
+
+    /// Renders iteration `iteration` (1-based; it drives tau_N and selects
+    /// the random streams) into `estimates`: one estimate per pixel,
+    /// row-major. Parallel over rows on the current rayon pool; the result
+    /// does not depend on the number of threads.
+    ///
+    /// # Panics
+    /// If `estimates` does not have one entry per pixel.
+    pub fn render_iteration(&self, iteration: u64, estimates: &mut [Vec3]) {
+        let (width, height) = self.resolution();
+        assert_eq!(estimates.len(), width as usize * height as usize);
+        let tau_n = self.tau_at(iteration);
+        let Algorithm::Pt = self.config.algorithm;
+        estimates
+            .par_chunks_mut(width as usize)
+            .enumerate()
+            .for_each(|(y, row)| {
+                let mut invalid = 0;
+                for (x, out) in row.iter_mut().enumerate() {
+                    let pixel = y as u64 * u64::from(width) + x as u64;
+                    let mut sampler = Sampler::new(self.config.seed, iteration, pixel);
+                    let (o, d) = self.camera.ray(x as u32, y as u32, sampler.next_2d());
+                    let l = self.trace_path(o, d, &mut sampler, tau_n);
+                    *out = if l.is_finite() {
+                        l
+                    } else {
+                        invalid += 1;
+                        Vec3::ZERO
+                    };
+                }
+                if invalid > 0 {
+                    self.invalid_samples.fetch_add(invalid, Ordering::Relaxed);
+                }
+            });
+    }
+
+    /// Renders iterations `first..first + count` into `film`.
+    pub fn render(&self, film: &mut Film, first: u64, count: u64) {
+        let mut estimates = vec![Vec3::ZERO; film.width() as usize * film.height() as usize];
+        for n in first..first + count {
+            self.render_iteration(n, &mut estimates);
+            film.add_iteration(&estimates);
+        }
+    }
+
+    /// A human-readable account of what will run and why (for `--explain`).
+    pub fn explain(&self) -> String {
+        let c = &self.config;
+        let f = &self.features;
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "integrator:       {} (max depth {}, seed {})",
+            c.algorithm, c.max_depth, c.seed
+        );
+        let strategies = match c.strategies {
+            Strategies::Mis => "next-event estimation + BSDF sampling, power-heuristic MIS",
+            Strategies::NeeOnly => "next-event estimation only",
+            Strategies::BsdfOnly => "BSDF sampling only",
+        };
+        let _ = writeln!(
+            s,
+            "strategies:       {strategies}; Russian roulette from depth {}",
+            crate::pt::ROULETTE_DEPTH
+        );
+        let r = &c.regularization;
+        let _ = write!(s, "regularization:   {}", mode_name(r.mode));
+        if r.mode != Mode::Off {
+            let _ = write!(
+                s,
+                ", tau_0 = {} ({}), alpha_tau at N = 1: {:.4}",
+                r.schedule.tau_0(),
+                if r.progressive {
+                    "progressive: tau_N = tau(r_0 N^(-1/6))"
+                } else {
+                    "fixed"
+                },
+                alpha_tau(Lobe::Reflection, r.tau_at(1))
+            );
+            if !self.regularization_matters(r.tau_at(1)) {
+                let _ = write!(
+                    s,
+                    "\n                  inactive: no surface is sharper than alpha_tau (smallest alpha {}), so the render equals the unregularized one",
+                    f.smallest_alpha.map_or("none".into(), |a| a.to_string())
+                );
+            }
+        }
+        let _ = writeln!(s);
+        let _ = writeln!(
+            s,
+            "left out:         {}{}{}",
+            if f.transmission {
+                ""
+            } else {
+                "refraction code (no dielectric); "
+            },
+            if f.textured {
+                ""
+            } else {
+                "texture lookups (no textures); "
+            },
+            if f.environment {
+                ""
+            } else {
+                "environment lookups (no environment light)"
+            },
+        );
+        if self.lights.is_empty() {
+            let _ = writeln!(
+                s,
+                "warning:          the scene has no light; the image will be black"
+            );
+        }
+        s
+    }
+}

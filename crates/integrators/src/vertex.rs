@@ -1,0 +1,152 @@
+//! The path vertex every integrator builds: where a subpath touched a
+//! surface, the (regularized) BSDF there and the quantities MIS needs.
+//!
+//! DESIGN.md: one path-vertex representation and one BSDF entry point that
+//! applies regularization. A vertex fixes its alpha-hat when it is created
+//! (SPEC §5); every later evaluation, sample and pdf at it uses that value.
+
+use glam::{Vec2, Vec3};
+use microfacet::{Bsdf, TransportMode};
+use regularization::{AlphaHat, PathRegularization, p_hat};
+use scene::Scene;
+
+use crate::geometry::{Frame, SurfacePoint};
+
+/// A scattering vertex of a camera or light subpath.
+#[derive(Clone, Copy, Debug)]
+pub struct PathVertex {
+    /// The surface point.
+    pub point: SurfacePoint,
+    /// Shading frame used for the BSDF: the surface's, flipped to the side of
+    /// `wi` for one-sided lobes (conductors and diffuse surfaces are two-sided).
+    pub frame: Frame,
+    /// Unit direction towards the previous vertex of the subpath.
+    pub wi: Vec3,
+    /// The BSDF as the material defines it (textures resolved).
+    pub bsdf_original: Bsdf,
+    /// The BSDF actually used: `bsdf_original` with alpha-hat.
+    pub bsdf: Bsdf,
+    /// The regularized roughness, when regularization raised alpha here.
+    pub alpha_hat: Option<AlphaHat>,
+    /// Product of f |cos| / pdf along the subpath up to (excluding) this vertex.
+    pub throughput: Vec3,
+    /// Density (solid angle at the previous vertex) with which this vertex was sampled.
+    pub pdf_fwd: f32,
+    /// Regularization state for the next vertex of the subpath.
+    pub regularization: PathRegularization,
+}
+
+/// A direction sampled at a vertex.
+#[derive(Clone, Copy, Debug)]
+pub struct VertexSample {
+    /// Unit world direction.
+    pub wo: Vec3,
+    /// f |cos| / pdf.
+    pub weight: Vec3,
+    /// Sampling density (solid angle).
+    pub pdf: f32,
+    /// The density MIS compares (p-hat at a regularized vertex, SPEC §6).
+    pub mis_pdf: f32,
+    /// The MIS density of the reverse direction (sampling `wi` from `wo`),
+    /// which bidirectional methods store at the vertex.
+    pub mis_pdf_rev: f32,
+    /// True for a delta lobe.
+    pub is_specular: bool,
+}
+
+impl PathVertex {
+    /// The vertex at `point`, reached from direction `wi` (towards the
+    /// previous vertex), regularized by `regularization` (the subpath's state
+    /// before this vertex).
+    pub fn new(
+        scene: &Scene,
+        point: SurfacePoint,
+        wi: Vec3,
+        throughput: Vec3,
+        pdf_fwd: f32,
+        regularization: PathRegularization,
+    ) -> Self {
+        let material = &scene.materials[point.material as usize];
+        let bsdf_original = material.surface.bsdf(point.uv, &scene.textures);
+        let two_sided = !matches!(bsdf_original, Bsdf::Dielectric(_));
+        let frame = if two_sided && point.frame.n.dot(wi) < 0.0 {
+            point.frame.flipped()
+        } else {
+            point.frame
+        };
+        let (bsdf, alpha_hat) = regularization.regularize(&bsdf_original, frame.to_local(wi));
+        let alpha_hat = alpha_hat.filter(|hat| Some(hat.alpha) != bsdf_original.alpha());
+        Self {
+            point,
+            frame,
+            wi,
+            bsdf_original,
+            bsdf,
+            alpha_hat,
+            throughput,
+            pdf_fwd,
+            regularization: regularization.after_vertex(&bsdf_original),
+        }
+    }
+
+    /// True when the (regularized) lobe is a delta.
+    pub fn is_specular(&self) -> bool {
+        self.bsdf.is_specular()
+    }
+
+    /// False when `wo` leaves through the other side of the geometric surface
+    /// than `wi` while the lobe only reflects: shading normals must not let
+    /// light leak through a surface.
+    fn geometrically_consistent(&self, wo: Vec3) -> bool {
+        matches!(self.bsdf, Bsdf::Dielectric(_))
+            || self.point.ng.dot(wo) * self.point.ng.dot(self.wi) > 0.0
+    }
+
+    /// f(wi, wo) |cos(wo, n_s)| for world direction `wo`.
+    pub fn eval(&self, wo: Vec3, mode: TransportMode) -> Vec3 {
+        if !self.geometrically_consistent(wo) {
+            return Vec3::ZERO;
+        }
+        let (wi_l, wo_l) = (self.frame.to_local(self.wi), self.frame.to_local(wo));
+        self.bsdf.eval(wi_l, wo_l, mode) * wo_l.z.abs()
+    }
+
+    /// The density MIS uses for `wo` sampled from this vertex: the sampling
+    /// pdf, or p-hat (paper eq 13) where regularization raised alpha.
+    pub fn mis_pdf(&self, wo: Vec3) -> f32 {
+        let (wi_l, wo_l) = (self.frame.to_local(self.wi), self.frame.to_local(wo));
+        match self.alpha_hat {
+            Some(hat) => p_hat(&self.bsdf_original, hat.alpha, wi_l, wo_l),
+            None => self.bsdf.pdf(wi_l, wo_l),
+        }
+    }
+
+    /// Samples an outgoing direction from `uc` and `u`.
+    pub fn sample(&self, uc: f32, u: Vec2, mode: TransportMode) -> Option<VertexSample> {
+        let wi_l = self.frame.to_local(self.wi);
+        let s = self.bsdf.sample(wi_l, uc, u, mode)?;
+        let wo = self.frame.to_world(s.wo);
+        if !self.geometrically_consistent(wo) || !(s.pdf > 0.0) {
+            return None;
+        }
+        let weight = s.f * (s.wo.z.abs() / s.pdf);
+        if !weight.is_finite() || weight.max_element() <= 0.0 {
+            return None;
+        }
+        let (mis_pdf, mis_pdf_rev) = match self.alpha_hat {
+            Some(hat) if !s.is_specular => (
+                p_hat(&self.bsdf_original, hat.alpha, wi_l, s.wo),
+                p_hat(&self.bsdf_original, hat.alpha, s.wo, wi_l),
+            ),
+            _ => (s.pdf, s.pdf_reverse),
+        };
+        Some(VertexSample {
+            wo,
+            weight,
+            pdf: s.pdf,
+            mis_pdf,
+            mis_pdf_rev,
+            is_specular: s.is_specular,
+        })
+    }
+}
