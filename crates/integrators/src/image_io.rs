@@ -52,7 +52,17 @@ fn write_atomically(
         // Best effort: the error that matters is the one returned.
         let _ = fs::remove_file(&partial);
     }
-    result
+    // Errors name the file the caller asked for, not the temporary one.
+    result.map_err(|e| match e {
+        ImageError::Io { source, .. } => ImageError::Io {
+            path: path.to_owned(),
+            source,
+        },
+        ImageError::Format { message, .. } => ImageError::Format {
+            path: path.to_owned(),
+            message,
+        },
+    })
 }
 
 /// Writes a linear RGB image (row-major, `width * height` pixels) as a 32-bit
@@ -195,6 +205,7 @@ mod tests {
         let path = dir.join("missing-folder").join("a.exr");
         let err = write_exr(&path, 1, 1, &[Vec3::ONE]).unwrap_err();
         assert!(err.to_string().contains("missing-folder"), "{err}");
+        assert!(!err.to_string().contains(".partial"), "{err}");
         let png = dir.join("missing-folder").join("a.png");
         assert!(write_png(&png, 1, 1, &[Vec3::ONE], 0.0).is_err());
         let not_exr = dir.join("b.exr");

@@ -1,0 +1,285 @@
+//! End-to-end tests of the `render-cli` binary on the bundled scenes, at tiny
+//! settings (16x12 pixels, 2 iterations).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use integrators::image_io::read_exr;
+
+const TINY: [&str; 4] = ["--resolution", "16x12", "--iterations", "2"];
+
+fn bundled(scene: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("../../scenes/{scene}/scene.toml"))
+}
+
+fn render_cli(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_render-cli"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn stderr(output: &Output) -> String {
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+fn files_in(dir: &Path) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    files.sort();
+    files
+}
+
+/// Asserts a failed run: non-zero exit, one `error:` line that mentions every
+/// string in `names`, and no image written into `dir`.
+fn assert_fails_cleanly(output: &Output, names: &[&str], dir: &Path) {
+    let err = stderr(output);
+    assert!(!output.status.success(), "succeeded; stderr: {err}");
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines.len(), 1, "expected one line, got: {err}");
+    assert!(lines[0].starts_with("error: "), "{err}");
+    for name in names {
+        assert!(lines[0].contains(name), "'{name}' missing from: {err}");
+    }
+    let written: Vec<PathBuf> = files_in(dir)
+        .into_iter()
+        .filter(|f| f.extension().is_some_and(|e| e != "toml"))
+        .collect();
+    assert!(written.is_empty(), "left behind: {written:?}");
+}
+
+#[test]
+fn renders_the_cornell_box_to_exr_and_png() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("box.exr");
+    let scene = bundled("cornell-box");
+    let mut args = vec![scene.to_str().unwrap(), "-o", exr.to_str().unwrap()];
+    args.extend(TINY);
+    let output = render_cli(&args);
+    let err = stderr(&output);
+    assert!(output.status.success(), "{err}");
+    assert!(
+        err.lines()
+            .last()
+            .is_some_and(|l| l.starts_with("rendered 2 iterations of 16x12 in ")),
+        "{err}"
+    );
+    assert!(dir.path().join("box.png").is_file());
+    let image = read_exr(&exr).unwrap();
+    assert_eq!((image.width, image.height), (16, 12));
+    assert!(
+        image
+            .pixels
+            .iter()
+            .all(|p| p.is_finite() && p.min_element() >= 0.0)
+    );
+    let mean = image.pixels.iter().map(|p| p.element_sum()).sum::<f32>();
+    assert!(mean > 0.0, "black image");
+}
+
+#[test]
+fn a_missing_scene_is_one_line_naming_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("no-such-scene.toml");
+    let exr = dir.path().join("out.exr");
+    let output = render_cli(&[scene.to_str().unwrap(), "-o", exr.to_str().unwrap()]);
+    assert_fails_cleanly(&output, &["no-such-scene.toml"], dir.path());
+}
+
+#[test]
+fn a_malformed_manifest_is_one_line_naming_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("broken.toml");
+    std::fs::write(&scene, "[camera\nfrom = [0, 1").unwrap();
+    let exr = dir.path().join("out.exr");
+    let output = render_cli(&[scene.to_str().unwrap(), "-o", exr.to_str().unwrap()]);
+    assert_fails_cleanly(&output, &["broken.toml"], dir.path());
+}
+
+#[test]
+fn a_bad_manifest_value_says_it_came_from_the_manifest() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    let box_obj = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cornell-box");
+    let manifest = std::fs::read_to_string(box_obj.join("scene.toml"))
+        .unwrap()
+        .replace("regularize = \"selective\"", "regularize = \"strict\"")
+        .replace(
+            "file = \"cornell-box.obj\"",
+            &format!(
+                "file = {:?}",
+                box_obj.join("cornell-box.obj").to_str().unwrap()
+            ),
+        );
+    assert!(manifest.contains("strict"));
+    std::fs::write(&scene, manifest).unwrap();
+    let exr = dir.path().join("out.exr");
+    let mut args = vec![scene.to_str().unwrap(), "-o", exr.to_str().unwrap()];
+    args.extend(TINY);
+    let output = render_cli(&args);
+    assert_fails_cleanly(
+        &output,
+        &["scene.toml", "regularize", "strict", "manifest"],
+        dir.path(),
+    );
+    // A flag overrides the bad value without looking at it.
+    args.extend(["--regularize", "off"]);
+    let output = render_cli(&args);
+    assert!(output.status.success(), "{}", stderr(&output));
+}
+
+#[test]
+fn bad_flag_values_name_the_flag() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = bundled("cornell-box");
+    let exr = dir.path().join("out.exr");
+    let cases: [(&[&str], &[&str]); 8] = [
+        (&["--regularize", "strict"], &["--regularize", "strict"]),
+        (&["--integrator", "xyz"], &["--integrator", "xyz"]),
+        (&["--resolution", "0x5"], &["--resolution", "0x5"]),
+        (&["--tau0", "0.1"], &["--tau0", "0.1"]),
+        (&["--iterations", "0"], &["--iterations"]),
+        (&["--time", "-1"], &["--time"]),
+        (&["--camera-from", "1,2"], &["--camera-from"]),
+        (
+            &["--iterations", "2", "--time", "1"],
+            &["--iterations", "--time"],
+        ),
+    ];
+    for (flags, names) in cases {
+        let mut args = vec![scene.to_str().unwrap(), "-o", exr.to_str().unwrap()];
+        args.extend(flags);
+        let output = render_cli(&args);
+        assert_eq!(
+            output.status.code(),
+            Some(2),
+            "{flags:?}: {}",
+            stderr(&output)
+        );
+        assert_fails_cleanly(&output, names, dir.path());
+    }
+}
+
+#[test]
+fn a_missing_output_folder_fails_before_rendering() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("missing/out.exr");
+    let scene = bundled("cornell-box");
+    let output = render_cli(&[scene.to_str().unwrap(), "-o", exr.to_str().unwrap()]);
+    assert_fails_cleanly(&output, &["--output", "missing"], dir.path());
+}
+
+#[test]
+fn help_mentions_every_flag() {
+    let output = render_cli(&["--help"]);
+    assert!(output.status.success());
+    let help = String::from_utf8(output.stdout).unwrap();
+    for flag in [
+        "--integrator",
+        "--iterations",
+        "--time",
+        "--regularize",
+        "--tau0",
+        "--no-progressive",
+        "--max-depth",
+        "--threads",
+        "--seed",
+        "--resolution",
+        "--camera-from",
+        "--camera-at",
+        "--camera-up",
+        "--fov",
+        "--camera ",
+        "--output",
+        "--png",
+        "--no-png",
+        "--exposure",
+        "--explain",
+        "D/4 for reflection",
+    ] {
+        assert!(help.contains(flag), "--help does not mention {flag}");
+    }
+}
+
+#[test]
+fn explain_prints_the_settings_and_renders() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("out.exr");
+    let scene = bundled("cornell-box");
+    let mut args = vec![scene.to_str().unwrap(), "-o", exr.to_str().unwrap()];
+    args.extend(TINY);
+    args.extend(["--explain", "--no-png", "--threads", "1"]);
+    let output = render_cli(&args);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let stdout = String::from_utf8(output.stdout).unwrap();
+    for line in [
+        "regularize:       selective (manifest)",
+        "iterations:       2 (flag)",
+        "tau0:             7.5 (default)",
+        "threads:          1",
+    ] {
+        assert!(stdout.contains(line), "'{line}' missing from:\n{stdout}");
+    }
+    assert!(exr.is_file() && !dir.path().join("out.png").exists());
+}
+
+#[cfg(unix)]
+#[test]
+fn interrupt_writes_the_iterations_done_so_far() {
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
+    use std::time::Duration;
+
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("out.exr");
+    let scene = bundled("cornell-box");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_render-cli"))
+        .args([scene.to_str().unwrap(), "-o", exr.to_str().unwrap()])
+        .args([
+            "--resolution",
+            "16x12",
+            "--iterations",
+            "100000000",
+            "--explain",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // --explain prints after the Ctrl-C handler is installed, just before the
+    // first iteration, and ends with the "output:" line; then let the render
+    // run for a while. stdout is drained to the end, so the child never
+    // writes into a closed pipe.
+    let stdout = BufReader::new(child.stdout.take().unwrap());
+    let (started, explained) = std::sync::mpsc::channel();
+    let reader = std::thread::spawn(move || {
+        for line in stdout.lines().map_while(Result::ok) {
+            if line.starts_with("output:") {
+                let _ = started.send(());
+            }
+        }
+    });
+    explained
+        .recv_timeout(Duration::from_secs(60))
+        .expect("--explain output before the render");
+    std::thread::sleep(Duration::from_secs(1));
+    let pid = child.id().to_string();
+    let kill = Command::new("kill").args(["-INT", &pid]).status().unwrap();
+    assert!(kill.success());
+    let output = child.wait_with_output().unwrap();
+    reader.join().unwrap();
+    let err = stderr(&output);
+    assert_eq!(output.status.code(), Some(130), "{err}");
+    assert!(err.contains("interrupted after"), "{err}");
+    assert!(err.contains("of 100000000 iterations"), "{err}");
+    let image = read_exr(&exr).unwrap();
+    assert!(image.pixels.iter().all(|p| p.is_finite()));
+    assert!(dir.path().join("out.png").is_file());
+    let leftovers: Vec<_> = files_in(dir.path())
+        .into_iter()
+        .filter(|f| f.to_string_lossy().ends_with(".partial"))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+}
