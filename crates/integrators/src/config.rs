@@ -12,11 +12,22 @@ pub enum Algorithm {
     /// Path tracing with next-event estimation (SPEC §7).
     #[default]
     Pt,
+    /// Bidirectional path tracing: the VCM core with merging off.
+    Bpt,
+    /// Progressive photon mapping: the VCM core with merging only.
+    Ppm,
+    /// Vertex connection and merging (Georgiev et al. 2012).
+    Vcm,
 }
 
 impl Algorithm {
     /// Every algorithm with its command-line name.
-    pub const ALL: [(Self, &'static str); 1] = [(Self::Pt, "pt")];
+    pub const ALL: [(Self, &'static str); 4] = [
+        (Self::Pt, "pt"),
+        (Self::Bpt, "bpt"),
+        (Self::Ppm, "ppm"),
+        (Self::Vcm, "vcm"),
+    ];
 
     /// The command-line name.
     pub fn name(self) -> &'static str {
@@ -37,7 +48,7 @@ impl FromStr for Algorithm {
             .ok_or_else(|| ConfigError::UnknownName {
                 what: "integrator",
                 given: s.to_owned(),
-                expected: "pt",
+                expected: "pt, bpt, ppm, vcm",
             })
     }
 }
@@ -149,6 +160,38 @@ pub struct RenderConfig {
     pub seed: u64,
     /// Regularization settings.
     pub regularization: Regularization,
+    /// Virtual merges (supp. §6) in BPT and VCM; `None`: on for VCM with
+    /// regularization, off otherwise.
+    pub virtual_merges: Option<bool>,
+    /// Merge radius of the first iteration, as a fraction of the radius of
+    /// the scene's bounding sphere (PPM, VCM).
+    pub radius_factor: f32,
+    /// The progressive radius exponent alpha_r of SPEC §7:
+    /// r_i = r_1 i^((alpha_r - 1) / 2).
+    pub radius_alpha: f32,
+}
+
+/// Default first merge radius: 0.3 % of the scene's bounding-sphere radius
+/// (SmallVCM's default factor).
+pub const DEFAULT_RADIUS_FACTOR: f32 = 0.003;
+
+/// Default radius reduction exponent alpha_r (SPEC §7; Knaus and Zwicker 2011).
+pub const DEFAULT_RADIUS_ALPHA: f32 = 0.75;
+
+impl RenderConfig {
+    /// Whether BPT/VCM run virtual merges (see [`RenderConfig::virtual_merges`]).
+    pub fn uses_virtual_merges(&self) -> bool {
+        let regularized = self.regularization.mode != Mode::Off;
+        match self.algorithm {
+            Algorithm::Bpt | Algorithm::Vcm => {
+                regularized
+                    && self
+                        .virtual_merges
+                        .unwrap_or(self.algorithm == Algorithm::Vcm)
+            }
+            Algorithm::Pt | Algorithm::Ppm => false,
+        }
+    }
 }
 
 /// Default longest path, in segments.
@@ -162,6 +205,9 @@ impl Default for RenderConfig {
             max_depth: DEFAULT_MAX_DEPTH,
             seed: 0,
             regularization: Regularization::default(),
+            virtual_merges: None,
+            radius_factor: DEFAULT_RADIUS_FACTOR,
+            radius_alpha: DEFAULT_RADIUS_ALPHA,
         }
     }
 }

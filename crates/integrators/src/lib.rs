@@ -11,6 +11,7 @@
 //! Everything here is deterministic: the value of a pixel is a pure function
 //! of (seed, iteration, pixel), whatever the thread count.
 
+mod bidir;
 pub mod camera;
 pub mod config;
 pub mod film;
@@ -23,8 +24,8 @@ pub mod sampler;
 pub mod vertex;
 
 pub use config::{
-    Algorithm, ConfigError, DEFAULT_MAX_DEPTH, DEFAULT_TAU_0, Regularization, RenderConfig,
-    Strategies, mode_name, parse_mode,
+    Algorithm, ConfigError, DEFAULT_MAX_DEPTH, DEFAULT_RADIUS_ALPHA, DEFAULT_RADIUS_FACTOR,
+    DEFAULT_TAU_0, Regularization, RenderConfig, Strategies, mode_name, parse_mode,
 };
 pub use film::Film;
 pub use regularization::Mode;

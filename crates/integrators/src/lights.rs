@@ -4,6 +4,7 @@
 use std::f32::consts::PI;
 
 use glam::{Vec2, Vec3};
+use mis::EmitterKind;
 use scene::{Light, Scene};
 
 /// Luminance weights (Rec. 709) to turn RGB power into one number.
@@ -35,6 +36,38 @@ pub struct LightSample {
     pub point: Option<LightPoint>,
     /// True for point, spot and directional lights (no MIS with BSDF sampling).
     pub is_delta: bool,
+    /// What the bidirectional MIS needs to know about the light (SmallVCM's
+    /// `directPdfW`, `emissionPdfW`, `cosAtLight`).
+    pub mis: EmitterPdfs,
+}
+
+/// The pdfs of an emitter point or direction as the `mis` crate takes them
+/// (SmallVCM conventions, light-selection probability included).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EmitterPdfs {
+    /// The light's kind.
+    pub kind: EmitterKind,
+    /// Next-event pdf of the point: area measure for area lights, solid
+    /// angle for the environment, pmf d^2 for point and spot lights, the pmf
+    /// for directional lights.
+    pub direct_pdf: f32,
+    /// Density of emitting this ray from the light (position and direction).
+    pub emission_pdf_w: f32,
+    /// |cos| at the emitter surface (1 without a surface).
+    pub cos_light: f32,
+}
+
+/// A ray leaving a light: where light subpaths start.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Emission {
+    /// Ray origin (offset from the emitting surface).
+    pub origin: Vec3,
+    /// Unit direction.
+    pub direction: Vec3,
+    /// Emitted radiance (intensity, irradiance) times cos over the emission pdf.
+    pub throughput: Vec3,
+    /// The emission's pdfs for MIS.
+    pub mis: EmitterPdfs,
 }
 
 /// A point on a light, with the normal to offset a shadow ray's end.
@@ -58,7 +91,9 @@ pub struct Lights {
     triangle_light: Vec<u32>,
     /// Index of the environment light, if any.
     environment: Option<u32>,
-    /// Radius of the scene's bounding sphere (power of lights at infinity).
+    /// Centre and radius of the scene's bounding sphere (power and
+    /// emission of lights at infinity).
+    scene_centre: Vec3,
     scene_radius: f32,
 }
 
@@ -125,6 +160,7 @@ impl Lights {
             pmf,
             triangle_light,
             environment,
+            scene_centre: 0.5 * (lo + hi),
             scene_radius,
         }
     }
@@ -190,6 +226,12 @@ impl Lights {
                     n: Vec3::ZERO,
                 }),
                 is_delta: true,
+                mis: EmitterPdfs {
+                    kind: EmitterKind::Point,
+                    direct_pdf: pmf * dist2,
+                    emission_pdf_w: pmf * UNIFORM_SPHERE_PDF,
+                    cos_light: 1.0,
+                },
             })
         };
         let sample = match self.lights[index] {
@@ -206,8 +248,13 @@ impl Lights {
             } => {
                 let s = delta(position, intensity)?;
                 let falloff = spot_falloff((-s.wi).dot(direction), cos_inner, cos_outer);
+                let mis = EmitterPdfs {
+                    emission_pdf_w: pmf * uniform_cone_pdf(cos_outer),
+                    ..s.mis
+                };
                 LightSample {
                     li: s.li * falloff,
+                    mis,
                     ..s
                 }
             }
@@ -220,13 +267,20 @@ impl Lights {
                 pdf: pmf,
                 point: None,
                 is_delta: true,
+                mis: EmitterPdfs {
+                    kind: EmitterKind::Directional,
+                    direct_pdf: pmf,
+                    emission_pdf_w: pmf / self.disk_area(),
+                    cos_light: 1.0,
+                },
             },
             Light::Environment { radiance } => LightSample {
                 wi: uniform_sphere(u),
                 li: radiance,
-                pdf: pmf / (4.0 * PI),
+                pdf: pmf * UNIFORM_SPHERE_PDF,
                 point: None,
                 is_delta: false,
+                mis: self.environment_pdfs(),
             },
             Light::Area { triangle } => {
                 let [a, b, c] = scene.triangles[triangle as usize];
@@ -251,6 +305,7 @@ impl Lights {
                     pdf,
                     point: Some(LightPoint { p: q, n }),
                     is_delta: false,
+                    mis: self.area_pdfs(scene, triangle, n.dot(-wi)),
                 }
             }
         };
@@ -261,6 +316,194 @@ impl Lights {
     pub fn scene_radius(&self) -> f32 {
         self.scene_radius
     }
+
+    /// Area of the disk (the scene's bounding sphere's cross-section) from
+    /// which lights at infinity emit.
+    fn disk_area(&self) -> f32 {
+        PI * self.scene_radius * self.scene_radius
+    }
+
+    /// MIS pdfs of the point of emissive triangle `triangle` seen at cosine
+    /// `cos_light` (towards the other vertex).
+    pub fn area_pdfs(&self, scene: &Scene, triangle: u32, cos_light: f32) -> EmitterPdfs {
+        let light = self.triangle_light.get(triangle as usize).copied();
+        let pmf = light
+            .filter(|&l| l != u32::MAX)
+            .map_or(0.0, |l| self.pmf[l as usize]);
+        let pdf_a = pmf / scene.triangle_area(triangle as usize);
+        EmitterPdfs {
+            kind: EmitterKind::Area,
+            direct_pdf: pdf_a,
+            emission_pdf_w: pdf_a * cos_light.abs() / PI,
+            cos_light: cos_light.abs(),
+        }
+    }
+
+    /// MIS pdfs of the environment light (any direction).
+    pub fn environment_pdfs(&self) -> EmitterPdfs {
+        let direct_pdf = self.environment_pdf();
+        EmitterPdfs {
+            kind: EmitterKind::Environment,
+            direct_pdf,
+            emission_pdf_w: direct_pdf / self.disk_area(),
+            cos_light: 1.0,
+        }
+    }
+
+    /// Samples a ray leaving a light (the start of a light subpath) from
+    /// `u_select`, `u_position` and `u_direction`: area lights emit
+    /// cosine-distributed from a uniform point, point lights uniformly, spot
+    /// lights uniformly in their outer cone, lights at infinity parallel rays
+    /// through a disk covering the scene (SmallVCM's emitters). `None` when
+    /// the sample carries nothing.
+    pub fn sample_emission(
+        &self,
+        scene: &Scene,
+        u_select: f32,
+        u_position: Vec2,
+        u_direction: Vec2,
+    ) -> Option<Emission> {
+        let index = self
+            .cdf
+            .partition_point(|&c| c <= u_select)
+            .min(self.lights.len().checked_sub(1)?);
+        let pmf = self.pmf[index];
+        if pmf <= 0.0 {
+            return None;
+        }
+        let centre = self.scene_centre;
+        // A ray entering the scene's bounding sphere along `d`, from a
+        // uniform point of the disk facing it.
+        let from_disk = |d: Vec3| {
+            let frame = crate::geometry::Frame::from_normal(d);
+            let disk = concentric_disk(u_position) * self.scene_radius;
+            centre + frame.s * disk.x + frame.t * disk.y - d * self.scene_radius
+        };
+        let emission = match self.lights[index] {
+            Light::Point {
+                position,
+                intensity,
+            } => Emission {
+                origin: position,
+                direction: uniform_sphere(u_direction),
+                throughput: intensity / (pmf * UNIFORM_SPHERE_PDF),
+                mis: EmitterPdfs {
+                    kind: EmitterKind::Point,
+                    direct_pdf: pmf,
+                    emission_pdf_w: pmf * UNIFORM_SPHERE_PDF,
+                    cos_light: 1.0,
+                },
+            },
+            Light::Spot {
+                position,
+                direction,
+                intensity,
+                cos_inner,
+                cos_outer,
+            } => {
+                let local = uniform_cone(u_direction, cos_outer);
+                let emission_pdf_w = pmf * uniform_cone_pdf(cos_outer);
+                Emission {
+                    origin: position,
+                    direction: crate::geometry::Frame::from_normal(direction).to_world(local),
+                    throughput: intensity * spot_falloff(local.z, cos_inner, cos_outer)
+                        / emission_pdf_w,
+                    mis: EmitterPdfs {
+                        kind: EmitterKind::Point,
+                        direct_pdf: pmf,
+                        emission_pdf_w,
+                        cos_light: 1.0,
+                    },
+                }
+            }
+            Light::Directional {
+                direction,
+                irradiance,
+            } => {
+                let emission_pdf_w = pmf / self.disk_area();
+                Emission {
+                    origin: from_disk(direction),
+                    direction,
+                    throughput: irradiance / emission_pdf_w,
+                    mis: EmitterPdfs {
+                        kind: EmitterKind::Directional,
+                        direct_pdf: pmf,
+                        emission_pdf_w,
+                        cos_light: 1.0,
+                    },
+                }
+            }
+            Light::Environment { radiance } => {
+                let direction = -uniform_sphere(u_direction);
+                let mis = self.environment_pdfs();
+                Emission {
+                    origin: from_disk(direction),
+                    direction,
+                    throughput: radiance / mis.emission_pdf_w,
+                    mis,
+                }
+            }
+            Light::Area { triangle } => {
+                let [a, b, c] = scene.triangles[triangle as usize];
+                let su = u_position.x.sqrt();
+                let (b1, b2) = (u_position.y * su, 1.0 - su);
+                let p = a * (1.0 - b1 - b2) + b * b1 + c * b2;
+                let n = (b - a).cross(c - a).normalize_or_zero();
+                let local = cosine_hemisphere(u_direction);
+                if local.z <= 0.0 {
+                    return None;
+                }
+                let material =
+                    &scene.materials[scene.triangle_materials[triangle as usize] as usize];
+                let mis = self.area_pdfs(scene, triangle, local.z);
+                Emission {
+                    origin: accel::offset_ray_origin(p, n),
+                    direction: crate::geometry::Frame::from_normal(n).to_world(local),
+                    throughput: material.emission * local.z / mis.emission_pdf_w,
+                    mis,
+                }
+            }
+        };
+        (emission.throughput.is_finite() && emission.throughput.max_element() > 0.0)
+            .then_some(emission)
+    }
+}
+
+/// Density of [`uniform_sphere`]: 1 / (4 pi).
+pub const UNIFORM_SPHERE_PDF: f32 = 1.0 / (4.0 * PI);
+
+/// Density of [`uniform_cone`] with opening cosine `cos_max`.
+pub fn uniform_cone_pdf(cos_max: f32) -> f32 {
+    1.0 / (2.0 * PI * (1.0 - cos_max).max(f32::MIN_POSITIVE))
+}
+
+/// A direction uniformly distributed in the cone around +z with opening
+/// cosine `cos_max`.
+pub fn uniform_cone(u: Vec2, cos_max: f32) -> Vec3 {
+    let z = 1.0 - u.x * (1.0 - cos_max);
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// Shirley-Chiu concentric map of the unit square onto the unit disk.
+pub fn concentric_disk(u: Vec2) -> Vec2 {
+    let o = 2.0 * u - Vec2::ONE;
+    if o == Vec2::ZERO {
+        return Vec2::ZERO;
+    }
+    let (r, theta) = if o.x.abs() > o.y.abs() {
+        (o.x, 0.25 * PI * (o.y / o.x))
+    } else {
+        (o.y, 0.5 * PI - 0.25 * PI * (o.x / o.y))
+    };
+    r * Vec2::new(theta.cos(), theta.sin())
+}
+
+/// A cosine-distributed direction around +z (density cos / pi).
+pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
+    let d = concentric_disk(u);
+    Vec3::new(d.x, d.y, (1.0 - d.length_squared()).max(0.0).sqrt())
 }
 
 /// A uniformly distributed unit vector from two uniforms.

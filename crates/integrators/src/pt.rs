@@ -139,25 +139,7 @@ impl Renderer {
             return Vec3::ZERO;
         };
         let f = vertex.eval(ls.wi, TransportMode::Radiance);
-        if f.max_element() <= 0.0 {
-            return Vec3::ZERO;
-        }
-        let origin = vertex.point.spawn_origin(ls.wi);
-        let visible = match ls.point {
-            Some(lp) => {
-                let end = if lp.n == Vec3::ZERO {
-                    lp.p
-                } else {
-                    accel::offset_ray_origin(
-                        lp.p,
-                        if lp.n.dot(-ls.wi) > 0.0 { lp.n } else { -lp.n },
-                    )
-                };
-                !self.bvh.occluded(origin, end - origin, 1.0)
-            }
-            None => !self.bvh.occluded(origin, ls.wi, f32::INFINITY),
-        };
-        if !visible {
+        if f.max_element() <= 0.0 || !self.light_visible(vertex, &ls) {
             return Vec3::ZERO;
         }
         let weight = if ls.is_delta || !use_bsdf {

@@ -23,7 +23,7 @@ pub struct Renderer {
     pub(crate) bvh: Bvh,
     pub(crate) lights: Lights,
     pub(crate) config: RenderConfig,
-    camera: CameraRays,
+    pub(crate) camera: CameraRays,
     features: SceneFeatures,
     /// Samples that were NaN or infinite and were dropped (set to zero).
     invalid_samples: AtomicU64,
@@ -124,8 +124,12 @@ impl Renderer {
     pub fn render_iteration(&self, iteration: u64, estimates: &mut [Vec3]) {
         let (width, height) = self.resolution();
         assert_eq!(estimates.len(), width as usize * height as usize);
+        if self.config.algorithm != Algorithm::Pt {
+            self.render_bidirectional(iteration, estimates);
+            self.count_invalid(estimates);
+            return;
+        }
         let tau_n = self.tau_at(iteration);
-        let Algorithm::Pt = self.config.algorithm;
         estimates
             .par_chunks_mut(width as usize)
             .enumerate()
@@ -149,6 +153,18 @@ impl Renderer {
             });
     }
 
+    /// Replaces NaN and infinite estimates by zero and counts them.
+    fn count_invalid(&self, estimates: &mut [Vec3]) {
+        let mut invalid = 0;
+        for e in estimates.iter_mut().filter(|e| !e.is_finite()) {
+            *e = Vec3::ZERO;
+            invalid += 1;
+        }
+        if invalid > 0 {
+            self.invalid_samples.fetch_add(invalid, Ordering::Relaxed);
+        }
+    }
+
     /// Renders iterations `first..first + count` into `film`.
     pub fn render(&self, film: &mut Film, first: u64, count: u64) {
         let mut estimates = vec![Vec3::ZERO; film.width() as usize * film.height() as usize];
@@ -168,16 +184,51 @@ impl Renderer {
             "integrator:       {} (max depth {}, seed {})",
             c.algorithm, c.max_depth, c.seed
         );
-        let strategies = match c.strategies {
-            Strategies::Mis => "next-event estimation + BSDF sampling, power-heuristic MIS",
-            Strategies::NeeOnly => "next-event estimation only",
-            Strategies::BsdfOnly => "BSDF sampling only",
+        let strategies = match (c.algorithm, c.strategies) {
+            (Algorithm::Pt, Strategies::Mis) => {
+                "next-event estimation + BSDF sampling, power-heuristic MIS".to_owned()
+            }
+            (Algorithm::Pt, Strategies::NeeOnly) => "next-event estimation only".to_owned(),
+            (Algorithm::Pt, Strategies::BsdfOnly) => "BSDF sampling only".to_owned(),
+            _ => {
+                let t = self.techniques();
+                let mut list = Vec::new();
+                if t.connections {
+                    list.push(
+                        "emitter hits, next-event estimation, vertex connections, light tracing",
+                    );
+                }
+                if t.merging {
+                    list.push("vertex merging");
+                }
+                if t.virtual_merges && self.regularization_matters(c.regularization.tau_at(1)) {
+                    list.push("virtual merges (supp. §6)");
+                }
+                format!(
+                    "one light subpath per pixel; {}; balance-heuristic VCM MIS",
+                    list.join(", ")
+                )
+            }
         };
         let _ = writeln!(
             s,
             "strategies:       {strategies}; Russian roulette from depth {}",
             crate::pt::ROULETTE_DEPTH
         );
+        if self.techniques().merging && c.algorithm != Algorithm::Pt {
+            let _ = writeln!(
+                s,
+                "merge radius:     r_1 = {:.4e} ({} x scene radius), r_N = r_1 N^(({} - 1)/2)",
+                self.merge_radius(1),
+                c.radius_factor,
+                c.radius_alpha
+            );
+        } else if c.algorithm == Algorithm::Vcm {
+            let _ = writeln!(
+                s,
+                "merging:          left out: no near-specular or refractive surface, so connections sample every path well (VCM runs as BPT)"
+            );
+        }
         let r = &c.regularization;
         let _ = write!(s, "regularization:   {}", mode_name(r.mode));
         if r.mode != Mode::Off {

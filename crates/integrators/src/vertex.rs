@@ -34,6 +34,10 @@ pub struct PathVertex {
     pub pdf_fwd: f32,
     /// Regularization state for the next vertex of the subpath.
     pub regularization: PathRegularization,
+    /// The bound tau this vertex was regularized with, when regularization
+    /// raised its roughness; infinity otherwise (the `mis` crate's
+    /// "not a virtual-merge vertex").
+    pub tau: f64,
 }
 
 /// A direction sampled at a vertex.
@@ -76,6 +80,11 @@ impl PathVertex {
         };
         let (bsdf, alpha_hat) = regularization.regularize(&bsdf_original, frame.to_local(wi));
         let alpha_hat = alpha_hat.filter(|hat| Some(hat.alpha) != bsdf_original.alpha());
+        let tau = if alpha_hat.is_some() {
+            regularization.tau()
+        } else {
+            f64::INFINITY
+        };
         Self {
             point,
             frame,
@@ -86,6 +95,7 @@ impl PathVertex {
             throughput,
             pdf_fwd,
             regularization: regularization.after_vertex(&bsdf_original),
+            tau,
         }
     }
 
@@ -102,13 +112,37 @@ impl PathVertex {
             || self.point.ng.dot(wo) * self.point.ng.dot(self.wi) > 0.0
     }
 
-    /// f(wi, wo) |cos(wo, n_s)| for world direction `wo`.
+    /// f(wi, wo) |cos(wo, n_s)| for world direction `wo`; on light subpaths
+    /// (`Importance`) with the shading-normal correction.
     pub fn eval(&self, wo: Vec3, mode: TransportMode) -> Vec3 {
         if !self.geometrically_consistent(wo) {
             return Vec3::ZERO;
         }
         let (wi_l, wo_l) = (self.frame.to_local(self.wi), self.frame.to_local(wo));
-        self.bsdf.eval(wi_l, wo_l, mode) * wo_l.z.abs()
+        self.bsdf.eval(wi_l, wo_l, mode) * wo_l.z.abs() * self.shading_correction(wo, mode)
+    }
+
+    /// f(wi, wo) without a cosine (for density estimation at merges).
+    pub fn f(&self, wo: Vec3, mode: TransportMode) -> Vec3 {
+        if !self.geometrically_consistent(wo) {
+            return Vec3::ZERO;
+        }
+        self.bsdf
+            .eval(self.frame.to_local(self.wi), self.frame.to_local(wo), mode)
+    }
+
+    /// Veach's (1997, eq. 5.19) adjoint correction for shading normals on
+    /// light subpaths: |wi.n_s| |wo.n_g| / (|wi.n_g| |wo.n_s|), so that the
+    /// cosine a light subpath carries is the geometric one; 1 for camera
+    /// subpaths. `wi` points towards the light side, `wo` onwards.
+    fn shading_correction(&self, wo: Vec3, mode: TransportMode) -> f32 {
+        if mode == TransportMode::Radiance {
+            return 1.0;
+        }
+        let (ns, ng) = (self.frame.n, self.point.ng);
+        let num = self.wi.dot(ns).abs() * wo.dot(ng).abs();
+        let den = self.wi.dot(ng).abs() * wo.dot(ns).abs();
+        if den > 0.0 { num / den } else { 0.0 }
     }
 
     /// The density MIS uses for `wo` sampled from this vertex: the sampling
@@ -121,6 +155,30 @@ impl PathVertex {
         }
     }
 
+    /// The MIS density of sampling `wi` from `wo` (the reverse direction).
+    pub fn mis_pdf_rev(&self, wo: Vec3) -> f32 {
+        let (wi_l, wo_l) = (self.frame.to_local(self.wi), self.frame.to_local(wo));
+        match self.alpha_hat {
+            Some(hat) => p_hat(&self.bsdf_original, hat.alpha, wo_l, wi_l),
+            None => self.bsdf.pdf(wo_l, wi_l),
+        }
+    }
+
+    /// The vertex's pdfs for a connection or merge in direction `wo`, as the
+    /// `mis` crate takes them.
+    pub fn connection_pdfs(&self, wo: Vec3) -> mis::VertexPdfs {
+        mis::VertexPdfs::regularized(
+            f64::from(self.mis_pdf(wo)),
+            f64::from(self.mis_pdf_rev(wo)),
+            self.tau,
+        )
+    }
+
+    /// |cos| between the shading normal and `w`.
+    pub fn cos(&self, w: Vec3) -> f32 {
+        self.frame.n.dot(w).abs()
+    }
+
     /// Samples an outgoing direction from `uc` and `u`.
     pub fn sample(&self, uc: f32, u: Vec2, mode: TransportMode) -> Option<VertexSample> {
         let wi_l = self.frame.to_local(self.wi);
@@ -129,7 +187,7 @@ impl PathVertex {
         if !self.geometrically_consistent(wo) || !(s.pdf > 0.0) {
             return None;
         }
-        let weight = s.f * (s.wo.z.abs() / s.pdf);
+        let weight = s.f * (s.wo.z.abs() / s.pdf) * self.shading_correction(wo, mode);
         if !weight.is_finite() || weight.max_element() <= 0.0 {
             return None;
         }

@@ -129,6 +129,18 @@ pub struct Cli {
     #[arg(long, help_heading = "Regularization")]
     pub no_progressive: bool,
 
+    /// Virtual merges (supp. §6) for bpt and vcm with regularization: a connection through a
+    /// regularized vertex also counts as a merge inside the vertex's blur cone, which keeps
+    /// the MIS weights of blurred connections low where merging does better.
+    /// [default: on for vcm with regularization, off otherwise]
+    #[arg(long, value_name = "on|off", value_parser = parse_on_off, help_heading = "Regularization")]
+    pub virtual_merges: Option<bool>,
+
+    /// First merge radius of ppm and vcm, as a fraction of the radius of the scene's bounding
+    /// sphere; it shrinks as r_N = r_1 N^((alpha - 1)/2) with alpha = 0.75. [default: 0.003]
+    #[arg(long, value_name = "FRACTION", value_parser = parse_radius, help_heading = "Rendering")]
+    pub radius: Option<f32>,
+
     /// Image size in pixels, WIDTHxHEIGHT (e.g. 640x480), each in 1..=16384.
     /// [default: the manifest's, else 512 wide at the camera's aspect ratio]
     #[arg(long, value_name = "WxH", value_parser = parse_resolution, help_heading = "Camera")]
@@ -439,6 +451,9 @@ impl Cli {
                 max_depth: max_depth.value,
                 seed: seed.value,
                 regularization,
+                virtual_merges: self.virtual_merges,
+                radius_factor: self.radius.unwrap_or(integrators::DEFAULT_RADIUS_FACTOR),
+                ..RenderConfig::default()
             },
             budget,
             algorithm: algorithm.origin,
@@ -544,11 +559,28 @@ fn check_writable(flag: &'static str, path: &Path) -> Result<(), ArgError> {
 fn algorithm_help() -> String {
     let names: Vec<&str> = Algorithm::ALL.iter().map(|(_, name)| *name).collect();
     format!(
-        "Light-transport algorithm, one of: {}. pt is path tracing with next-event estimation \
-         and multiple importance sampling. [default: the manifest's, else {}]",
+        "Light-transport algorithm, one of: {}. pt: path tracing with next-event estimation \
+         and multiple importance sampling; bpt: bidirectional path tracing; ppm: progressive \
+         photon mapping (merging only); vcm: vertex connection and merging (BPT + merging). \
+         [default: the manifest's, else {}]",
         names.join(", "),
         Algorithm::default()
     )
+}
+
+fn parse_on_off(s: &str) -> Result<bool, String> {
+    match s.to_ascii_lowercase().as_str() {
+        "on" => Ok(true),
+        "off" => Ok(false),
+        _ => Err("expected on or off".into()),
+    }
+}
+
+fn parse_radius(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(r) if r > 0.0 && r.is_finite() => Ok(r),
+        _ => Err("expected a positive number (a fraction of the scene radius, e.g. 0.003)".into()),
+    }
 }
 
 fn parse_algorithm(s: &str) -> Result<Algorithm, String> {

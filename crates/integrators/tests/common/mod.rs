@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use glam::{DVec3, UVec2};
+use glam::{DVec3, UVec2, Vec3};
 use integrators::{Film, Mode, Regularization, RenderConfig, Renderer, Strategies};
 use stats::{chi2::sidak, special::chi2_survival};
 
@@ -131,4 +131,45 @@ pub fn assert_film_equals(film: &Film, expected: f64, blocks: u32, what: &str) -
         }
     }
     smallest
+}
+
+/// Pixels of `caustic-glass` whose camera ray hits the mirror and whose
+/// reflection lands on the floor in the sphere's shadow, where only light
+/// refracted by the glass (the caustic) or bounced off other surfaces
+/// arrives. Computed from the manifest's geometry: mirror plane z = -1.5,
+/// |x| < 2, 0 < y < 2.5; floor y = 0; sphere at (0, 0.6, 0), radius 0.5;
+/// point light at (0.3, 2.6, 0.2).
+pub fn caustic_in_mirror_mask(renderer: &Renderer) -> Vec<bool> {
+    let rays = integrators::camera::CameraRays::new(renderer.scene().camera);
+    let (w, h) = renderer.resolution();
+    let (light, centre) = (Vec3::new(0.3, 2.6, 0.2), Vec3::new(0.0, 0.6, 0.0));
+    // Does the segment from o along unit d, up to length t_max, meet the sphere?
+    let meets_sphere = |o: Vec3, d: Vec3, t_max: f32| {
+        let oc = o - centre;
+        let b = oc.dot(d);
+        let disc = b * b - (oc.length_squared() - 0.25);
+        disc > 0.0 && -b - disc.sqrt() > 0.0 && -b - disc.sqrt() < t_max
+    };
+    let mut mask = Vec::new();
+    for y in 0..h {
+        for x in 0..w {
+            let (o, d) = rays.ray(x, y, glam::Vec2::splat(0.5));
+            let t = (-1.5 - o.z) / d.z;
+            let m = o + d * t;
+            let r = Vec3::new(d.x, d.y, -d.z);
+            let s = -m.y / r.y;
+            let f = m + r * s;
+            let to_light = light - f;
+            mask.push(
+                t > 0.0
+                    && m.x.abs() < 2.0
+                    && (0.0..2.5).contains(&m.y)
+                    && !meets_sphere(o, d, t)
+                    && s > 0.0
+                    && !meets_sphere(m, r, s)
+                    && meets_sphere(f, to_light.normalize(), to_light.length()),
+            );
+        }
+    }
+    mask
 }

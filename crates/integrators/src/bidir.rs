@@ -1,0 +1,605 @@
+//! The bidirectional core: vertex connection and merging (Georgiev et al.
+//! 2012; the structure of SmallVCM and of the "Implementing VCM" technical
+//! report). BPT is this core with merging off, PPM with connections off, VCM
+//! with both (SPEC §7): one copy of the subpath code, techniques switched by
+//! the `mis` crate's [`Techniques`].
+//!
+//! One iteration traces one light subpath per pixel (stored, and connected to
+//! the camera: light tracing), then one camera subpath per pixel, which at
+//! every non-specular vertex does next-event estimation, connects to the
+//! vertices of the light subpath with its own index, and merges with the
+//! light vertices within the merge radius. Every contribution is weighted
+//! with the recursive MIS quantities of `mis`, with p-hat at regularized
+//! vertices and, optionally, virtual merges (SPEC §6).
+
+use accel::HashGrid;
+use glam::{UVec2, Vec2, Vec3};
+use microfacet::TransportMode;
+use mis::{
+    ConnectionEnd, EmitterHit, EmitterKind, Heuristic, MisConfig, Scatter, SubpathRay,
+    SubpathState, Techniques, VertexPdfs,
+};
+use rayon::prelude::*;
+use regularization::{Mode, PathRegularization, Subpath};
+
+use crate::config::Algorithm;
+use crate::film::Splats;
+use crate::geometry::SurfacePoint;
+use crate::render::Renderer;
+use crate::sampler::Sampler;
+use crate::vertex::PathVertex;
+
+/// Light subpaths traced together by one task: a fixed partition, so that
+/// splats are added in the same order whatever the thread count.
+const LIGHT_BLOCK: usize = 256;
+
+/// Sampler streams of light subpaths start here (camera subpaths use the
+/// pixel index), so the two never share random numbers.
+const LIGHT_STREAM: u64 = 1 << 48;
+
+/// Sampler dimensions of a light subpath's start (light choice, position, direction).
+const EMISSION_DIMENSIONS: u32 = 5;
+
+/// Sampler dimensions per subpath vertex: light choice (1), light point (2),
+/// BSDF lobe choice (1), BSDF direction (2), roulette (1).
+const DIMENSIONS_PER_VERTEX: u32 = 7;
+
+/// What a light subpath leaves at a non-specular vertex: enough to rebuild
+/// its [`PathVertex`] (light subpaths use one tau for every vertex) and its
+/// MIS state. Kept small: there are pixels x path length of them.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LightVertex {
+    point: SurfacePoint,
+    /// Unit direction towards the previous vertex (towards the light).
+    wi: Vec3,
+    /// Light subpath throughput up to (excluding) this vertex.
+    throughput: Vec3,
+    state: SubpathState,
+    /// Segments from the light to this vertex.
+    length: u32,
+}
+
+/// The settings of one iteration.
+struct Iteration {
+    n: u64,
+    mis: MisConfig,
+    mode: Mode,
+    tau_n: f64,
+    radius: f32,
+    /// 1 / (pi r^2 light_paths): the merge kernel's normalisation.
+    merge_normalisation: f32,
+}
+
+/// One iteration's light subpaths, in light-path order.
+struct LightPaths {
+    vertices: Vec<LightVertex>,
+    /// Vertex range of light path i: `starts[i]..starts[i + 1]`.
+    starts: Vec<usize>,
+}
+
+impl LightPaths {
+    fn path(&self, i: usize) -> &[LightVertex] {
+        &self.vertices[self.starts[i]..self.starts[i + 1]]
+    }
+}
+
+impl Renderer {
+    /// The MIS techniques of the configured algorithm. VCM leaves merging
+    /// out when no used surface is near-specular (alpha < 0.1) or
+    /// refractive: merging helps only with paths that connections cannot
+    /// sample well (specular-diffuse-specular chains), so there it would
+    /// build a photon map for nothing; the result is BPT, unbiased.
+    pub fn techniques(&self) -> Techniques {
+        let techniques = match self.config.algorithm {
+            Algorithm::Bpt | Algorithm::Pt => Techniques::BPT,
+            Algorithm::Ppm => Techniques::MERGING,
+            Algorithm::Vcm if self.merging_can_help() => Techniques::VCM,
+            Algorithm::Vcm => Techniques::BPT,
+        };
+        techniques.with_virtual_merges(self.config.uses_virtual_merges())
+    }
+
+    /// Whether the scene has a surface that makes merging worth it (see
+    /// [`Renderer::techniques`]).
+    pub fn merging_can_help(&self) -> bool {
+        self.features().near_specular_materials > 0 || self.features().transmission
+    }
+
+    /// Merge radius of iteration `n` (SPEC §7): r_1 n^((alpha_r - 1) / 2).
+    pub fn merge_radius(&self, n: u64) -> f32 {
+        let r1 = self.config.radius_factor * self.lights.scene_radius();
+        r1 * (n.max(1) as f32).powf(0.5 * (self.config.radius_alpha - 1.0))
+    }
+
+    fn iteration(&self, n: u64) -> Iteration {
+        let (w, h) = self.resolution();
+        let light_paths = u64::from(w) * u64::from(h);
+        let techniques = self.techniques();
+        let radius = if techniques.merging {
+            self.merge_radius(n)
+        } else {
+            0.0
+        };
+        let mis = MisConfig::new(
+            techniques,
+            light_paths,
+            f64::from(radius),
+            Heuristic::BALANCE,
+        )
+        .expect("pixel count and radius are positive");
+        let tau_n = self.tau_at(n);
+        Iteration {
+            n,
+            mis,
+            mode: self.effective_mode(tau_n),
+            tau_n,
+            radius,
+            merge_normalisation: 1.0
+                / (std::f32::consts::PI * radius * radius * light_paths as f32),
+        }
+    }
+
+    /// One iteration of BPT, PPM or VCM into `estimates` (see
+    /// [`Renderer::render_iteration`]).
+    pub(crate) fn render_bidirectional(&self, n: u64, estimates: &mut [Vec3]) {
+        let it = self.iteration(n);
+        let (width, _) = self.resolution();
+        let light_paths = estimates.len();
+        // Light pass, in fixed blocks; the blocks' vertices and splats are
+        // concatenated in block order.
+        let blocks: Vec<(Vec<LightVertex>, Vec<usize>, Splats)> = (0..light_paths)
+            .into_par_iter()
+            .step_by(LIGHT_BLOCK)
+            .map(|first| {
+                let mut vertices = Vec::new();
+                let mut lengths = Vec::with_capacity(LIGHT_BLOCK);
+                let mut splats = Splats::default();
+                for i in first..(first + LIGHT_BLOCK).min(light_paths) {
+                    let before = vertices.len();
+                    self.trace_light_path(&it, i as u64, &mut vertices, &mut splats);
+                    lengths.push(vertices.len() - before);
+                }
+                (vertices, lengths, splats)
+            })
+            .collect();
+        let mut paths = LightPaths {
+            vertices: Vec::with_capacity(blocks.iter().map(|b| b.0.len()).sum()),
+            starts: Vec::with_capacity(light_paths + 1),
+        };
+        paths.starts.push(0);
+        for (vertices, lengths, _) in &blocks {
+            paths.vertices.extend_from_slice(vertices);
+            for len in lengths {
+                paths
+                    .starts
+                    .push(paths.starts.last().copied().unwrap_or(0) + len);
+            }
+        }
+        let grid = if it.mis.techniques().merging {
+            let points: Vec<Vec3> = paths.vertices.iter().map(|v| v.point.p).collect();
+            Some(HashGrid::with_points(&points, it.radius))
+        } else {
+            None
+        };
+
+        // Camera pass.
+        estimates
+            .par_chunks_mut(width as usize)
+            .enumerate()
+            .for_each(|(y, row)| {
+                for (x, out) in row.iter_mut().enumerate() {
+                    let pixel = UVec2::new(x as u32, y as u32);
+                    *out = self.trace_camera_path(&it, pixel, &paths, grid.as_ref());
+                }
+            });
+        for (_, _, splats) in &blocks {
+            splats.add_to(estimates);
+        }
+    }
+
+    /// The light subpath with index `index`: its non-specular vertices are
+    /// appended to `vertices`, its light-tracing contributions to `splats`.
+    fn trace_light_path(
+        &self,
+        it: &Iteration,
+        index: u64,
+        vertices: &mut Vec<LightVertex>,
+        splats: &mut Splats,
+    ) {
+        let scene = &self.scene;
+        let techniques = it.mis.techniques();
+        let mut sampler = Sampler::new(self.config.seed, it.n, LIGHT_STREAM + index);
+        let (u_select, u_position, u_direction) =
+            (sampler.next_1d(), sampler.next_2d(), sampler.next_2d());
+        let Some(emission) = self
+            .lights
+            .sample_emission(scene, u_select, u_position, u_direction)
+        else {
+            return;
+        };
+        let mut ray = SubpathRay::from_light(
+            &it.mis,
+            &mis::Emission {
+                kind: emission.mis.kind,
+                direct_pdf_a: f64::from(emission.mis.direct_pdf),
+                emission_pdf_w: f64::from(emission.mis.emission_pdf_w),
+                cos_light: f64::from(emission.mis.cos_light),
+            },
+        );
+        let regularization = PathRegularization::new(it.mode, Subpath::Light, it.tau_n);
+        let (mut origin, mut direction) = (emission.origin, emission.direction);
+        let mut throughput = emission.throughput;
+        let emitted = throughput.max_element();
+        for length in 1..=self.config.max_depth {
+            let Some(hit) = self.bvh.intersect(origin, direction, f32::INFINITY) else {
+                break;
+            };
+            let point = SurfacePoint::new(scene, &hit);
+            let vertex = PathVertex::new(scene, point, -direction, throughput, 0.0, regularization);
+            let state = ray.arrive(&it.mis, f64::from(hit.t), f64::from(vertex.cos(direction)));
+            if !vertex.is_specular() {
+                vertices.push(LightVertex {
+                    point,
+                    wi: -direction,
+                    throughput,
+                    state,
+                    length,
+                });
+            }
+            if techniques.connections && length < self.config.max_depth {
+                self.connect_to_camera(it, &vertex, &state, splats);
+            }
+            // Every further vertex makes paths of at least length + 2 segments.
+            if length + 2 > self.config.max_depth {
+                break;
+            }
+            sampler.set_dimension(EMISSION_DIMENSIONS + (length - 1) * DIMENSIONS_PER_VERTEX + 3);
+            let (u_lobe, u_bsdf) = (sampler.next_1d(), sampler.next_2d());
+            let u_roulette = sampler.next_1d();
+            let Some(s) = vertex.sample(u_lobe, u_bsdf, TransportMode::Importance) else {
+                break;
+            };
+            ray = state.scatter(&it.mis, &scatter_event(&vertex, &s));
+            throughput *= s.weight;
+            origin = point.spawn_origin(s.wo);
+            direction = s.wo;
+            // Russian roulette relative to the emitted throughput (light
+            // subpaths carry flux, whose scale is the light's).
+            if length >= crate::pt::ROULETTE_DEPTH {
+                let survive = (throughput.max_element() / emitted).min(1.0);
+                if !(u_roulette < survive) {
+                    break;
+                }
+                throughput /= survive;
+            }
+        }
+    }
+
+    /// Light tracing (t = 1): connects a light vertex to the camera and
+    /// records the contribution for the pixel it projects to.
+    ///
+    /// Seen from the camera, the vertex is the first of a camera subpath, so
+    /// it is regularized by the camera-side rule (SPEC §5: nothing before
+    /// it, rho = 0): in selective mode what the camera sees directly stays
+    /// sharp in light tracing too, and a mirror that the light subpath blurred
+    /// does not show a blurred highlight that no camera technique would
+    /// produce (the techniques would then estimate different integrands).
+    fn connect_to_camera(
+        &self,
+        it: &Iteration,
+        light_vertex: &PathVertex,
+        state: &SubpathState,
+        splats: &mut Splats,
+    ) {
+        let seen_from_camera = PathRegularization::new(it.mode, Subpath::Camera, it.tau_n);
+        let vertex = &PathVertex::new(
+            &self.scene,
+            light_vertex.point,
+            light_vertex.wi,
+            light_vertex.throughput,
+            0.0,
+            seen_from_camera,
+        );
+        if vertex.is_specular() {
+            return;
+        }
+        let camera = self.camera.camera();
+        let Some((x, y)) = self.camera.project(vertex.point.p) else {
+            return;
+        };
+        let to_camera = camera.position - vertex.point.p;
+        let distance = to_camera.length();
+        let dir = to_camera / distance;
+        let f = vertex.eval(dir, TransportMode::Importance);
+        if f.max_element() <= 0.0 {
+            return;
+        }
+        let camera_pdf_w = self.camera.pdf_w(-dir);
+        let weight = it.mis.light_tracing_weight(
+            state,
+            &ConnectionEnd {
+                pdfs: vertex.connection_pdfs(dir),
+                cos: f64::from(vertex.cos(dir)),
+            },
+            f64::from(camera_pdf_w),
+            f64::from(distance),
+        ) as f32;
+        if weight <= 0.0 {
+            return;
+        }
+        let origin = vertex.point.spawn_origin(dir);
+        if self.bvh.occluded(origin, camera.position - origin, 1.0) {
+            return;
+        }
+        // The pixel integral is over the image plane in pixel units: the
+        // surface-to-image factor is camera_pdf_w / d^2 (SmallVCM's
+        // ConnectToCamera); each of the N light paths is one sample.
+        let light_paths = (camera.resolution.x * camera.resolution.y) as f32;
+        let contribution =
+            vertex.throughput * f * (weight * camera_pdf_w / (distance * distance * light_paths));
+        let pixel = y * camera.resolution.x + x;
+        splats.push(pixel, contribution);
+    }
+
+    /// The camera subpath of `pixel` with all its techniques; returns the
+    /// pixel estimate (without light-tracing splats).
+    fn trace_camera_path(
+        &self,
+        it: &Iteration,
+        pixel: UVec2,
+        paths: &LightPaths,
+        grid: Option<&HashGrid>,
+    ) -> Vec3 {
+        let scene = &self.scene;
+        let techniques = it.mis.techniques();
+        let width = self.scene.camera.resolution.x;
+        let index = (pixel.y * width + pixel.x) as usize;
+        let mut sampler = Sampler::new(self.config.seed, it.n, index as u64);
+        let (mut origin, mut direction) = self.camera.ray(pixel.x, pixel.y, sampler.next_2d());
+        let mut ray = SubpathRay::from_camera(&it.mis, f64::from(self.camera.pdf_w(direction)));
+        let mut regularization = PathRegularization::new(it.mode, Subpath::Camera, it.tau_n);
+        let mut throughput = Vec3::ONE;
+        let mut radiance = Vec3::ZERO;
+        for length in 1..=self.config.max_depth {
+            let Some(hit) = self.bvh.intersect(origin, direction, f32::INFINITY) else {
+                if let Some(le) = self.lights.environment() {
+                    let pdfs = self.lights.environment_pdfs();
+                    let w = it.mis.environment_hit_weight(
+                        &ray,
+                        &EmitterHit {
+                            direct_pdf_a: f64::from(pdfs.direct_pdf),
+                            emission_pdf_w: f64::from(pdfs.emission_pdf_w),
+                        },
+                    );
+                    radiance += throughput * le * w as f32;
+                }
+                break;
+            };
+            let point = SurfacePoint::new(scene, &hit);
+            let vertex = PathVertex::new(scene, point, -direction, throughput, 0.0, regularization);
+            regularization = vertex.regularization;
+            let state = ray.arrive(&it.mis, f64::from(hit.t), f64::from(vertex.cos(direction)));
+
+            let emission = scene.materials[point.material as usize].emission;
+            let cos_light = point.n_winding.dot(-direction);
+            if emission.max_element() > 0.0 && cos_light > 0.0 {
+                let pdfs = self.lights.area_pdfs(scene, point.triangle, cos_light);
+                let w = it.mis.emitter_hit_weight(
+                    &state,
+                    &EmitterHit {
+                        direct_pdf_a: f64::from(pdfs.direct_pdf),
+                        emission_pdf_w: f64::from(pdfs.emission_pdf_w),
+                    },
+                );
+                radiance += throughput * emission * w as f32;
+            }
+            if length >= self.config.max_depth {
+                break;
+            }
+            sampler.set_dimension(2 + (length - 1) * DIMENSIONS_PER_VERTEX);
+            let (u_light, uv_light) = (sampler.next_1d(), sampler.next_2d());
+            let (u_lobe, u_bsdf) = (sampler.next_1d(), sampler.next_2d());
+            let u_roulette = sampler.next_1d();
+
+            if !vertex.is_specular() {
+                if techniques.connections {
+                    radiance +=
+                        throughput * self.next_event_vcm(it, &vertex, &state, u_light, uv_light);
+                    for light in paths.path(index) {
+                        if light.length + length < self.config.max_depth {
+                            radiance += throughput * self.connect(&vertex, &state, light, &it.mis);
+                        }
+                    }
+                }
+                if let Some(grid) = grid {
+                    radiance += throughput * self.merge(it, &vertex, &state, length, paths, grid);
+                }
+            }
+
+            let Some(s) = vertex.sample(u_lobe, u_bsdf, TransportMode::Radiance) else {
+                break;
+            };
+            ray = state.scatter(&it.mis, &scatter_event(&vertex, &s));
+            throughput *= s.weight;
+            origin = point.spawn_origin(s.wo);
+            direction = s.wo;
+            // Russian roulette on the throughput: an unbiased termination the
+            // MIS weights need not know about (they stay a partition of unity).
+            if length >= crate::pt::ROULETTE_DEPTH {
+                let survive = throughput.max_element().min(1.0);
+                if u_roulette >= survive {
+                    break;
+                }
+                throughput /= survive;
+            }
+        }
+        radiance
+    }
+
+    /// Next-event estimation (s = 1) at a camera vertex, weighted against
+    /// every other technique.
+    fn next_event_vcm(
+        &self,
+        it: &Iteration,
+        vertex: &PathVertex,
+        state: &SubpathState,
+        u_light: f32,
+        uv: Vec2,
+    ) -> Vec3 {
+        let Some(ls) = self.lights.sample(&self.scene, vertex.point.p, u_light, uv) else {
+            return Vec3::ZERO;
+        };
+        let f = vertex.eval(ls.wi, TransportMode::Radiance);
+        if f.max_element() <= 0.0 || !self.light_visible(vertex, &ls) {
+            return Vec3::ZERO;
+        }
+        // Area lights: the solid-angle pdf of the sample; the others'
+        // `direct_pdf` is already what the mis crate takes.
+        let direct_pdf_w = if ls.mis.kind == EmitterKind::Area {
+            ls.pdf
+        } else {
+            ls.mis.direct_pdf
+        };
+        let weight = it.mis.next_event_weight(
+            state,
+            &ConnectionEnd {
+                pdfs: vertex.connection_pdfs(ls.wi),
+                cos: f64::from(vertex.cos(ls.wi)),
+            },
+            &mis::LightSample {
+                kind: ls.mis.kind,
+                direct_pdf_w: f64::from(direct_pdf_w),
+                emission_pdf_w: f64::from(ls.mis.emission_pdf_w),
+                cos_light: f64::from(ls.mis.cos_light),
+            },
+        ) as f32;
+        f * ls.li * (weight / ls.pdf)
+    }
+
+    /// A vertex connection between a camera vertex and a light vertex. The
+    /// light vertex is regularized as the camera subpath would regularize
+    /// its next vertex (see [`Renderer::connect_to_camera`]).
+    fn connect(
+        &self,
+        camera: &PathVertex,
+        camera_state: &SubpathState,
+        light: &LightVertex,
+        mis_config: &MisConfig,
+    ) -> Vec3 {
+        let light_vertex = PathVertex::new(
+            &self.scene,
+            light.point,
+            light.wi,
+            light.throughput,
+            0.0,
+            camera.regularization,
+        );
+        if light_vertex.is_specular() {
+            return Vec3::ZERO;
+        }
+        let d = light.point.p - camera.point.p;
+        let distance2 = d.length_squared();
+        let distance = distance2.sqrt();
+        if !(distance > 0.0) {
+            return Vec3::ZERO;
+        }
+        let dir = d / distance;
+        let f_camera = camera.eval(dir, TransportMode::Radiance);
+        let f_light = light_vertex.eval(-dir, TransportMode::Importance);
+        let f = f_camera * f_light;
+        if f.max_element() <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let weight = mis_config.connection_weight(
+            &light.state,
+            &ConnectionEnd {
+                pdfs: light_vertex.connection_pdfs(-dir),
+                cos: f64::from(light_vertex.cos(dir)),
+            },
+            camera_state,
+            &ConnectionEnd {
+                pdfs: camera.connection_pdfs(dir),
+                cos: f64::from(camera.cos(dir)),
+            },
+            f64::from(distance),
+        ) as f32;
+        if weight <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let origin = camera.point.spawn_origin(dir);
+        let end = light.point.spawn_origin(-dir);
+        if self.bvh.occluded(origin, end - origin, 1.0) {
+            return Vec3::ZERO;
+        }
+        f * light.throughput * (weight / distance2)
+    }
+
+    /// Vertex merging at a camera vertex: density estimation over the light
+    /// vertices within the merge radius (SmallVCM's range query), with the
+    /// camera vertex's BSDF towards each photon's incoming direction.
+    fn merge(
+        &self,
+        it: &Iteration,
+        camera: &PathVertex,
+        camera_state: &SubpathState,
+        length: u32,
+        paths: &LightPaths,
+        grid: &HashGrid,
+    ) -> Vec3 {
+        let mut sum = Vec3::ZERO;
+        grid.for_each_within(camera.point.p, it.radius, |i| {
+            let light = &paths.vertices[i];
+            if light.length + length > self.config.max_depth {
+                return;
+            }
+            let f = camera.f(light.wi, TransportMode::Radiance);
+            if f.max_element() <= 0.0 {
+                return;
+            }
+            let weight = it.mis.merge_weight(
+                &light.state,
+                camera_state,
+                &camera.connection_pdfs(light.wi),
+            ) as f32;
+            sum += f * light.throughput * weight;
+        });
+        sum * it.merge_normalisation
+    }
+
+    /// Whether the shadow ray of a light sample is unoccluded.
+    pub(crate) fn light_visible(
+        &self,
+        vertex: &PathVertex,
+        ls: &crate::lights::LightSample,
+    ) -> bool {
+        let origin = vertex.point.spawn_origin(ls.wi);
+        match ls.point {
+            Some(lp) => {
+                let end = if lp.n == Vec3::ZERO {
+                    lp.p
+                } else {
+                    let n = if lp.n.dot(-ls.wi) > 0.0 { lp.n } else { -lp.n };
+                    accel::offset_ray_origin(lp.p, n)
+                };
+                !self.bvh.occluded(origin, end - origin, 1.0)
+            }
+            None => !self.bvh.occluded(origin, ls.wi, f32::INFINITY),
+        }
+    }
+}
+
+/// The `mis` crate's record of a sampled scattering event.
+fn scatter_event(vertex: &PathVertex, s: &crate::vertex::VertexSample) -> Scatter {
+    let pdfs = if s.is_specular {
+        // The tech. rep.'s specular rule: the lobe's discrete probability
+        // as both pdfs.
+        VertexPdfs::new(f64::from(s.pdf), f64::from(s.pdf))
+    } else {
+        VertexPdfs::regularized(f64::from(s.mis_pdf), f64::from(s.mis_pdf_rev), vertex.tau)
+    };
+    Scatter {
+        pdfs,
+        cos_out: f64::from(vertex.cos(s.wo)),
+        specular: s.is_specular,
+    }
+}
