@@ -143,7 +143,41 @@ impl Renderer {
     /// [`Renderer::render_iteration`]).
     pub(crate) fn render_bidirectional(&self, n: u64, estimates: &mut [Vec3]) {
         let it = self.iteration(n);
-        let (width, _) = self.resolution();
+        if it.mis.techniques().merging {
+            self.render_with_photon_map(&it, estimates);
+        } else {
+            self.render_paired(&it, estimates);
+        }
+    }
+
+    /// Without merging, light subpath i is used only by camera subpath i
+    /// (and the camera): each block of pixels traces both in turn, so light
+    /// vertices need no storage beyond one path per thread.
+    fn render_paired(&self, it: &Iteration, estimates: &mut [Vec3]) {
+        let splats: Vec<Splats> = estimates
+            .par_chunks_mut(LIGHT_BLOCK)
+            .enumerate()
+            .map(|(block, chunk)| {
+                let mut vertices = Vec::new();
+                let mut splats = Splats::default();
+                for (k, out) in chunk.iter_mut().enumerate() {
+                    let index = block * LIGHT_BLOCK + k;
+                    vertices.clear();
+                    self.trace_light_path(it, index as u64, &mut vertices, &mut splats);
+                    *out = self.trace_camera_path(it, index, &vertices, None);
+                }
+                splats
+            })
+            .collect();
+        for s in &splats {
+            s.add_to(estimates);
+        }
+    }
+
+    /// With merging, every camera subpath may merge with any light vertex:
+    /// all light subpaths are traced first and their vertices indexed by a
+    /// hash grid (the photon map, freed at the end of the iteration).
+    fn render_with_photon_map(&self, it: &Iteration, estimates: &mut [Vec3]) {
         let light_paths = estimates.len();
         // Light pass, in fixed blocks; the blocks' vertices and splats are
         // concatenated in block order.
@@ -156,7 +190,7 @@ impl Renderer {
                 let mut splats = Splats::default();
                 for i in first..(first + LIGHT_BLOCK).min(light_paths) {
                     let before = vertices.len();
-                    self.trace_light_path(&it, i as u64, &mut vertices, &mut splats);
+                    self.trace_light_path(it, i as u64, &mut vertices, &mut splats);
                     lengths.push(vertices.len() - before);
                 }
                 (vertices, lengths, splats)
@@ -167,32 +201,34 @@ impl Renderer {
             starts: Vec::with_capacity(light_paths + 1),
         };
         paths.starts.push(0);
-        for (vertices, lengths, _) in &blocks {
-            paths.vertices.extend_from_slice(vertices);
+        let mut all_splats = Vec::with_capacity(blocks.len());
+        // Consumed block by block, so that at most one block's vertices
+        // exist twice.
+        for (vertices, lengths, splats) in blocks {
+            paths.vertices.extend(vertices);
             for len in lengths {
                 paths
                     .starts
                     .push(paths.starts.last().copied().unwrap_or(0) + len);
             }
+            all_splats.push(splats);
         }
-        let grid = if it.mis.techniques().merging {
-            let points: Vec<Vec3> = paths.vertices.iter().map(|v| v.point.p).collect();
-            Some(HashGrid::with_points(&points, it.radius))
-        } else {
-            None
-        };
+        let points: Vec<Vec3> = paths.vertices.iter().map(|v| v.point.p).collect();
+        let grid = HashGrid::with_points(&points, it.radius);
+        drop(points);
 
         // Camera pass.
         estimates
-            .par_chunks_mut(width as usize)
+            .par_chunks_mut(LIGHT_BLOCK)
             .enumerate()
-            .for_each(|(y, row)| {
-                for (x, out) in row.iter_mut().enumerate() {
-                    let pixel = UVec2::new(x as u32, y as u32);
-                    *out = self.trace_camera_path(&it, pixel, &paths, grid.as_ref());
+            .for_each(|(block, chunk)| {
+                for (k, out) in chunk.iter_mut().enumerate() {
+                    let index = block * LIGHT_BLOCK + k;
+                    let photons = Some((&grid, paths.vertices.as_slice()));
+                    *out = self.trace_camera_path(it, index, paths.path(index), photons);
                 }
             });
-        for (_, _, splats) in &blocks {
+        for splats in &all_splats {
             splats.add_to(estimates);
         }
     }
@@ -341,19 +377,21 @@ impl Renderer {
         splats.push(pixel, contribution);
     }
 
-    /// The camera subpath of `pixel` with all its techniques; returns the
-    /// pixel estimate (without light-tracing splats).
+    /// The camera subpath of pixel `index` (row-major) with all its
+    /// techniques: connections to `light_path` (the light subpath with the
+    /// same index), and merges with `photons` (a grid over light vertices)
+    /// when merging. Returns the pixel estimate without light-tracing splats.
     fn trace_camera_path(
         &self,
         it: &Iteration,
-        pixel: UVec2,
-        paths: &LightPaths,
-        grid: Option<&HashGrid>,
+        index: usize,
+        light_path: &[LightVertex],
+        photons: Option<(&HashGrid, &[LightVertex])>,
     ) -> Vec3 {
         let scene = &self.scene;
         let techniques = it.mis.techniques();
-        let width = self.scene.camera.resolution.x;
-        let index = (pixel.y * width + pixel.x) as usize;
+        let width = self.scene.camera.resolution.x as usize;
+        let pixel = UVec2::new((index % width) as u32, (index / width) as u32);
         let mut sampler = Sampler::new(self.config.seed, it.n, index as u64);
         let (mut origin, mut direction) = self.camera.ray(pixel.x, pixel.y, sampler.next_2d());
         let mut ray = SubpathRay::from_camera(&it.mis, f64::from(self.camera.pdf_w(direction)));
@@ -405,14 +443,15 @@ impl Renderer {
                 if techniques.connections {
                     radiance +=
                         throughput * self.next_event_vcm(it, &vertex, &state, u_light, uv_light);
-                    for light in paths.path(index) {
+                    for light in light_path {
                         if light.length + length < self.config.max_depth {
                             radiance += throughput * self.connect(&vertex, &state, light, &it.mis);
                         }
                     }
                 }
-                if let Some(grid) = grid {
-                    radiance += throughput * self.merge(it, &vertex, &state, length, paths, grid);
+                if let Some((grid, vertices)) = photons {
+                    radiance +=
+                        throughput * self.merge(it, &vertex, &state, length, vertices, grid);
                 }
             }
 
@@ -543,12 +582,12 @@ impl Renderer {
         camera: &PathVertex,
         camera_state: &SubpathState,
         length: u32,
-        paths: &LightPaths,
+        photons: &[LightVertex],
         grid: &HashGrid,
     ) -> Vec3 {
         let mut sum = Vec3::ZERO;
         grid.for_each_within(camera.point.p, it.radius, |i| {
-            let light = &paths.vertices[i];
+            let light = &photons[i];
             if light.length + length > self.config.max_depth {
                 return;
             }
