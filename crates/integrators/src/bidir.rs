@@ -25,6 +25,7 @@ use regularization::{Mode, PathRegularization, Subpath};
 use crate::config::Algorithm;
 use crate::film::Splats;
 use crate::geometry::SurfacePoint;
+use crate::pt::DIMENSIONS_PER_VERTEX;
 use crate::render::Renderer;
 use crate::sampler::Sampler;
 use crate::vertex::PathVertex;
@@ -40,13 +41,9 @@ const LIGHT_STREAM: u64 = 1 << 48;
 /// Sampler dimensions of a light subpath's start (light choice, position, direction).
 const EMISSION_DIMENSIONS: u32 = 5;
 
-/// Sampler dimensions per subpath vertex: light choice (1), light point (2),
-/// BSDF lobe choice (1), BSDF direction (2), roulette (1).
-const DIMENSIONS_PER_VERTEX: u32 = 7;
-
 /// What a light subpath leaves at a non-specular vertex: enough to rebuild
-/// its [`PathVertex`] (light subpaths use one tau for every vertex) and its
-/// MIS state. Kept small: there are pixels x path length of them.
+/// its [`PathVertex`] with the regularization a technique needs, and its MIS
+/// state. Kept small: with merging there are pixels x path length of them.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct LightVertex {
     point: SurfacePoint,
