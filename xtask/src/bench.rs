@@ -34,7 +34,9 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
             .map_err(|e| format!("cannot clear {}: {e}", criterion_dir.display()))?;
     }
     for krate in BENCHED_CRATES {
-        let mut cargo_args = vec!["bench", "-p", krate, "--"];
+        // Criterion targets only: the library's libtest harness rejects
+        // criterion's flags (`--warm-up-time`), which failed `--quick`.
+        let mut cargo_args = vec!["bench", "-p", krate, "--bench", "*", "--"];
         if quick {
             cargo_args.extend(["--warm-up-time", "0.3", "--measurement-time", "1"]);
         }

@@ -4,29 +4,48 @@
 //! - `bench [--quick]`: runs the criterion micro-benchmarks of the math crates
 //!   and writes one table (markdown and JSON, with the machine's core count)
 //!   to `target/bench/`, for comparing commits side by side.
+//! - `mitsuba [options]`: renders one scene with our path tracer and with
+//!   Mitsuba 3's (installed on demand into `target/mitsuba/venv`), and
+//!   compares speed and error against one reference (`target/mitsuba/`).
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
 mod bench;
+mod mitsuba;
+mod stability;
+mod study;
 
-const USAGE: &str = "usage: cargo xtask <task>
+const USAGE_BENCH: &str = "usage: cargo xtask <task>
 
 tasks:
   bench [--quick]   run the criterion micro-benchmarks (crates/*/benches) and
                     write target/bench/micro.md and target/bench/micro.json
-                    (--quick: 0.3 s warm-up and 1 s measurement per benchmark)
-  help              print this text";
+                    (--quick: 0.3 s warm-up and 1 s measurement per benchmark)";
+
+const USAGE_HELP: &str = "  help              print this text";
+
+fn usage() -> String {
+    format!(
+        "{USAGE_BENCH}\n{}\n{}\n{}\n{USAGE_HELP}",
+        mitsuba::USAGE,
+        study::USAGE,
+        stability::USAGE
+    )
+}
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let result = match args.first().map(String::as_str) {
         Some("bench") => bench::run(&workspace_root(), &args[1..]),
+        Some("mitsuba") => mitsuba::run(&workspace_root(), &args[1..]),
+        Some("study") => study::run(&workspace_root(), &args[1..]),
+        Some("stability") => stability::run(&workspace_root(), &args[1..]),
         Some("help" | "--help" | "-h") | None => {
-            println!("{USAGE}");
+            println!("{}", usage());
             Ok(())
         }
-        Some(other) => Err(format!("unknown task `{other}`\n\n{USAGE}")),
+        Some(other) => Err(format!("unknown task `{other}`\n\n{}", usage())),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,102 @@
+"""Renders a Mitsuba 3 scene with the scalar_rgb variant and reports timings.
+
+Run by `cargo xtask mitsuba` (xtask/src/mitsuba.rs), which writes the scene
+XML; usable alone too:
+
+    python mitsuba_pt.py --scene scene.xml --out image.exr --spp 64 --seed 1 --threads 2
+
+Only the render call is timed: "render_s" lists one time per repeat (scene
+loading, which builds Mitsuba's BVH, is "load_s"). The last line of standard
+output is one JSON object; Mitsuba's log (warnings only) goes to standard
+error. Errors are one line on standard error and exit status 1.
+"""
+
+import argparse
+import json
+import sys
+import time
+
+
+def fail(message):
+    print(f"mitsuba_pt.py: {message}", file=sys.stderr)
+    sys.exit(1)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scene", required=True, help="Mitsuba scene XML")
+    parser.add_argument("--out", required=True, help="output OpenEXR file")
+    parser.add_argument("--spp", type=int, required=True, help="samples per pixel")
+    parser.add_argument("--seed", type=int, default=0, help="sampler seed")
+    parser.add_argument(
+        "--repeat", type=int, default=1, help="render this many times (all are timed)"
+    )
+    parser.add_argument(
+        "--threads", type=int, default=0, help="worker threads (0: Mitsuba's default, all cores)"
+    )
+    args = parser.parse_args()
+
+    try:
+        import drjit as dr
+        import mitsuba as mi
+    except ImportError as e:
+        fail(f"cannot import mitsuba: {e}")
+
+    try:
+        mi.set_variant("scalar_rgb")
+    except Exception as e:  # noqa: BLE001 - any failure is reported as one line
+        fail(f"variant scalar_rgb is not available: {e}")
+    # Keep Mitsuba's log (and progress bar) off standard output, which carries the JSON.
+    mi.set_log_level(mi.LogLevel.Warn)
+
+    try:
+        t0 = time.perf_counter()
+        scene = mi.load_file(args.scene)
+        load_s = time.perf_counter() - t0
+
+        # After loading: with one thread set before mi.load_file, Mitsuba
+        # 3.9.1 / Dr.Jit 1.5.0 hang in the load (seen on this project's machine).
+        if args.threads > 0 and args.threads != dr.thread_count():
+            dr.set_thread_count(args.threads)
+        threads = dr.thread_count()
+
+        # The same seed every time: the repeats give one image, several times.
+        render_s = []
+        for _ in range(max(1, args.repeat)):
+            t0 = time.perf_counter()
+            image = mi.render(scene, spp=args.spp, seed=args.seed)
+            render_s.append(time.perf_counter() - t0)
+
+        # Mitsuba 3.9.1 / Dr.Jit 1.5.0 also hang writing an EXR with a pool of
+        # one thread: write with at least two.
+        if dr.thread_count() < 2:
+            dr.set_thread_count(2)
+        mi.Bitmap(image).write(args.out)
+    except Exception as e:  # noqa: BLE001 - any failure is reported as one line
+        fail(str(e).strip().splitlines()[-1] if str(e).strip() else repr(e))
+
+    film = scene.sensors()[0].film()
+    width, height = film.size()
+    integrator = scene.integrator()
+    print(
+        json.dumps(
+            {
+                "mitsuba_version": mi.__version__,
+                "drjit_version": dr.__version__,
+                "variant": mi.variant(),
+                "threads": threads,
+                "integrator": str(integrator).replace("\n", " "),
+                "width": int(width),
+                "height": int(height),
+                "spp": args.spp,
+                "seed": args.seed,
+                "load_s": load_s,
+                "render_s": render_s,
+                "out": args.out,
+            }
+        )
+    )
+
+
+if __name__ == "__main__":
+    main()

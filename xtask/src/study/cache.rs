@@ -1,0 +1,325 @@
+//! The reference cache: `target/study/cache/<key>.exr` with a JSON sidecar
+//! `<key>.json` holding the settings and the render time.
+//!
+//! The key is a 64-bit FNV-1a hash of the scene's files (by relative path
+//! and bytes: for a `scene.toml`, every file under its folder, so the model
+//! files it names count; for a model file given directly, the files next
+//! to it, such as an OBJ's .mtl or a glTF's buffers), the reference's settings
+//! and the renderer's version (xtask's package version, the git commit and
+//! a hash of uncommitted changes to the renderer's sources). FNV-1a is
+//! written out here rather than taken from std, whose hasher may change
+//! between Rust releases: a key must stay the same across toolchains.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use glam::Vec3;
+use serde_json::Value;
+
+/// 64-bit FNV-1a.
+#[derive(Clone, Copy, Debug)]
+pub struct Fnv64(u64);
+
+impl Default for Fnv64 {
+    fn default() -> Self {
+        Self(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl Fnv64 {
+    /// Hashes raw bytes.
+    pub fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 ^= u64::from(b);
+            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+
+    /// Hashes a field with its length first, so that ("ab", "c") and
+    /// ("a", "bc") differ.
+    pub fn field(&mut self, bytes: &[u8]) {
+        self.write(&(bytes.len() as u64).to_le_bytes());
+        self.write(bytes);
+    }
+
+    /// The hash so far.
+    pub fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
+/// Every regular file in `dir` (in its subfolders too when `recursive`;
+/// hidden entries skipped) as (path relative to `dir` with `/` separators,
+/// bytes), sorted by path.
+pub fn scene_files(dir: &Path, recursive: bool) -> Result<Vec<(String, Vec<u8>)>, String> {
+    let mut files = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        let entries = fs::read_dir(&d).map_err(|e| format!("{}: {e}", d.display()))?;
+        for entry in entries {
+            let path = entry.map_err(|e| format!("{}: {e}", d.display()))?.path();
+            let hidden = path
+                .file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with('.'));
+            if hidden {
+                continue;
+            }
+            if path.is_dir() {
+                if recursive {
+                    stack.push(path);
+                }
+            } else if path.is_file() {
+                let bytes = fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+                let relative = path
+                    .strip_prefix(dir)
+                    .unwrap_or(&path)
+                    .components()
+                    .map(|c| c.as_os_str().to_string_lossy())
+                    .collect::<Vec<_>>()
+                    .join("/");
+                files.push((relative, bytes));
+            }
+        }
+    }
+    files.sort_by(|a, b| a.0.cmp(&b.0));
+    Ok(files)
+}
+
+/// Hash of a scene's files (see [`scene_files`]).
+pub fn scene_hash(files: &[(String, Vec<u8>)]) -> u64 {
+    let mut h = Fnv64::default();
+    for (name, bytes) in files {
+        h.field(name.as_bytes());
+        h.field(bytes);
+    }
+    h.finish()
+}
+
+/// The renderer's version: xtask's package version, the git commit when
+/// `git rev-parse HEAD` works, and a hash of `git diff HEAD` over the
+/// renderer's sources (`crates/`, `Cargo.lock`) when that is not empty, so
+/// an uncommitted change to the renderer does not reuse a stale reference.
+pub fn renderer_version(root: &Path) -> String {
+    let mut version = format!("xtask {}", env!("CARGO_PKG_VERSION"));
+    let git = |args: &[&str]| {
+        Command::new("git")
+            .args(args)
+            .current_dir(root)
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .map(|o| o.stdout)
+    };
+    if let Some(head) = git(&["rev-parse", "HEAD"]) {
+        version.push_str(&format!(
+            ", commit {}",
+            String::from_utf8_lossy(&head).trim()
+        ));
+        if let Some(diff) = git(&["diff", "HEAD", "--", "crates", "Cargo.lock"])
+            && !diff.is_empty()
+        {
+            let mut h = Fnv64::default();
+            h.write(&diff);
+            version.push_str(&format!(", uncommitted changes {:016x}", h.finish()));
+        }
+    }
+    version
+}
+
+/// What a reference render depends on besides the scene and the renderer.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReferenceSpec {
+    /// Config name (`vcm-reg`, ...).
+    pub config: String,
+    /// Iterations.
+    pub iterations: u64,
+    /// Seed.
+    pub seed: u64,
+    /// Resolution.
+    pub width: u32,
+    /// Resolution.
+    pub height: u32,
+    /// Longest path.
+    pub max_depth: u32,
+    /// tau_0 of the regularized configs.
+    pub tau0: f64,
+}
+
+impl ReferenceSpec {
+    /// The settings as one canonical line (hashed into the key).
+    pub fn canonical(&self) -> String {
+        format!(
+            "config={};iterations={};seed={};resolution={}x{};max_depth={};tau0={:e}",
+            self.config,
+            self.iterations,
+            self.seed,
+            self.width,
+            self.height,
+            self.max_depth,
+            self.tau0
+        )
+    }
+
+    /// The cache key: 16 hex digits.
+    pub fn key(&self, scene_hash: u64, renderer_version: &str) -> String {
+        let mut h = Fnv64::default();
+        h.field(b"rlt study reference v1");
+        h.field(&scene_hash.to_le_bytes());
+        h.field(self.canonical().as_bytes());
+        h.field(renderer_version.as_bytes());
+        format!("{:016x}", h.finish())
+    }
+}
+
+/// A cache entry's files.
+pub fn paths(dir: &Path, key: &str) -> (PathBuf, PathBuf) {
+    (
+        dir.join(format!("{key}.exr")),
+        dir.join(format!("{key}.json")),
+    )
+}
+
+/// The cached image and sidecar of `key`, if both are there, readable, and
+/// the sidecar names the same key and resolution as the image.
+pub fn load(dir: &Path, key: &str, width: u32, height: u32) -> Option<(Vec<Vec3>, Value)> {
+    let (exr, json) = paths(dir, key);
+    let meta: Value = serde_json::from_str(&fs::read_to_string(json).ok()?).ok()?;
+    if meta["key"].as_str() != Some(key) {
+        return None;
+    }
+    let image = integrators::image_io::read_exr(&exr).ok()?;
+    ((image.width, image.height) == (width, height)).then_some((image.pixels, meta))
+}
+
+/// Stores an entry: the image first, then the sidecar (written through a
+/// temporary file), so a sidecar always has its image.
+pub fn store(
+    dir: &Path,
+    key: &str,
+    (width, height): (u32, u32),
+    pixels: &[Vec3],
+    meta: &Value,
+) -> Result<(), String> {
+    fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let (exr, json) = paths(dir, key);
+    integrators::image_io::write_exr(&exr, width, height, pixels).map_err(|e| e.to_string())?;
+    let text = serde_json::to_string_pretty(meta).map_err(|e| e.to_string())?;
+    let partial = json.with_extension("json.partial");
+    fs::write(&partial, text + "\n").map_err(|e| format!("{}: {e}", partial.display()))?;
+    fs::rename(&partial, &json).map_err(|e| format!("{}: {e}", json.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec() -> ReferenceSpec {
+        ReferenceSpec {
+            config: "vcm-reg".into(),
+            iterations: 10_000,
+            seed: 7,
+            width: 64,
+            height: 48,
+            max_depth: 12,
+            tau0: 7.5,
+        }
+    }
+
+    fn temp_dir(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("xtask-study-{name}-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    #[test]
+    fn fnv_matches_published_test_vectors() {
+        let hash = |s: &str| {
+            let mut h = Fnv64::default();
+            h.write(s.as_bytes());
+            h.finish()
+        };
+        assert_eq!(hash(""), 0xcbf2_9ce4_8422_2325);
+        assert_eq!(hash("a"), 0xaf63_dc4c_8601_ec8c);
+        assert_eq!(hash("foobar"), 0x8594_4171_f739_67e8);
+    }
+
+    #[test]
+    fn key_is_stable_and_follows_every_input() {
+        let s = spec();
+        let key = s.key(1, "v");
+        assert_eq!(key, spec().key(1, "v"));
+        assert_eq!(key.len(), 16);
+        assert_ne!(key, s.key(2, "v"));
+        assert_ne!(key, s.key(1, "w"));
+        let changed = [
+            ReferenceSpec {
+                iterations: 9_999,
+                ..spec()
+            },
+            ReferenceSpec { seed: 8, ..spec() },
+            ReferenceSpec {
+                width: 48,
+                height: 64,
+                ..spec()
+            },
+            ReferenceSpec {
+                config: "vcm".into(),
+                ..spec()
+            },
+            ReferenceSpec {
+                tau0: 7.6,
+                ..spec()
+            },
+            ReferenceSpec {
+                max_depth: 11,
+                ..spec()
+            },
+        ];
+        for c in changed {
+            assert_ne!(c.key(1, "v"), key, "{}", c.canonical());
+        }
+    }
+
+    #[test]
+    fn scene_hash_follows_file_bytes_and_names() {
+        let dir = temp_dir("scene-hash");
+        fs::write(dir.join("scene.toml"), "resolution = [4, 4]\n").unwrap();
+        fs::create_dir_all(dir.join("models")).unwrap();
+        fs::write(dir.join("models").join("a.obj"), "v 0 0 0\n").unwrap();
+        fs::write(dir.join(".hidden"), "ignored").unwrap();
+        let files = scene_files(&dir, true).unwrap();
+        let names: Vec<&str> = files.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(names, ["models/a.obj", "scene.toml"]);
+        let before = scene_hash(&files);
+        assert_eq!(before, scene_hash(&scene_files(&dir, true).unwrap()));
+        // A changed model file changes the key.
+        fs::write(dir.join("models").join("a.obj"), "v 0 0 1\n").unwrap();
+        let after = scene_hash(&scene_files(&dir, true).unwrap());
+        assert_ne!(before, after);
+        assert_ne!(spec().key(before, "v"), spec().key(after, "v"));
+        // Hidden files do not count.
+        fs::write(dir.join(".hidden"), "changed").unwrap();
+        assert_eq!(after, scene_hash(&scene_files(&dir, true).unwrap()));
+        // Without recursion, only the folder's own files count.
+        let flat = scene_files(&dir, false).unwrap();
+        assert_eq!(flat.len(), 1);
+        fs::remove_dir_all(dir).unwrap();
+    }
+
+    #[test]
+    fn entries_round_trip_and_mismatches_miss() {
+        let dir = temp_dir("cache");
+        let pixels: Vec<Vec3> = (0..6).map(|i| Vec3::splat(i as f32 * 0.25)).collect();
+        let meta = serde_json::json!({ "key": "abc", "render_seconds": 1.5 });
+        store(&dir, "abc", (3, 2), &pixels, &meta).unwrap();
+        let (back, m) = load(&dir, "abc", 3, 2).unwrap();
+        assert_eq!(back, pixels);
+        assert_eq!(m["render_seconds"], 1.5);
+        assert!(load(&dir, "abc", 2, 3).is_none());
+        assert!(load(&dir, "abd", 3, 2).is_none());
+        fs::remove_dir_all(dir).unwrap();
+    }
+}

@@ -1,0 +1,503 @@
+//! The command line of `cargo xtask study`: flags, budgets and configs.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use glam::UVec2;
+use integrators::{Algorithm, Mode, Regularization, RenderConfig};
+
+/// `cargo xtask study --help`.
+pub(super) const HELP: &str = "usage: cargo xtask study --scene PATH [options]
+
+Renders a reference (regularized VCM, cached in target/study/cache/), then
+every config for --iterations iterations, and measures at iterations 1, 2, 4,
+8, ... and the last: wall-clock render time, RMSE, relMSE and noise (SPEC §8),
+all on luminance. Writes curves.csv, curves.json, report.md, charts (SVG and
+PNG) and contact-sheet.png to the output folder.
+
+options:
+  --scene PATH          scene folder with a scene.toml, or a scene file (.toml,
+                        .gltf, .glb, .obj); required. The reference cache key
+                        hashes every file under a scene.toml's folder (models
+                        outside it are not seen), or the files next to a
+                        model file.
+  --configs LIST        comma-separated configs, each an algorithm (pt, bpt,
+                        ppm, vcm) with regularization off, or with `-reg`:
+                        selective regularization, progressive tau from tau_0
+                        [default: pt,pt-reg,bpt,bpt-reg,ppm,vcm,vcm-reg]
+  --iterations N        iterations of every config [quick: 16, full: 1024]
+  --reference-iterations N
+                        iterations of the reference(s) [quick: 64, full: 10000]
+  --resolution WxH      image size [quick: 64x64, full: the scene's]
+  --budget quick|full   defaults of the three above [default: full]; flags
+                        given explicitly win. quick runs in CI.
+  --unbiased-reference CONFIG
+                        also render an unregularized reference (e.g. bpt, or vcm
+                        where only merging reaches a caustic) and report every
+                        metric against both: their difference is the bias of
+                        regularization
+  --seed S              seed of the configs [default: 1]; the reference uses
+                        S + 1000003, the unbiased reference S + 2000006, so no
+                        config shares random numbers with a reference
+  --tau0 X              tau_0 of the -reg configs and the reference [default:
+                        the scene's, else 7.5]
+  --out DIR             output folder [default: target/study/<scene name>]
+  --rerender-reference  render the reference(s) even when cached (and update
+                        the cache)
+  -h, --help            print this text
+
+Timings are wall-clock seconds of rendering only (scene setup and metrics
+excluded), cumulative over iterations, on all cores; the report records the
+core count and load average, since other processes skew them, and also the
+CPU seconds of all threads (from /proc), which they skew much less.";
+
+/// Default configs, in report order.
+const DEFAULT_CONFIGS: &str = "pt,pt-reg,bpt,bpt-reg,ppm,vcm,vcm-reg";
+
+/// A rendering configuration of the study: an algorithm, regularized or not.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Config {
+    /// The algorithm.
+    pub algorithm: Algorithm,
+    /// Selective, progressive regularization (else off).
+    pub regularized: bool,
+}
+
+impl Config {
+    /// The regularized VCM of the reference.
+    pub(super) const REFERENCE: Self = Self {
+        algorithm: Algorithm::Vcm,
+        regularized: true,
+    };
+
+    pub(super) fn parse(s: &str) -> Result<Self, String> {
+        let s = s.trim().to_ascii_lowercase();
+        let (name, regularized) = match s.strip_suffix("-reg") {
+            Some(base) => (base, true),
+            None => (s.as_str(), false),
+        };
+        let algorithm = name.parse::<Algorithm>().map_err(|_| {
+            format!(
+                "unknown config '{s}' (expected pt, bpt, ppm or vcm, each optionally with -reg)"
+            )
+        })?;
+        Ok(Self {
+            algorithm,
+            regularized,
+        })
+    }
+
+    /// The renderer's configuration.
+    pub(super) fn render_config(
+        self,
+        seed: u64,
+        max_depth: u32,
+        tau0: f64,
+    ) -> Result<RenderConfig, String> {
+        let regularization = if self.regularized {
+            Regularization::new(Mode::Selective, tau0, true).map_err(|e| format!("--tau0: {e}"))?
+        } else {
+            Regularization::off()
+        };
+        Ok(RenderConfig {
+            algorithm: self.algorithm,
+            seed,
+            max_depth,
+            regularization,
+            ..RenderConfig::default()
+        })
+    }
+}
+
+impl fmt::Display for Config {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let suffix = if self.regularized { "-reg" } else { "" };
+        // `pad`, so that width and alignment flags apply.
+        f.pad(&format!("{}{suffix}", self.algorithm.name()))
+    }
+}
+
+/// Preset iteration counts and resolution.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Budget {
+    Quick,
+    Full,
+}
+
+impl Budget {
+    pub(super) fn name(self) -> &'static str {
+        match self {
+            Self::Quick => "quick",
+            Self::Full => "full",
+        }
+    }
+}
+
+/// The parsed command line.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct Options {
+    /// The file `scene::load` reads.
+    pub(super) scene_file: PathBuf,
+    /// The folder whose files key the cache.
+    pub(super) scene_dir: PathBuf,
+    /// Folder name of the scene (or file stem).
+    pub(super) scene_name: String,
+    pub(super) configs: Vec<Config>,
+    pub(super) iterations: u64,
+    pub(super) reference_iterations: u64,
+    pub(super) resolution: Option<UVec2>,
+    pub(super) budget: Budget,
+    pub(super) unbiased: Option<Config>,
+    pub(super) seed: u64,
+    pub(super) tau0: Option<f64>,
+    pub(super) out: PathBuf,
+    pub(super) rerender: bool,
+}
+
+/// What the command line asks for.
+pub(super) enum Parsed {
+    Help,
+    Run(Box<Options>),
+}
+
+/// A flag's value as a positive integer.
+fn positive(flag: &str, value: &str) -> Result<u64, String> {
+    match value.trim().parse::<u64>() {
+        Ok(n) if n > 0 => Ok(n),
+        _ => Err(format!(
+            "{flag}: expected a positive integer, got '{value}'"
+        )),
+    }
+}
+
+/// `WxH` with both at least 1 and at most 16384.
+fn parse_resolution(value: &str) -> Result<UVec2, String> {
+    let err = || format!("--resolution: expected WxH (e.g. 128x96), got '{value}'");
+    let (w, h) = value.split_once(['x', 'X']).ok_or_else(err)?;
+    let parse = |s: &str| {
+        s.trim()
+            .parse::<u32>()
+            .ok()
+            .filter(|n| (1..=16_384).contains(n))
+    };
+    Ok(UVec2::new(
+        parse(w).ok_or_else(err)?,
+        parse(h).ok_or_else(err)?,
+    ))
+}
+
+/// The scene file and its folder for `--scene PATH`: relative paths are
+/// tried from the current folder, then from the workspace root.
+fn resolve_scene(root: &Path, given: &str) -> Result<(PathBuf, PathBuf, String), String> {
+    let candidates = [PathBuf::from(given), root.join(given)];
+    let path = candidates
+        .iter()
+        .find(|p| p.exists())
+        .ok_or_else(|| format!("--scene: {given}: no such file or folder"))?;
+    let file = if path.is_dir() {
+        let manifest = path.join("scene.toml");
+        if !manifest.is_file() {
+            return Err(format!("--scene: {given}: the folder has no scene.toml"));
+        }
+        manifest
+    } else {
+        path.clone()
+    };
+    let dir = file
+        .parent()
+        .map(Path::to_path_buf)
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or_else(|| PathBuf::from("."));
+    let name = if file.file_name().is_some_and(|n| n == "scene.toml") {
+        dir.canonicalize()
+            .ok()
+            .and_then(|d| d.file_name().map(|n| n.to_string_lossy().into_owned()))
+    } else {
+        file.file_stem().map(|n| n.to_string_lossy().into_owned())
+    }
+    .unwrap_or_else(|| "scene".into());
+    Ok((file, dir, name))
+}
+
+impl Options {
+    pub(super) fn parse(root: &Path, args: &[String]) -> Result<Parsed, String> {
+        let mut scene = None;
+        let mut configs = None;
+        let mut iterations = None;
+        let mut reference_iterations = None;
+        let mut resolution = None;
+        let mut budget = Budget::Full;
+        let mut unbiased = None;
+        let mut seed = 1;
+        let mut tau0 = None;
+        let mut out = None;
+        let mut rerender = false;
+        let mut i = 0;
+        while i < args.len() {
+            let arg = args[i].as_str();
+            let (flag, inline) = match arg.split_once('=') {
+                Some((f, v)) if f.starts_with("--") => (f, Some(v.to_string())),
+                _ => (arg, None),
+            };
+            let takes_value = !matches!(flag, "-h" | "--help" | "--rerender-reference");
+            let value = if takes_value {
+                match inline {
+                    Some(v) => v,
+                    None => {
+                        i += 1;
+                        args.get(i)
+                            .cloned()
+                            .ok_or_else(|| format!("{flag}: missing value"))?
+                    }
+                }
+            } else if inline.is_some() {
+                return Err(format!("{flag}: takes no value"));
+            } else {
+                String::new()
+            };
+            match flag {
+                "-h" | "--help" => return Ok(Parsed::Help),
+                "--rerender-reference" => rerender = true,
+                "--scene" => scene = Some(value),
+                "--configs" => {
+                    let mut list: Vec<Config> = Vec::new();
+                    for name in value.split(',').filter(|s| !s.trim().is_empty()) {
+                        let c = Config::parse(name).map_err(|e| format!("--configs: {e}"))?;
+                        if list.contains(&c) {
+                            return Err(format!("--configs: '{c}' is listed twice"));
+                        }
+                        list.push(c);
+                    }
+                    if list.is_empty() {
+                        return Err("--configs: the list is empty".into());
+                    }
+                    configs = Some(list);
+                }
+                "--iterations" => iterations = Some(positive(flag, &value)?),
+                "--reference-iterations" => reference_iterations = Some(positive(flag, &value)?),
+                "--resolution" => resolution = Some(parse_resolution(&value)?),
+                "--budget" => {
+                    budget = match value.to_ascii_lowercase().as_str() {
+                        "quick" => Budget::Quick,
+                        "full" => Budget::Full,
+                        _ => {
+                            return Err(format!("--budget: expected quick or full, got '{value}'"));
+                        }
+                    }
+                }
+                "--unbiased-reference" => {
+                    let c =
+                        Config::parse(&value).map_err(|e| format!("--unbiased-reference: {e}"))?;
+                    if c.regularized {
+                        return Err(format!(
+                            "--unbiased-reference: '{c}' is regularized (biased); give an \
+                             unregularized config: pt, bpt, ppm or vcm"
+                        ));
+                    }
+                    unbiased = Some(c);
+                }
+                "--seed" => {
+                    seed = value.trim().parse::<u64>().map_err(|_| {
+                        format!("--seed: expected a non-negative integer, got '{value}'")
+                    })?;
+                }
+                "--tau0" => {
+                    let t = value
+                        .trim()
+                        .parse::<f64>()
+                        .map_err(|_| format!("--tau0: expected a number, got '{value}'"))?;
+                    Regularization::new(Mode::Selective, t, true)
+                        .map_err(|e| format!("--tau0: {e}"))?;
+                    tau0 = Some(t);
+                }
+                "--out" => out = Some(PathBuf::from(value)),
+                _ => {
+                    return Err(format!(
+                        "unknown option '{arg}' (see `cargo xtask study --help`)"
+                    ));
+                }
+            }
+            i += 1;
+        }
+        let scene = scene.ok_or("--scene: required (e.g. --scene scenes/caustic-glass)")?;
+        let (scene_file, scene_dir, scene_name) = resolve_scene(root, &scene)?;
+        let (default_iterations, default_reference, default_resolution) = match budget {
+            Budget::Quick => (16, 64, Some(UVec2::new(64, 64))),
+            Budget::Full => (1024, 10_000, None),
+        };
+        let configs = match configs {
+            Some(c) => c,
+            None => DEFAULT_CONFIGS
+                .split(',')
+                .map(Config::parse)
+                .collect::<Result<_, _>>()?,
+        };
+        let out = out.unwrap_or_else(|| root.join("target").join("study").join(&scene_name));
+        Ok(Parsed::Run(Box::new(Self {
+            scene_file,
+            scene_dir,
+            scene_name,
+            configs,
+            iterations: iterations.unwrap_or(default_iterations),
+            reference_iterations: reference_iterations.unwrap_or(default_reference),
+            resolution: resolution.or(default_resolution),
+            budget,
+            unbiased,
+            seed,
+            tau0,
+            out,
+            rerender,
+        })))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn root() -> PathBuf {
+        crate::workspace_root()
+    }
+
+    fn parse(args: &[&str]) -> Result<Options, String> {
+        let args: Vec<String> = args.iter().map(|s| s.to_string()).collect();
+        match Options::parse(&root(), &args)? {
+            Parsed::Run(o) => Ok(*o),
+            Parsed::Help => Err("help".into()),
+        }
+    }
+
+    #[test]
+    fn configs_parse_and_print() {
+        for name in [
+            "pt", "pt-reg", "bpt", "bpt-reg", "ppm", "ppm-reg", "vcm", "vcm-reg",
+        ] {
+            assert_eq!(Config::parse(name).unwrap().to_string(), name);
+        }
+        assert_eq!(Config::parse(" VCM-Reg ").unwrap(), Config::REFERENCE);
+        assert!(Config::parse("mlt").unwrap_err().contains("'mlt'"));
+        let c = Config::parse("bpt-reg")
+            .unwrap()
+            .render_config(3, 9, 7.5)
+            .unwrap();
+        assert_eq!((c.algorithm, c.seed, c.max_depth), (Algorithm::Bpt, 3, 9));
+        assert_eq!(c.regularization.mode, Mode::Selective);
+        assert!(c.regularization.progressive);
+        let off = Config::parse("bpt")
+            .unwrap()
+            .render_config(3, 9, 7.5)
+            .unwrap();
+        assert_eq!(off.regularization.mode, Mode::Off);
+    }
+
+    #[test]
+    fn budgets_set_defaults_and_flags_win() {
+        let quick = parse(&["--scene", "scenes/caustic-glass", "--budget", "quick"]).unwrap();
+        assert_eq!(
+            (
+                quick.iterations,
+                quick.reference_iterations,
+                quick.resolution
+            ),
+            (16, 64, Some(UVec2::new(64, 64)))
+        );
+        assert_eq!(quick.configs.len(), 7);
+        assert_eq!(quick.scene_name, "caustic-glass");
+        assert!(quick.scene_file.ends_with("scene.toml"));
+        assert!(quick.out.ends_with("target/study/caustic-glass"));
+        let full = parse(&["--scene=scenes/caustic-glass"]).unwrap();
+        assert_eq!((full.iterations, full.reference_iterations), (1024, 10_000));
+        assert_eq!(full.resolution, None);
+        let mixed = parse(&[
+            "--budget",
+            "quick",
+            "--scene",
+            "scenes/glossy-caustic/scene.toml",
+            "--iterations",
+            "8",
+            "--resolution",
+            "32x24",
+            "--configs",
+            "bpt,bpt-reg",
+            "--unbiased-reference",
+            "bpt",
+            "--seed",
+            "5",
+        ])
+        .unwrap();
+        assert_eq!(mixed.iterations, 8);
+        assert_eq!(mixed.reference_iterations, 64);
+        assert_eq!(mixed.resolution, Some(UVec2::new(32, 24)));
+        assert_eq!(mixed.configs.len(), 2);
+        assert_eq!(mixed.scene_name, "glossy-caustic");
+        assert_eq!(mixed.unbiased.map(|c| c.to_string()), Some("bpt".into()));
+        assert_eq!(mixed.seed, 5);
+    }
+
+    #[test]
+    fn bad_input_is_one_line_naming_the_flag() {
+        let cases: &[(&[&str], &str)] = &[
+            (&[], "--scene"),
+            (&["--scene", "no/such/scene"], "--scene"),
+            (&["--scene", "crates"], "scene.toml"),
+            (
+                &["--scene", "scenes/stiff", "--iterations", "0"],
+                "--iterations",
+            ),
+            (
+                &["--scene", "scenes/stiff", "--iterations"],
+                "--iterations: missing",
+            ),
+            (
+                &["--scene", "scenes/stiff", "--resolution", "64"],
+                "--resolution",
+            ),
+            (
+                &["--scene", "scenes/stiff", "--resolution", "0x4"],
+                "--resolution",
+            ),
+            (
+                &["--scene", "scenes/stiff", "--configs", "pt,xx"],
+                "--configs",
+            ),
+            (&["--scene", "scenes/stiff", "--configs", "pt,pt"], "twice"),
+            (&["--scene", "scenes/stiff", "--budget", "huge"], "--budget"),
+            (
+                &["--scene", "scenes/stiff", "--unbiased-reference", "vcm-reg"],
+                "regularized",
+            ),
+            (&["--scene", "scenes/stiff", "--tau0", "0.1"], "--tau0"),
+            (&["--scene", "scenes/stiff", "--seed", "-1"], "--seed"),
+            (&["--scene", "scenes/stiff", "--frobnicate"], "--frobnicate"),
+        ];
+        for (args, needle) in cases {
+            let e = parse(args).unwrap_err();
+            assert!(e.contains(needle), "{args:?}: {e}");
+            assert!(!e.contains('\n'), "{args:?}: {e}");
+        }
+        assert!(matches!(
+            Options::parse(&root(), &["--help".to_string()]),
+            Ok(Parsed::Help)
+        ));
+    }
+
+    #[test]
+    fn help_documents_every_flag() {
+        for flag in [
+            "--scene",
+            "--configs",
+            "--iterations",
+            "--reference-iterations",
+            "--resolution",
+            "--budget",
+            "--unbiased-reference",
+            "--seed",
+            "--tau0",
+            "--out",
+            "--rerender-reference",
+            "--help",
+        ] {
+            assert!(HELP.contains(flag), "{flag}");
+        }
+    }
+}

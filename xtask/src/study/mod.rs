@@ -1,0 +1,709 @@
+//! `cargo xtask study`: convergence studies, error against wall-clock time
+//! (SPEC §8; supp. §7 and Figure 2).
+//!
+//! A reference (regularized VCM at many iterations, cached on disk), then
+//! every config for a number of iterations, measured at log-spaced
+//! checkpoints; curves, a report with equal-time comparisons, charts and a
+//! contact sheet of close-ups. All light transport is the `integrators`
+//! library's: this module only calls `Renderer::render_iteration` and reads
+//! the film.
+//!
+//! - `cli`: flags, budgets, configs
+//! - `progress`: progress bars and lines
+//! - `metrics`: RMSE, relMSE and noise on luminance, checkpoints, log-log interpolation
+//! - `cache`: the reference cache and its key
+//! - `report`: curves.csv, curves.json, report.md (equal-time tables)
+//! - `plot`, `raster`: charts as SVG and PNG
+//! - `sheet`: the contact sheet
+
+mod cache;
+mod cli;
+mod metrics;
+mod plot;
+mod progress;
+mod raster;
+mod report;
+mod sheet;
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use glam::Vec3;
+use integrators::{DEFAULT_MAX_DEPTH, DEFAULT_TAU_0, Film, Renderer};
+use scene::LoadOptions;
+use serde_json::json;
+
+use cache::ReferenceSpec;
+pub use cli::Config;
+use cli::{HELP, Options, Parsed};
+use metrics::{Errors, Noise};
+use progress::Progress;
+
+/// The task's line in `cargo xtask help`.
+pub const USAGE: &str = "  study --scene PATH [options]
+                    convergence study: every config's error against a cached
+                    reference over wall-clock time, written to
+                    target/study/<scene>/ (report.md, curves, charts, contact
+                    sheet); `cargo xtask study --help` lists the options";
+
+/// Seed offsets of the references (see `--seed`).
+const REFERENCE_SEED_OFFSET: u64 = 1_000_003;
+const UNBIASED_SEED_OFFSET: u64 = 2_000_006;
+
+/// A reference image with how it was made.
+pub struct Reference {
+    /// "reference" or "unbiased".
+    pub role: &'static str,
+    /// Its config.
+    pub config: Config,
+    /// Its settings (iterations, seed, ...).
+    pub spec: ReferenceSpec,
+    /// Cache key.
+    pub key: String,
+    /// The cached EXR file.
+    pub cache_file: PathBuf,
+    /// Whether it came from the cache in this run.
+    pub cached: bool,
+    /// Wall-clock seconds of rendering (when it was rendered).
+    pub render_seconds: f64,
+    /// CPU seconds of rendering, all threads (when it was rendered, and
+    /// where the system reports it).
+    pub cpu_seconds: Option<f64>,
+    /// Noise of the reference itself (luminance).
+    pub noise: Option<Noise>,
+    /// NaN/Inf samples the renderer dropped.
+    pub invalid_samples: u64,
+    /// Mean image, linear RGB.
+    pub image: Vec<Vec3>,
+    /// Its luminance.
+    pub luminance: Vec<f64>,
+}
+
+/// One checkpoint of a config.
+pub struct Point {
+    /// Iterations done.
+    pub iteration: u64,
+    /// Cumulative wall-clock seconds of rendering.
+    pub seconds: f64,
+    /// Cumulative CPU seconds of rendering, all threads (None where the
+    /// system does not report them).
+    pub cpu_seconds: Option<f64>,
+    /// Noise of the mean image so far (None at 1 iteration).
+    pub noise: Option<Noise>,
+    /// Error against each reference, in the order of `Study::references`.
+    pub errors: Vec<Errors>,
+}
+
+/// One config's run.
+pub struct Run {
+    /// The config.
+    pub config: Config,
+    /// Seconds to prepare the renderer (BVH, lights), not in the curves.
+    pub setup_seconds: f64,
+    /// Checkpoints, in order.
+    pub points: Vec<Point>,
+    /// NaN/Inf samples the renderer dropped.
+    pub invalid_samples: u64,
+    /// Final mean image.
+    pub image: Vec<Vec3>,
+}
+
+impl Run {
+    /// (wall-clock seconds, value) at each checkpoint.
+    pub fn curve(&self, value: impl Fn(&Point) -> f64) -> Vec<(f64, f64)> {
+        self.points.iter().map(|p| (p.seconds, value(p))).collect()
+    }
+
+    /// (CPU seconds, value) at each checkpoint; None without CPU times.
+    pub fn cpu_curve(&self, value: impl Fn(&Point) -> f64) -> Option<Vec<(f64, f64)>> {
+        self.points
+            .iter()
+            .map(|p| Some((p.cpu_seconds?, value(p))))
+            .collect()
+    }
+}
+
+/// Everything the report needs.
+pub struct Study {
+    /// Scene file, as given.
+    pub scene_file: PathBuf,
+    /// Scene name (output folder name).
+    pub scene_name: String,
+    /// Hash of the scene's files.
+    pub scene_hash: u64,
+    /// Image size.
+    pub resolution: (u32, u32),
+    /// Iterations of every config.
+    pub iterations: u64,
+    /// Budget preset.
+    pub budget: &'static str,
+    /// Seed of the configs.
+    pub seed: u64,
+    /// Longest path.
+    pub max_depth: u32,
+    /// tau_0 of regularized configs.
+    pub tau0: f64,
+    /// Renderer version string (cache key input).
+    pub renderer_version: String,
+    /// The references: the regularized one first.
+    pub references: Vec<Reference>,
+    /// The configs' runs, in the order given.
+    pub runs: Vec<Run>,
+    /// Logical cores.
+    pub cores: usize,
+    /// /proc/loadavg at the start and the end.
+    pub load: (String, String),
+    /// Wall-clock seconds of the whole study so far.
+    pub total_seconds: f64,
+    /// The command line.
+    pub command: String,
+}
+
+/// Runs `cargo xtask study ARGS`.
+pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
+    run_with_cache(root, args, &root.join("target").join("study").join("cache"))
+}
+
+/// [`run`] with the reference cache in `cache_dir`.
+fn run_with_cache(root: &Path, args: &[String], cache_dir: &Path) -> Result<(), String> {
+    let options = match Options::parse(root, args)? {
+        Parsed::Help => {
+            println!("{HELP}");
+            return Ok(());
+        }
+        Parsed::Run(options) => *options,
+    };
+    let started = Instant::now();
+    let load_before = load_average();
+    fs::create_dir_all(options.out.join("images"))
+        .map_err(|e| format!("--out: cannot create {}: {e}", options.out.display()))?;
+
+    let scene = scene::load(
+        &options.scene_file,
+        &LoadOptions {
+            camera_name: None,
+            resolution: options.resolution,
+        },
+    )
+    .map_err(|e| format!("--scene: {e}"))?;
+    for warning in &scene.report.warnings {
+        eprintln!("warning: {warning}");
+    }
+    let resolution = scene.camera.resolution;
+    let (width, height) = (resolution.x, resolution.y);
+    let max_depth = scene.render.max_depth.unwrap_or(DEFAULT_MAX_DEPTH);
+    let tau0 = options.tau0.or(scene.render.tau0).unwrap_or(DEFAULT_TAU_0);
+    // A bad tau_0 from the manifest is reported before any rendering.
+    Config::REFERENCE.render_config(0, max_depth, tau0)?;
+    // A manifest's folder is the scene (with subfolders); a model file
+    // given directly is hashed with the files next to it.
+    let manifest = options
+        .scene_file
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    let files =
+        cache::scene_files(&options.scene_dir, manifest).map_err(|e| format!("--scene: {e}"))?;
+    let scene_hash = cache::scene_hash(&files);
+    let renderer_version = cache::renderer_version(root);
+
+    let mut jobs = vec![("reference", Config::REFERENCE, REFERENCE_SEED_OFFSET)];
+    if let Some(c) = options.unbiased {
+        jobs.push(("unbiased", c, UNBIASED_SEED_OFFSET));
+    }
+    println!(
+        "study: {} at {width}x{height}, configs {} x {} iterations, reference {} x {} \
+         iterations ({} budget), {} cores",
+        options.scene_file.display(),
+        options
+            .configs
+            .iter()
+            .map(Config::to_string)
+            .collect::<Vec<_>>()
+            .join(","),
+        options.iterations,
+        Config::REFERENCE,
+        options.reference_iterations,
+        options.budget.name(),
+        cores(),
+    );
+
+    // The references: from the cache, or rendered (their iterations count
+    // towards the overall progress only when they are rendered).
+    let specs: Vec<(&'static str, Config, ReferenceSpec)> = jobs
+        .iter()
+        .map(|&(role, config, offset)| {
+            (
+                role,
+                config,
+                ReferenceSpec {
+                    config: config.to_string(),
+                    iterations: options.reference_iterations,
+                    seed: options.seed.wrapping_add(offset),
+                    width,
+                    height,
+                    max_depth,
+                    tau0,
+                },
+            )
+        })
+        .collect();
+    let cached: Vec<Option<(Vec<Vec3>, serde_json::Value)>> = specs
+        .iter()
+        .map(|(_, _, spec)| {
+            let key = spec.key(scene_hash, &renderer_version);
+            (!options.rerender)
+                .then(|| cache::load(cache_dir, &key, width, height))
+                .flatten()
+        })
+        .collect();
+    let to_render: u64 = cached
+        .iter()
+        .filter(|c| c.is_none())
+        .map(|_| options.reference_iterations)
+        .sum::<u64>()
+        + options.iterations * options.configs.len() as u64;
+    let mut progress = Progress::new(to_render);
+
+    let mut references = Vec::new();
+    for ((role, config, spec), cached) in specs.into_iter().zip(cached) {
+        let key = spec.key(scene_hash, &renderer_version);
+        let cache_file = cache::paths(cache_dir, &key).0;
+        let reference = match cached {
+            Some((image, meta)) => {
+                progress.println(&format!(
+                    "{role}: {config} x {} iterations from the cache ({})",
+                    spec.iterations,
+                    cache_file.display()
+                ));
+                Reference::from_cache(role, config, spec, key, cache_file, image, &meta)
+            }
+            None => {
+                let job = ReferenceJob {
+                    role,
+                    config,
+                    spec,
+                    key,
+                    cache_file,
+                };
+                let context = ReferenceContext {
+                    scene: &scene,
+                    scene_file: &options.scene_file,
+                    scene_hash,
+                    renderer_version: &renderer_version,
+                    cache_dir,
+                };
+                render_reference(job, &context, &mut progress)?
+            }
+        };
+        let name = if role == "reference" {
+            "reference.exr".to_string()
+        } else {
+            format!("unbiased-{config}.exr")
+        };
+        write_exr(
+            &options.out.join("images").join(name),
+            width,
+            height,
+            &reference.image,
+        )?;
+        references.push(reference);
+    }
+
+    // The configs.
+    let marks = metrics::checkpoints(options.iterations);
+    let mut runs = Vec::new();
+    for &config in &options.configs {
+        let render_config = config.render_config(options.seed, max_depth, tau0)?;
+        let t = Instant::now();
+        let renderer = Renderer::new(scene.clone(), render_config);
+        let setup_seconds = t.elapsed().as_secs_f64();
+        let mut points = Vec::new();
+        let rendered = render(
+            &renderer,
+            options.iterations,
+            &marks,
+            &mut progress,
+            &config.to_string(),
+            |state| {
+                let mean = metrics::luminance_image(&state.film.mean());
+                points.push(Point {
+                    iteration: state.iteration,
+                    seconds: state.seconds,
+                    cpu_seconds: state.cpu_seconds,
+                    noise: metrics::noise(&state.luminance_variance(), state.iteration),
+                    errors: references
+                        .iter()
+                        .map(|r| metrics::errors(&mean, &r.luminance))
+                        .collect(),
+                });
+            },
+        );
+        let run = Run {
+            config,
+            setup_seconds,
+            points,
+            invalid_samples: renderer.invalid_samples(),
+            image: rendered.film.mean(),
+        };
+        if let Some(last) = run.points.last() {
+            progress.println(&format!(
+                "{config:>8}: {} iterations in {:.2} s, RMSE {:.3e}, relMSE {:.3e}{}",
+                last.iteration,
+                last.seconds,
+                last.errors[0].rmse,
+                last.errors[0].rel_mse,
+                if run.invalid_samples > 0 {
+                    format!(", {} NaN/Inf samples dropped", run.invalid_samples)
+                } else {
+                    String::new()
+                }
+            ));
+        }
+        write_exr(
+            &options.out.join("images").join(format!("{config}.exr")),
+            width,
+            height,
+            &run.image,
+        )?;
+        runs.push(run);
+    }
+    progress.finish();
+
+    let study = Study {
+        scene_file: options.scene_file.clone(),
+        scene_name: options.scene_name.clone(),
+        scene_hash,
+        resolution: (width, height),
+        iterations: options.iterations,
+        budget: options.budget.name(),
+        seed: options.seed,
+        max_depth,
+        tau0,
+        renderer_version,
+        references,
+        runs,
+        cores: cores(),
+        load: (load_before, load_average()),
+        total_seconds: started.elapsed().as_secs_f64(),
+        command: std::iter::once("cargo xtask study".to_string())
+            .chain(args.iter().cloned())
+            .collect::<Vec<_>>()
+            .join(" "),
+    };
+    let written = report::write(&options.out, &study)?;
+    println!(
+        "wrote {} ({}) in {:.1} s",
+        options.out.display(),
+        written.join(", "),
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// What identifies a reference render.
+struct ReferenceJob {
+    role: &'static str,
+    config: Config,
+    spec: ReferenceSpec,
+    key: String,
+    cache_file: PathBuf,
+}
+
+/// What a reference render needs besides its job.
+struct ReferenceContext<'a> {
+    scene: &'a scene::Scene,
+    scene_file: &'a Path,
+    scene_hash: u64,
+    renderer_version: &'a str,
+    cache_dir: &'a Path,
+}
+
+impl Reference {
+    /// A reference read from the cache, with the sidecar's timings and noise.
+    fn from_cache(
+        role: &'static str,
+        config: Config,
+        spec: ReferenceSpec,
+        key: String,
+        cache_file: PathBuf,
+        image: Vec<Vec3>,
+        meta: &serde_json::Value,
+    ) -> Self {
+        let noise = match (
+            meta["noise_std_error"].as_f64(),
+            meta["noise_variance"].as_f64(),
+        ) {
+            (Some(std_error), Some(variance)) => Some(Noise {
+                std_error,
+                variance,
+            }),
+            _ => None,
+        };
+        Self {
+            role,
+            config,
+            key,
+            cache_file,
+            cached: true,
+            render_seconds: meta["render_seconds"].as_f64().unwrap_or(f64::NAN),
+            cpu_seconds: meta["cpu_seconds"].as_f64(),
+            noise,
+            invalid_samples: meta["invalid_samples"].as_u64().unwrap_or(0),
+            luminance: metrics::luminance_image(&image),
+            image,
+            spec,
+        }
+    }
+}
+
+/// Renders a reference and stores it in the cache with its sidecar.
+fn render_reference(
+    job: ReferenceJob,
+    context: &ReferenceContext<'_>,
+    progress: &mut Progress,
+) -> Result<Reference, String> {
+    let ReferenceJob {
+        role,
+        config,
+        spec,
+        key,
+        cache_file,
+    } = job;
+    let render_config = config.render_config(spec.seed, spec.max_depth, spec.tau0)?;
+    let t = Instant::now();
+    let renderer = Renderer::new(context.scene.clone(), render_config);
+    let setup_seconds = t.elapsed().as_secs_f64();
+    let label = format!("{role} {config}");
+    let rendered = render(&renderer, spec.iterations, &[], progress, &label, |_| {});
+    let image = rendered.film.mean();
+    let noise = metrics::noise(&rendered.luminance_variance(), spec.iterations);
+    let invalid_samples = renderer.invalid_samples();
+    let meta = json!({
+        "key": key,
+        "role": role,
+        "scene": context.scene_file.display().to_string(),
+        "scene_hash": format!("{:016x}", context.scene_hash),
+        "settings": spec.canonical(),
+        "config": config.to_string(),
+        "iterations": spec.iterations,
+        "seed": spec.seed,
+        "resolution": [spec.width, spec.height],
+        "max_depth": spec.max_depth,
+        "tau0": spec.tau0,
+        "renderer_version": context.renderer_version,
+        "render_seconds": rendered.seconds,
+        "cpu_seconds": rendered.cpu_seconds,
+        "setup_seconds": setup_seconds,
+        "cores": cores(),
+        "noise_std_error": noise.map(|n| n.std_error),
+        "noise_variance": noise.map(|n| n.variance),
+        "invalid_samples": invalid_samples,
+    });
+    cache::store(
+        context.cache_dir,
+        &key,
+        (spec.width, spec.height),
+        &image,
+        &meta,
+    )?;
+    progress.println(&format!(
+        "{role}: {config} x {} iterations rendered in {:.1} s, cached as {}",
+        spec.iterations,
+        rendered.seconds,
+        cache_file.display()
+    ));
+    Ok(Reference {
+        role,
+        config,
+        key,
+        cache_file,
+        cached: false,
+        render_seconds: rendered.seconds,
+        cpu_seconds: rendered.cpu_seconds,
+        noise,
+        invalid_samples,
+        luminance: metrics::luminance_image(&image),
+        image,
+        spec,
+    })
+}
+
+fn write_exr(path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Result<(), String> {
+    integrators::image_io::write_exr(path, width, height, pixels).map_err(|e| e.to_string())
+}
+
+fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+/// The first three fields of /proc/loadavg ("?" where unavailable).
+fn load_average() -> String {
+    fs::read_to_string("/proc/loadavg")
+        .ok()
+        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+        .unwrap_or_else(|| "?".into())
+}
+
+/// CPU time of this process so far, in seconds: the sum over its threads
+/// of their time on a CPU (`/proc/self/task/*/schedstat`, nanoseconds).
+/// Unlike wall-clock time it hardly changes when other processes compete
+/// for the cores. Threads that have exited are not counted, which is fine
+/// for differences over an iteration (rayon's workers live on). None where
+/// /proc does not tell.
+fn cpu_seconds() -> Option<f64> {
+    let mut ns = 0u64;
+    for task in fs::read_dir("/proc/self/task").ok()? {
+        let path = task.ok()?.path().join("schedstat");
+        // A thread may exit between the listing and the read: skip it.
+        let Ok(text) = fs::read_to_string(path) else {
+            continue;
+        };
+        ns += text.split_whitespace().next()?.parse::<u64>().ok()?;
+    }
+    Some(ns as f64 * 1e-9)
+}
+
+/// The state of a render at a checkpoint.
+struct Rendered {
+    iteration: u64,
+    /// Cumulative rendering seconds, wall clock.
+    seconds: f64,
+    /// Cumulative rendering seconds, CPU time of all threads.
+    cpu_seconds: Option<f64>,
+    /// The film of RGB estimates.
+    film: Film,
+    /// A film of the luminance of the same estimates (in every channel),
+    /// for the noise on luminance: the RGB film's per-channel variances do
+    /// not give the luminance's, which needs their covariances.
+    luminance: Film,
+}
+
+impl Rendered {
+    /// Per-pixel sample variance s^2 of the luminance estimates.
+    fn luminance_variance(&self) -> Vec<f64> {
+        self.luminance.variance().iter().map(|v| v.x).collect()
+    }
+}
+
+/// Renders iterations 1..=`iterations`, calling `at_checkpoint` after each
+/// iteration listed in `checkpoints`. Only `render_iteration` and the RGB
+/// film's `add_iteration` are timed.
+fn render(
+    renderer: &Renderer,
+    iterations: u64,
+    checkpoints: &[u64],
+    progress: &mut Progress,
+    label: &str,
+    mut at_checkpoint: impl FnMut(&Rendered),
+) -> Rendered {
+    let mut state = Rendered {
+        iteration: 0,
+        seconds: 0.0,
+        cpu_seconds: Some(0.0),
+        film: renderer.new_film(),
+        luminance: renderer.new_film(),
+    };
+    let pixels = state.film.width() as usize * state.film.height() as usize;
+    let mut estimates = vec![Vec3::ZERO; pixels];
+    let mut luminance = vec![Vec3::ZERO; pixels];
+    let bar = progress.start(label, iterations);
+    let mut elapsed = Duration::ZERO;
+    for n in 1..=iterations {
+        let cpu_before = cpu_seconds();
+        let t = Instant::now();
+        renderer.render_iteration(n, &mut estimates);
+        state.film.add_iteration(&estimates);
+        elapsed += t.elapsed();
+        state.cpu_seconds = match (state.cpu_seconds, cpu_before, cpu_seconds()) {
+            (Some(sum), Some(before), Some(after)) => Some(sum + (after - before).max(0.0)),
+            _ => None,
+        };
+        for (l, e) in luminance.iter_mut().zip(&estimates) {
+            *l = Vec3::splat(metrics::luminance(*e) as f32);
+        }
+        state.luminance.add_iteration(&luminance);
+        state.iteration = n;
+        state.seconds = elapsed.as_secs_f64();
+        if checkpoints.contains(&n) {
+            at_checkpoint(&state);
+        }
+        progress.advance(&bar, label, n, iterations, state.seconds);
+    }
+    bar.finish_and_clear();
+    state
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn root() -> PathBuf {
+        crate::workspace_root()
+    }
+
+    /// A whole study on a tiny image: every output file appears, the
+    /// reference comes from the cache the second time, and the curves have
+    /// one row per config x checkpoint x reference.
+    #[test]
+    fn tiny_study_writes_every_output_and_caches_the_reference() {
+        let out = std::env::temp_dir().join(format!("xtask-study-run-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&out);
+        let args: Vec<String> = [
+            "--scene",
+            "scenes/glossy-caustic",
+            "--resolution",
+            "16x12",
+            "--iterations",
+            "3",
+            "--reference-iterations",
+            "4",
+            "--configs",
+            "pt,bpt-reg",
+            "--unbiased-reference",
+            "bpt",
+            "--seed",
+            "424242",
+            "--out",
+            out.to_str().unwrap(),
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        let cache = out.join("cache");
+        run_with_cache(&root(), &args, &cache).unwrap();
+        for file in [
+            "curves.csv",
+            "curves.json",
+            "report.md",
+            "rmse-vs-time.svg",
+            "rmse-vs-time.png",
+            "relmse-vs-time.svg",
+            "noise-vs-iterations.svg",
+            "rmse-vs-cpu-time.svg",
+            "rmse-vs-time-unbiased.svg",
+            "contact-sheet.png",
+            "images/reference.exr",
+            "images/unbiased-bpt.exr",
+            "images/bpt-reg.exr",
+        ] {
+            assert!(out.join(file).is_file(), "{file}");
+        }
+        let csv = fs::read_to_string(out.join("curves.csv")).unwrap();
+        // Checkpoints 1, 2, 3; two configs; two references; plus the header.
+        assert_eq!(csv.lines().count(), 1 + 3 * 2 * 2, "{csv}");
+        let report = fs::read_to_string(out.join("report.md")).unwrap();
+        assert!(report.contains("no: rendered in this run"), "{report}");
+        assert!(!report.contains("from the cache"), "{report}");
+        assert_eq!(
+            fs::read_dir(&cache).unwrap().count(),
+            4,
+            "two EXR + JSON pairs"
+        );
+        run_with_cache(&root(), &args, &cache).unwrap();
+        let report = fs::read_to_string(out.join("report.md")).unwrap();
+        assert!(report.contains("yes: from the cache"), "{report}");
+        assert!(!report.contains("rendered in this run"), "{report}");
+        fs::remove_dir_all(out).unwrap();
+    }
+}

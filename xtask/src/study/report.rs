@@ -1,0 +1,768 @@
+//! The study's outputs: curves (CSV, JSON), charts, the contact sheet and
+//! report.md with the equal-time comparisons.
+
+use std::fmt::Write as _;
+use std::fs;
+use std::path::Path;
+
+use serde_json::{Value, json};
+
+use super::metrics::{self, Errors};
+use super::plot::{self, Chart, Series};
+use super::sheet::{self, Crop, SheetInfo};
+use super::{Config, Run, Study};
+
+/// Writes every output into `out`; returns the names of the files written.
+pub fn write(out: &Path, study: &Study) -> Result<Vec<String>, String> {
+    let mut written = Vec::new();
+    write_file(out, "curves.csv", &csv(study), &mut written)?;
+    let charts = write_charts(out, study)?;
+    let (w, h) = study.resolution;
+    let reference = &study.references[0];
+    let finals: Vec<Vec<f64>> = study
+        .runs
+        .iter()
+        .map(|r| metrics::luminance_image(&r.image))
+        .collect();
+    let crop = sheet::choose_crop(w, h, &reference.luminance, &finals);
+    let tiles: Vec<(String, Vec<glam::Vec3>)> = study
+        .runs
+        .iter()
+        .map(|r| (r.config.to_string(), r.image.clone()))
+        .collect();
+    let sheet_info = sheet::write(
+        &out.join("contact-sheet.png"),
+        (w, h),
+        &reference.image,
+        &tiles,
+        crop,
+    )?;
+    let comparisons = Comparisons::of(study);
+    write_file(
+        out,
+        "curves.json",
+        &(serde_json::to_string_pretty(&json_of(study, &comparisons, crop))
+            .map_err(|e| e.to_string())?
+            + "\n"),
+        &mut written,
+    )?;
+    written.extend(charts.iter().cloned());
+    written.push("contact-sheet.png".into());
+    let md = markdown(study, &comparisons, &charts, crop, &sheet_info);
+    write_file(out, "report.md", &md, &mut written)?;
+    Ok(written)
+}
+
+fn write_file(out: &Path, name: &str, text: &str, written: &mut Vec<String>) -> Result<(), String> {
+    let path = out.join(name);
+    fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+    written.push(name.to_string());
+    Ok(())
+}
+
+/// File-name suffix and label of reference `i`.
+fn reference_suffix(study: &Study, i: usize) -> (String, String) {
+    let r = &study.references[i];
+    if i == 0 {
+        (
+            String::new(),
+            format!("{} x {}", r.config, r.spec.iterations),
+        )
+    } else {
+        (
+            format!("-{}", r.role),
+            format!("{} {} x {}", r.role, r.config, r.spec.iterations),
+        )
+    }
+}
+
+fn write_charts(out: &Path, study: &Study) -> Result<Vec<String>, String> {
+    let (w, h) = study.resolution;
+    let mut files = Vec::new();
+    let series = |value: &dyn Fn(&super::Point) -> f64, by_iteration: bool| -> Vec<Series> {
+        study
+            .runs
+            .iter()
+            .map(|run| Series {
+                name: run.config.to_string(),
+                points: run
+                    .points
+                    .iter()
+                    .map(|p| {
+                        let x = if by_iteration {
+                            p.iteration as f64
+                        } else {
+                            p.seconds
+                        };
+                        (x, value(p))
+                    })
+                    .collect(),
+            })
+            .collect()
+    };
+    for i in 0..study.references.len() {
+        let (suffix, label) = reference_suffix(study, i);
+        for (stem, metric, value) in [
+            (
+                "rmse-vs-time",
+                "RMSE",
+                &(move |p: &super::Point| p.errors[i].rmse) as &dyn Fn(&super::Point) -> f64,
+            ),
+            (
+                "relmse-vs-time",
+                "relMSE",
+                &(move |p: &super::Point| p.errors[i].rel_mse),
+            ),
+        ] {
+            let chart = Chart {
+                title: format!(
+                    "{metric} vs time, {} {w}x{h}, ref. {label}",
+                    study.scene_name
+                ),
+                x_label: "render time (s, wall clock)".into(),
+                y_label: format!("{metric} (luminance)"),
+                series: series(value, false),
+            };
+            files.extend(plot::write_chart(out, &format!("{stem}{suffix}"), &chart)?);
+        }
+    }
+    if study
+        .runs
+        .iter()
+        .all(|r| r.points.iter().all(|p| p.cpu_seconds.is_some()))
+    {
+        let (_, label) = reference_suffix(study, 0);
+        let chart = Chart {
+            title: format!(
+                "RMSE vs CPU time, {} {w}x{h}, ref. {label}",
+                study.scene_name
+            ),
+            x_label: "render CPU time (s, all threads)".into(),
+            y_label: "RMSE (luminance)".into(),
+            series: study
+                .runs
+                .iter()
+                .map(|run| Series {
+                    name: run.config.to_string(),
+                    points: run
+                        .points
+                        .iter()
+                        .map(|p| (p.cpu_seconds.unwrap_or(f64::NAN), p.errors[0].rmse))
+                        .collect(),
+                })
+                .collect(),
+        };
+        files.extend(plot::write_chart(out, "rmse-vs-cpu-time", &chart)?);
+    }
+    let chart = Chart {
+        title: format!("Noise vs iterations, {} {w}x{h}", study.scene_name),
+        x_label: "iterations N".into(),
+        y_label: "mean s^2/N (luminance)".into(),
+        series: series(&|p| p.noise.map_or(f64::NAN, |n| n.variance), true),
+    };
+    files.extend(plot::write_chart(out, "noise-vs-iterations", &chart)?);
+    Ok(files)
+}
+
+/// A regularized config against its unregularized algorithm at equal time.
+struct Pair {
+    reference: usize,
+    unregularized: String,
+    regularized: String,
+    time: f64,
+    rmse: (f64, f64),
+    rel_mse: (f64, f64),
+    /// At equal CPU time: (CPU seconds, RMSE off, RMSE reg).
+    cpu: Option<(f64, f64, f64)>,
+}
+
+/// A config's time to reach an error level.
+struct Level {
+    reference: usize,
+    /// The config whose final RMSE the level is.
+    set_by: String,
+    rmse: f64,
+    /// Per run (study order): seconds to reach the level.
+    times: Vec<Option<f64>>,
+}
+
+struct Comparisons {
+    pairs: Vec<Pair>,
+    levels: Vec<Level>,
+}
+
+impl Comparisons {
+    fn of(study: &Study) -> Self {
+        let mut pairs = Vec::new();
+        let mut levels = Vec::new();
+        let find = |c: Config| study.runs.iter().find(|r| r.config == c);
+        for reference in 0..study.references.len() {
+            let rmse = |r: &Run| r.curve(|p| p.errors[reference].rmse);
+            let rel = |r: &Run| r.curve(|p| p.errors[reference].rel_mse);
+            for (algorithm, _) in integrators::Algorithm::ALL {
+                let unreg = find(Config {
+                    algorithm,
+                    regularized: false,
+                });
+                let reg = find(Config {
+                    algorithm,
+                    regularized: true,
+                });
+                let (Some(unreg), Some(reg)) = (unreg, reg) else {
+                    continue;
+                };
+                let Some((time, e_unreg, e_reg)) = metrics::at_equal_time(&rmse(unreg), &rmse(reg))
+                else {
+                    continue;
+                };
+                let Some((_, r_unreg, r_reg)) = metrics::at_equal_time(&rel(unreg), &rel(reg))
+                else {
+                    continue;
+                };
+                let cpu = |r: &Run| r.cpu_curve(|p| p.errors[reference].rmse);
+                let cpu = match (cpu(unreg), cpu(reg)) {
+                    (Some(a), Some(b)) => metrics::at_equal_time(&a, &b),
+                    _ => None,
+                };
+                pairs.push(Pair {
+                    reference,
+                    unregularized: unreg.config.to_string(),
+                    regularized: reg.config.to_string(),
+                    time,
+                    rmse: (e_unreg, e_reg),
+                    rel_mse: (r_unreg, r_reg),
+                    cpu,
+                });
+            }
+            let mut finals: Vec<(String, f64)> = study
+                .runs
+                .iter()
+                .filter_map(|r| {
+                    let e = r.points.last()?.errors[reference].rmse;
+                    Some((r.config.to_string(), e))
+                })
+                .collect();
+            finals.sort_by(|a, b| b.1.total_cmp(&a.1));
+            for (set_by, level) in finals {
+                levels.push(Level {
+                    reference,
+                    set_by,
+                    rmse: level,
+                    times: study
+                        .runs
+                        .iter()
+                        .map(|r| metrics::time_to_reach(&rmse(r), level))
+                        .collect(),
+                });
+            }
+        }
+        Self { pairs, levels }
+    }
+}
+
+/// The fastest run for a level: (index, seconds).
+fn fastest(times: &[Option<f64>]) -> Option<(usize, f64)> {
+    times
+        .iter()
+        .enumerate()
+        .filter_map(|(i, t)| t.map(|t| (i, t)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+}
+
+fn csv(study: &Study) -> String {
+    let mut s = String::from(
+        "config,reference,iteration,seconds,cpu_seconds,rmse,rel_mse,noise_std_error,noise_variance\n",
+    );
+    let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:e}"));
+    for run in &study.runs {
+        for p in &run.points {
+            for (r, e) in study.references.iter().zip(&p.errors) {
+                let _ = writeln!(
+                    s,
+                    "{},{} {},{},{:e},{},{:e},{:e},{},{}",
+                    run.config,
+                    r.role,
+                    r.config,
+                    p.iteration,
+                    p.seconds,
+                    opt(p.cpu_seconds),
+                    e.rmse,
+                    e.rel_mse,
+                    opt(p.noise.map(|n| n.std_error)),
+                    opt(p.noise.map(|n| n.variance)),
+                );
+            }
+        }
+    }
+    s
+}
+
+fn json_of(study: &Study, comparisons: &Comparisons, crop: Crop) -> Value {
+    let reference_name = |i: usize| {
+        let r = &study.references[i];
+        format!("{} {}", r.role, r.config)
+    };
+    let rows: Vec<Value> = study
+        .runs
+        .iter()
+        .flat_map(|run| {
+            run.points.iter().flat_map(move |p| {
+                p.errors.iter().enumerate().map(move |(i, e)| {
+                    json!({
+                        "config": run.config.to_string(),
+                        "reference": reference_name(i),
+                        "iteration": p.iteration,
+                        "seconds": p.seconds,
+                        "cpu_seconds": p.cpu_seconds,
+                        "rmse": e.rmse,
+                        "rel_mse": e.rel_mse,
+                        "noise_std_error": p.noise.map(|n| n.std_error),
+                        "noise_variance": p.noise.map(|n| n.variance),
+                    })
+                })
+            })
+        })
+        .collect();
+    json!({
+        "scene": study.scene_file.display().to_string(),
+        "scene_hash": format!("{:016x}", study.scene_hash),
+        "resolution": [study.resolution.0, study.resolution.1],
+        "iterations": study.iterations,
+        "budget": study.budget,
+        "seed": study.seed,
+        "max_depth": study.max_depth,
+        "tau0": study.tau0,
+        "renderer_version": study.renderer_version,
+        "cores": study.cores,
+        "load_average": [study.load.0, study.load.1],
+        "total_seconds": study.total_seconds,
+        "command": study.command,
+        "metrics": "luminance Y = 0.2126 R + 0.7152 G + 0.0722 B; rmse = sqrt(mean((Y - Y_ref)^2)); \
+                    rel_mse = mean((Y - Y_ref)^2 / (Y_ref^2 + 0.01)); noise_std_error = mean(s/sqrt(N)), \
+                    noise_variance = mean(s^2/N), s^2 the sample variance of the N per-iteration Y estimates",
+        "references": study.references.iter().map(|r| json!({
+            "role": r.role,
+            "config": r.config.to_string(),
+            "iterations": r.spec.iterations,
+            "seed": r.spec.seed,
+            "key": r.key,
+            "cache_file": r.cache_file.display().to_string(),
+            "from_cache": r.cached,
+            "render_seconds": r.render_seconds,
+            "cpu_seconds": r.cpu_seconds,
+            "noise_std_error": r.noise.map(|n| n.std_error),
+            "noise_variance": r.noise.map(|n| n.variance),
+            "invalid_samples": r.invalid_samples,
+        })).collect::<Vec<_>>(),
+        "configs": study.runs.iter().map(|r| json!({
+            "config": r.config.to_string(),
+            "setup_seconds": r.setup_seconds,
+            "render_seconds": r.points.last().map(|p| p.seconds),
+            "cpu_seconds": r.points.last().and_then(|p| p.cpu_seconds),
+            "invalid_samples": r.invalid_samples,
+        })).collect::<Vec<_>>(),
+        "rows": rows,
+        "equal_time": comparisons.pairs.iter().map(|p| json!({
+            "reference": reference_name(p.reference),
+            "unregularized": p.unregularized,
+            "regularized": p.regularized,
+            "seconds": p.time,
+            "rmse_unregularized": p.rmse.0,
+            "rmse_regularized": p.rmse.1,
+            "rmse_ratio_regularized_over_unregularized": p.rmse.1 / p.rmse.0,
+            "rel_mse_unregularized": p.rel_mse.0,
+            "rel_mse_regularized": p.rel_mse.1,
+            "rel_mse_ratio_regularized_over_unregularized": p.rel_mse.1 / p.rel_mse.0,
+            "equal_cpu_time": p.cpu.map(|(t, a, b)| json!({
+                "cpu_seconds": t,
+                "rmse_unregularized": a,
+                "rmse_regularized": b,
+                "rmse_ratio_regularized_over_unregularized": b / a,
+            })),
+        })).collect::<Vec<_>>(),
+        "time_to_rmse": comparisons.levels.iter().map(|l| json!({
+            "reference": reference_name(l.reference),
+            "rmse": l.rmse,
+            "set_by": l.set_by,
+            "seconds": study.runs.iter().zip(&l.times)
+                .map(|(r, t)| (r.config.to_string(), json!(t)))
+                .collect::<serde_json::Map<_, _>>(),
+        })).collect::<Vec<_>>(),
+        "contact_sheet_crop": { "x": crop.x, "y": crop.y, "width": crop.width, "height": crop.height },
+    })
+}
+
+fn sci(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v:.3e}")
+    } else {
+        "n/a".into()
+    }
+}
+
+fn secs(v: f64) -> String {
+    if !v.is_finite() {
+        "n/a".into()
+    } else if v < 10.0 {
+        format!("{v:.3}")
+    } else {
+        format!("{v:.1}")
+    }
+}
+
+fn markdown(
+    study: &Study,
+    comparisons: &Comparisons,
+    charts: &[String],
+    crop: Crop,
+    sheet: &SheetInfo,
+) -> String {
+    let (w, h) = study.resolution;
+    let mut s = String::new();
+    let _ = writeln!(s, "# Convergence study: {}\n", study.scene_name);
+    let _ = writeln!(s, "Command: `{}`\n", study.command);
+    let _ = writeln!(s, "| setting | value |\n|---|---|");
+    let rows = [
+        ("scene", study.scene_file.display().to_string()),
+        ("scene files hash", format!("{:016x}", study.scene_hash)),
+        ("resolution", format!("{w}x{h}")),
+        ("budget preset", study.budget.to_string()),
+        ("iterations per config", study.iterations.to_string()),
+        (
+            "configs",
+            study
+                .runs
+                .iter()
+                .map(|r| r.config.to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
+        ),
+        ("seed (configs)", study.seed.to_string()),
+        ("max depth", study.max_depth.to_string()),
+        (
+            "regularization of -reg configs",
+            format!("selective, progressive tau_N from tau_0 = {}", study.tau0),
+        ),
+        ("renderer", study.renderer_version.clone()),
+        (
+            "machine",
+            format!(
+                "{} logical cores; load average (1, 5, 15 min) {} at start, {} at end",
+                study.cores, study.load.0, study.load.1
+            ),
+        ),
+        (
+            "study wall time",
+            format!(
+                "{:.1} s (references, configs and metrics; before writing these outputs)",
+                study.total_seconds
+            ),
+        ),
+    ];
+    for (k, v) in rows {
+        let _ = writeln!(s, "| {k} | {v} |");
+    }
+
+    let _ = writeln!(
+        s,
+        "\n## Metrics\n\n\
+         All metrics are on **luminance** Y = 0.2126 R + 0.7152 G + 0.0722 B of the linear \
+         image, none per channel (SPEC §8):\n\n\
+         - RMSE = sqrt(mean over pixels of (Y - Y_ref)^2);\n\
+         - relMSE = mean of (Y - Y_ref)^2 / (Y_ref^2 + 0.01);\n\
+         - noise: per pixel, s^2 = the sample variance of the N per-iteration estimates of Y; \
+         reported as the pixel mean of the standard error s/sqrt(N) and of s^2/N (what the \
+         supplemental's Fig. 2 plots as \"sigma/N\"). Undefined at N = 1. s^2/N is the \
+         variance of the mean of N *independent* estimates; the renderer's iterations are \
+         Owen-scrambled Sobol samples, stratified across iterations, so where stratification \
+         works (e.g. a pixel on the edge of a light seen directly) the actual error of the \
+         mean is far below s^2/N. Compare configs by RMSE; read the noise columns as the \
+         per-iteration spread.\n\n\
+         Time is the wall-clock time of rendering only (`render_iteration` and the film \
+         update, all cores), cumulative over iterations; scene setup (BVH, lights) and the \
+         metrics are excluded. The machine is shared: see the load average above. \
+         Checkpoints are at N = 1, 2, 4, ... and the last iteration."
+    );
+
+    let _ = writeln!(s, "\n## References\n");
+    let _ = writeln!(
+        s,
+        "| role | config | iterations | seed | render time | CPU time | from cache | noise s/sqrt(N) | noise s^2/N | NaN/Inf dropped | cache file |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|"
+    );
+    for r in &study.references {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} s | {} s | {} | {} | {} | {} | `{}` |",
+            r.role,
+            r.config,
+            r.spec.iterations,
+            r.spec.seed,
+            secs(r.render_seconds),
+            secs(r.cpu_seconds.unwrap_or(f64::NAN)),
+            if r.cached {
+                "yes: from the cache"
+            } else {
+                "no: rendered in this run"
+            },
+            sci(r.noise.map_or(f64::NAN, |n| n.std_error)),
+            sci(r.noise.map_or(f64::NAN, |n| n.variance)),
+            r.invalid_samples,
+            r.cache_file.display()
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nA reference's own noise bounds how small an error it can resolve: an RMSE near \
+         sqrt(its s^2/N) is at the reference's noise floor. The configs never share random \
+         numbers with a reference (different seeds)."
+    );
+    if study.references.len() > 1 {
+        let e = metrics::errors(
+            &study.references[1].luminance,
+            &study.references[0].luminance,
+        );
+        let _ = writeln!(
+            s,
+            "\nThe two references differ by RMSE {} and relMSE {} (the regularized against the \
+             unregularized one): the bias of regularization at {} iterations, plus both \
+             references' noise.",
+            sci(e.rmse),
+            sci(e.rel_mse),
+            study.references[0].spec.iterations
+        );
+        if study.references[1].config.algorithm == integrators::Algorithm::Vcm
+            || study.references[1].config.algorithm == integrators::Algorithm::Ppm
+        {
+            let _ = writeln!(
+                s,
+                "\nNote: the unregularized reference merges photons, which is consistent but \
+                 biased at a finite iteration count (the merge radius)."
+            );
+        }
+    }
+
+    let _ = writeln!(s, "\n## Final iteration\n");
+    let mut header = String::from(
+        "| config | iterations | render time (s) | CPU time (s) | s/iteration | setup (s) |",
+    );
+    let mut rule = String::from("|---|---|---|---|---|---|");
+    for i in 0..study.references.len() {
+        let tag = reference_tag(study, i);
+        let _ = write!(header, " RMSE{tag} | relMSE{tag} |");
+        rule.push_str("---|---|");
+    }
+    header.push_str(" s/sqrt(N) | s^2/N | NaN/Inf dropped |");
+    rule.push_str("---|---|---|");
+    let _ = writeln!(s, "{header}\n{rule}");
+    for run in &study.runs {
+        let Some(p) = run.points.last() else { continue };
+        let _ = write!(
+            s,
+            "| {} | {} | {} | {} | {} | {} |",
+            run.config,
+            p.iteration,
+            secs(p.seconds),
+            secs(p.cpu_seconds.unwrap_or(f64::NAN)),
+            sci(p.seconds / p.iteration as f64),
+            secs(run.setup_seconds)
+        );
+        for e in &p.errors {
+            let _ = write!(s, " {} | {} |", sci(e.rmse), sci(e.rel_mse));
+        }
+        let _ = writeln!(
+            s,
+            " {} | {} | {} |",
+            sci(p.noise.map_or(f64::NAN, |n| n.std_error)),
+            sci(p.noise.map_or(f64::NAN, |n| n.variance)),
+            run.invalid_samples
+        );
+    }
+
+    let _ = writeln!(s, "\n## Equal-time comparison\n");
+    let _ = writeln!(
+        s,
+        "Regularized against unregularized, each algorithm at the smaller of the two final \
+         render times, the errors interpolated linearly in log-log space between \
+         checkpoints. A ratio below 1 means regularization has the smaller error at equal \
+         time. The last two columns repeat the RMSE ratio at equal CPU time (all threads' time \
+         on a core, from /proc), which other processes on the machine disturb much less than \
+         wall-clock time.\n"
+    );
+    if comparisons.pairs.is_empty() {
+        let _ = writeln!(
+            s,
+            "(No pair of an algorithm with and without `-reg` among the configs.)"
+        );
+    } else {
+        let _ = writeln!(
+            s,
+            "| reference | pair | time (s) | RMSE off | RMSE reg | **RMSE ratio reg/off** | relMSE off | relMSE reg | relMSE ratio reg/off | CPU time (s) | RMSE ratio at equal CPU time |\n\
+             |---|---|---|---|---|---|---|---|---|---|---|"
+        );
+        for p in &comparisons.pairs {
+            let _ = writeln!(
+                s,
+                "| {} | {} vs {} | {} | {} | {} | **{:.3}** | {} | {} | {:.3} | {} | {} |",
+                reference_name(study, p.reference),
+                p.regularized,
+                p.unregularized,
+                secs(p.time),
+                sci(p.rmse.0),
+                sci(p.rmse.1),
+                p.rmse.1 / p.rmse.0,
+                sci(p.rel_mse.0),
+                sci(p.rel_mse.1),
+                p.rel_mse.1 / p.rel_mse.0,
+                p.cpu.map_or("n/a".into(), |c| secs(c.0)),
+                p.cpu.map_or("n/a".into(), |c| format!("{:.3}", c.2 / c.1)),
+            );
+        }
+    }
+
+    let _ = writeln!(s, "\n## Time to reach an error level\n");
+    let _ = writeln!(
+        s,
+        "Levels: the final RMSE of each config. Each cell is the render time (s) at which a \
+         config's RMSE first falls to the level (log-log interpolation between checkpoints; \
+         a config already below it at its first checkpoint shows that checkpoint's time), and \
+         in brackets how many times longer that is than the fastest config's; `-` when the \
+         level is not reached within the run.\n"
+    );
+    for reference in 0..study.references.len() {
+        let _ = writeln!(s, "Against the {}:\n", reference_name(study, reference));
+        let mut header = String::from("| RMSE level | set by |");
+        let mut rule = String::from("|---|---|");
+        for run in &study.runs {
+            let _ = write!(header, " {} |", run.config);
+            rule.push_str("---|");
+        }
+        let _ = writeln!(s, "{header} first |\n{rule}---|");
+        for level in comparisons
+            .levels
+            .iter()
+            .filter(|l| l.reference == reference)
+        {
+            let best = fastest(&level.times);
+            let _ = write!(s, "| {} | {} |", sci(level.rmse), level.set_by);
+            for t in &level.times {
+                match (t, best) {
+                    (Some(t), Some((_, b))) => {
+                        let _ = write!(s, " {} (x{:.2}) |", secs(*t), t / b);
+                    }
+                    _ => s.push_str(" - |"),
+                }
+            }
+            let first = best.map_or("-".to_string(), |(i, _)| study.runs[i].config.to_string());
+            let _ = writeln!(s, " {first} |");
+        }
+        s.push('\n');
+    }
+
+    let _ = writeln!(s, "## Checkpoints\n");
+    let mut header = String::from("| config | N | time (s) | CPU (s) |");
+    let mut rule = String::from("|---|---|---|---|");
+    for i in 0..study.references.len() {
+        let tag = reference_tag(study, i);
+        let _ = write!(header, " RMSE{tag} | relMSE{tag} |");
+        rule.push_str("---|---|");
+    }
+    let _ = writeln!(s, "{header} s/sqrt(N) | s^2/N |\n{rule}---|---|");
+    for run in &study.runs {
+        for p in &run.points {
+            let _ = write!(
+                s,
+                "| {} | {} | {} | {} |",
+                run.config,
+                p.iteration,
+                secs(p.seconds),
+                secs(p.cpu_seconds.unwrap_or(f64::NAN))
+            );
+            for Errors { rmse, rel_mse } in &p.errors {
+                let _ = write!(s, " {} | {} |", sci(*rmse), sci(*rel_mse));
+            }
+            let _ = writeln!(
+                s,
+                " {} | {} |",
+                sci(p.noise.map_or(f64::NAN, |n| n.std_error)),
+                sci(p.noise.map_or(f64::NAN, |n| n.variance))
+            );
+        }
+    }
+
+    let _ = writeln!(s, "\n## Charts\n");
+    for chart in charts.iter().filter(|c| c.ends_with(".svg")) {
+        let _ = writeln!(s, "![{chart}]({chart})\n");
+    }
+    let png: Vec<&String> = charts.iter().filter(|c| c.ends_with(".png")).collect();
+    if !png.is_empty() {
+        let _ = writeln!(
+            s,
+            "PNG versions (same charts, 8x8 bitmap font): {}\n",
+            png.iter()
+                .map(|c| format!("[{c}]({c})"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+
+    let _ = writeln!(
+        s,
+        "## Contact sheet\n\n![contact sheet](contact-sheet.png)\n"
+    );
+    let _ = writeln!(
+        s,
+        "Tiles, left to right and top to bottom (five a row): {}. The first is the whole \
+         reference, scaled to the tile, with the crop outlined in red; the others are the \
+         crop x = {}..{}, y = {}..{} ({}x{} px, magnified {}x, nearest neighbour) of the \
+         reference and of every config at its final iteration ({}). The crop is the window \
+         of a quarter of the image's width and height where the configs' final images \
+         disagree most with the reference (per pixel min(1, |Y - Y_ref| / (Y_ref + 0.05)), \
+         summed over the configs). Exposure: x{:.3} (the reference crop's 99th-percentile \
+         luminance maps to 1), then sRGB. Linear images of every tile are in `images/`.",
+        sheet.order.join(", "),
+        crop.x,
+        crop.x + crop.width - 1,
+        crop.y,
+        crop.y + crop.height - 1,
+        crop.width,
+        crop.height,
+        sheet.zoom,
+        study.iterations,
+        sheet.exposure
+    );
+    s
+}
+
+fn reference_name(study: &Study, i: usize) -> String {
+    let r = &study.references[i];
+    format!("{} ({} x {})", r.role, r.config, r.spec.iterations)
+}
+
+/// Column suffix for reference `i`: none for the main one.
+fn reference_tag(study: &Study, i: usize) -> String {
+    if i == 0 {
+        String::new()
+    } else {
+        format!(" vs {}", study.references[i].role)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fastest_skips_unreached_levels() {
+        assert_eq!(fastest(&[None, Some(2.0), Some(1.5)]), Some((2, 1.5)));
+        assert_eq!(fastest(&[None, None]), None);
+    }
+
+    #[test]
+    fn number_formats() {
+        assert_eq!(sci(0.01234), "1.234e-2");
+        assert_eq!(sci(f64::NAN), "n/a");
+        assert_eq!(secs(1.23456), "1.235");
+        assert_eq!(secs(123.456), "123.5");
+    }
+}
