@@ -76,8 +76,7 @@ impl SurfacePoint {
         let i = hit.triangle as usize;
         let b = Vec3::new(1.0 - hit.b1 - hit.b2, hit.b1, hit.b2);
         let interpolate = |v: [Vec3; 3]| v[0] * b.x + v[1] * b.y + v[2] * b.z;
-        let [a, b1, b2] = scene.triangles[i];
-        let n_winding = (b1 - a).cross(b2 - a).normalize_or_zero();
+        let n_winding = scene.geometric_normal(i);
         let ns = interpolate(scene.normals[i])
             .try_normalize()
             .unwrap_or(n_winding);

@@ -287,7 +287,7 @@ impl Lights {
                 let su = u.x.sqrt();
                 let (b1, b2) = (u.y * su, 1.0 - su);
                 let q = a * (1.0 - b1 - b2) + b * b1 + c * b2;
-                let n = (b - a).cross(c - a).normalize_or_zero();
+                let n = scene.geometric_normal(triangle as usize);
                 let d = q - p;
                 let wi = d.try_normalize()?;
                 if n.dot(-wi) <= 0.0 {
@@ -448,7 +448,7 @@ impl Lights {
                 let su = u_position.x.sqrt();
                 let (b1, b2) = (u_position.y * su, 1.0 - su);
                 let p = a * (1.0 - b1 - b2) + b * b1 + c * b2;
-                let n = (b - a).cross(c - a).normalize_or_zero();
+                let n = scene.geometric_normal(triangle as usize);
                 let local = cosine_hemisphere(u_direction);
                 if local.z <= 0.0 {
                     return None;

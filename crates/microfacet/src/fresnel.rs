@@ -18,11 +18,15 @@ pub fn dielectric(cos_theta_i: f32, eta: f32) -> f32 {
         (cos_theta_i, eta)
     };
     let cos_i = cos_i.min(1.0);
-    let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
-    if !(sin2_t < 1.0) {
+    // cos_t^2 = 1 - sin_t^2 = ((eta - 1)(eta + 1) + cos_i^2) / eta^2, exact at
+    // eta = 1: the textbook 1 - (1 - cos_i^2)/eta^2 rounds 1 - cos_i^2 to 1 at
+    // grazing angles (cos_i^2 < 3e-8) and reported total internal reflection
+    // for an index-matched interface.
+    let cos2_t = ((eta - 1.0) * (eta + 1.0) + cos_i * cos_i) / (eta * eta);
+    if !(cos2_t > 0.0) {
         return 1.0;
     }
-    let cos_t = (1.0 - sin2_t).sqrt();
+    let cos_t = cos2_t.sqrt();
     let r_parallel = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
     let r_perpendicular = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
     (0.5 * (r_parallel * r_parallel + r_perpendicular * r_perpendicular)).clamp(0.0, 1.0)
@@ -147,6 +151,16 @@ impl Complex {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Found by `cargo xtask stability`: an index-matched interface
+    /// reflected grazing rays totally.
+    #[test]
+    fn index_matched_interface_transmits_at_grazing_angles() {
+        assert_eq!(dielectric(1e-4, 1.0), 0.0);
+        assert_eq!(dielectric(-1e-6, 1.0), 0.0);
+        let f = dielectric(-0.000_509_057_6, 1.000_000_1);
+        assert!(f < 0.5, "{f}");
+    }
 
     #[test]
     fn dielectric_known_values() {

@@ -29,7 +29,7 @@ pub use error::SceneError;
 pub use features::SceneFeatures;
 pub use light::Light;
 pub use material::{Material, Surface};
-pub use scene::{LoadReport, RenderSettings, Scene};
+pub use scene::{LoadReport, RenderSettings, Scene, triangle_cross, triangle_normal};
 pub use texture::Texture;
 
 /// Resolution when neither the manifest nor the caller gives one: 512 pixels

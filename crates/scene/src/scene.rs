@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use glam::{Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 
 use crate::camera::Camera;
 use crate::error::SceneError;
@@ -71,16 +71,29 @@ impl Scene {
 
     /// Area of triangle `i`.
     pub fn triangle_area(&self, i: usize) -> f32 {
-        let [a, b, c] = self.triangles[i];
-        0.5 * (b - a).cross(c - a).length()
+        (0.5 * triangle_cross(&self.triangles[i]).length()) as f32
     }
 
-    /// Geometric normal of triangle `i` (unit, from the winding).
+    /// Geometric normal of triangle `i` (unit, from the winding; zero for a
+    /// degenerate triangle).
     pub fn geometric_normal(&self, i: usize) -> Vec3 {
-        let [a, b, c] = self.triangles[i];
-        (b - a).cross(c - a).normalize_or_zero()
+        triangle_normal(&self.triangles[i]).unwrap_or(Vec3::ZERO)
     }
 }
+
+/// (v1 - v0) x (v2 - v0) in f64: in f32 its squared length overflows for
+/// triangles wider than about 4e9, which then looked degenerate.
+pub fn triangle_cross(t: &[Vec3; 3]) -> DVec3 {
+    let [a, b, c] = t.map(Vec3::as_dvec3);
+    (b - a).cross(c - a)
+}
+
+/// The unit normal of a triangle from its winding, `None` for zero area.
+pub fn triangle_normal(t: &[Vec3; 3]) -> Option<Vec3> {
+    triangle_cross(t).try_normalize().map(DVec3::as_vec3)
+}
+
+impl Scene {}
 
 pub(crate) fn bounds_of(triangles: &[[Vec3; 3]]) -> (Vec3, Vec3) {
     let mut min = Vec3::splat(f32::INFINITY);
@@ -141,8 +154,7 @@ impl SceneBuilder {
                 "vertex position is NaN or infinite",
             ));
         }
-        let [a, b, c] = positions;
-        let Some(geometric) = (b - a).cross(c - a).try_normalize() else {
+        let Some(geometric) = triangle_normal(&positions) else {
             self.report.degenerate_triangles += 1;
             return Ok(());
         };
@@ -248,4 +260,23 @@ fn count_non_manifold_edges(triangles: &[[Vec3; 3]]) -> usize {
         }
     }
     uses.values().filter(|&&n| n > 2).count()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Found by `cargo xtask stability`: a quad 5e9 wide was dropped as
+    /// degenerate because |cross|^2 overflowed f32.
+    #[test]
+    fn huge_triangles_are_not_degenerate() {
+        let t = [
+            Vec3::ZERO,
+            Vec3::new(5e9, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, -5e9),
+        ];
+        assert_eq!(triangle_normal(&t), Some(Vec3::Y));
+        assert!((triangle_cross(&t).length() * 0.5 - 1.25e19).abs() < 1e6);
+        assert_eq!(triangle_normal(&[Vec3::ONE; 3]), None);
+    }
 }

@@ -8,7 +8,11 @@ pub type ShapeTriangle = ([Vec3; 3], [Vec3; 3], [Vec2; 3]);
 
 /// The parallelogram origin + s u + t v, (s, t) in [0, 1]^2, facing u x v.
 pub fn quad(origin: Vec3, u: Vec3, v: Vec3) -> Vec<ShapeTriangle> {
-    let n = u.cross(v).normalize_or_zero();
+    let n = u
+        .as_dvec3()
+        .cross(v.as_dvec3())
+        .normalize_or_zero()
+        .as_vec3();
     let (p00, p10, p11, p01) = (origin, origin + u, origin + u + v, origin + v);
     let (t00, t10, t11, t01) = (
         Vec2::new(0.0, 1.0),
