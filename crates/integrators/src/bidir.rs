@@ -459,14 +459,10 @@ impl Renderer {
             throughput *= s.weight;
             origin = point.spawn_origin(s.wo);
             direction = s.wo;
-            // Russian roulette on the throughput: an unbiased termination the
-            // MIS weights need not know about (they stay a partition of unity).
-            if length >= crate::pt::ROULETTE_DEPTH {
-                let survive = throughput.max_element().min(1.0);
-                if u_roulette >= survive {
-                    break;
-                }
-                throughput /= survive;
+            if length >= crate::pt::ROULETTE_DEPTH
+                && !crate::pt::survives_roulette(&mut throughput, u_roulette)
+            {
+                break;
             }
         }
         radiance

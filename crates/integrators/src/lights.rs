@@ -201,18 +201,22 @@ impl Lights {
         if pdf.is_finite() { pdf } else { 0.0 }
     }
 
-    /// Samples a light for the receiver at `p` from `u_select` and `u`.
-    /// `None` when the sample carries nothing (back side of an area light,
-    /// outside a spot cone, no light).
-    pub fn sample(&self, scene: &Scene, p: Vec3, u_select: f32, u: Vec2) -> Option<LightSample> {
+    /// The light chosen by `u_select` (in proportion to power) and its
+    /// selection probability; `None` without lights or for a powerless one.
+    fn select(&self, u_select: f32) -> Option<(usize, f32)> {
         let index = self
             .cdf
             .partition_point(|&c| c <= u_select)
             .min(self.lights.len().checked_sub(1)?);
         let pmf = self.pmf[index];
-        if pmf <= 0.0 {
-            return None;
-        }
+        (pmf > 0.0).then_some((index, pmf))
+    }
+
+    /// Samples a light for the receiver at `p` from `u_select` and `u`.
+    /// `None` when the sample carries nothing (back side of an area light,
+    /// outside a spot cone, no light).
+    pub fn sample(&self, scene: &Scene, p: Vec3, u_select: f32, u: Vec2) -> Option<LightSample> {
+        let (index, pmf) = self.select(u_select)?;
         let delta = |position: Vec3, intensity: Vec3| {
             let d = position - p;
             let dist2 = d.length_squared();
@@ -363,14 +367,7 @@ impl Lights {
         u_position: Vec2,
         u_direction: Vec2,
     ) -> Option<Emission> {
-        let index = self
-            .cdf
-            .partition_point(|&c| c <= u_select)
-            .min(self.lights.len().checked_sub(1)?);
-        let pmf = self.pmf[index];
-        if pmf <= 0.0 {
-            return None;
-        }
+        let (index, pmf) = self.select(u_select)?;
         let centre = self.scene_centre;
         // A ray entering the scene's bounding sphere along `d`, from a
         // uniform point of the disk facing it.

@@ -21,6 +21,18 @@ pub(crate) const ROULETTE_DEPTH: u32 = 3;
 /// BSDF lobe choice (1), BSDF direction (2), roulette (1).
 pub(crate) const DIMENSIONS_PER_VERTEX: u32 = 7;
 
+/// Russian roulette on a camera subpath's throughput: survives with
+/// probability min(1, max component), reweighted; an unbiased termination
+/// that MIS weights need not know about (they stay a partition of unity).
+pub(crate) fn survives_roulette(throughput: &mut Vec3, u: f32) -> bool {
+    let survive = throughput.max_element().min(1.0);
+    if u >= survive {
+        return false;
+    }
+    *throughput /= survive;
+    true
+}
+
 /// Power-heuristic weight of a technique with density `pdf` against
 /// `other`, in f64 (the pdfs of near-specular lobes overflow when squared in f32).
 fn mis_weight(pdf: f32, other: f32) -> f32 {
@@ -114,12 +126,8 @@ impl Renderer {
             origin = point.spawn_origin(s.wo);
             direction = s.wo;
 
-            if depth >= ROULETTE_DEPTH {
-                let survive = throughput.max_element().min(1.0);
-                if u_roulette >= survive {
-                    break;
-                }
-                throughput /= survive;
+            if depth >= ROULETTE_DEPTH && !survives_roulette(&mut throughput, u_roulette) {
+                break;
             }
         }
         radiance
