@@ -478,13 +478,9 @@ impl Renderer {
         u_light: f32,
         uv: Vec2,
     ) -> Vec3 {
-        let Some(ls) = self.lights.sample(&self.scene, vertex.point.p, u_light, uv) else {
+        let Some((ls, f)) = self.visible_light_sample(vertex, u_light, uv) else {
             return Vec3::ZERO;
         };
-        let f = vertex.eval(ls.wi, TransportMode::Radiance);
-        if f.max_element() <= 0.0 || !self.light_visible(vertex, &ls) {
-            return Vec3::ZERO;
-        }
         // Area lights: the solid-angle pdf of the sample; the others'
         // `direct_pdf` is already what the mis crate takes.
         let direct_pdf_w = if ls.mis.kind == EmitterKind::Area {
@@ -598,12 +594,24 @@ impl Renderer {
         sum * it.merge_normalisation
     }
 
-    /// Whether the shadow ray of a light sample is unoccluded.
-    pub(crate) fn light_visible(
+    /// A light sample for a camera vertex with the vertex's f |cos| towards
+    /// it, if both are non-zero and the shadow ray is unoccluded (the start
+    /// of next-event estimation in PT and in the bidirectional core).
+    pub(crate) fn visible_light_sample(
         &self,
         vertex: &PathVertex,
-        ls: &crate::lights::LightSample,
-    ) -> bool {
+        u_light: f32,
+        uv: Vec2,
+    ) -> Option<(crate::lights::LightSample, Vec3)> {
+        let ls = self
+            .lights
+            .sample(&self.scene, vertex.point.p, u_light, uv)?;
+        let f = vertex.eval(ls.wi, TransportMode::Radiance);
+        (f.max_element() > 0.0 && self.light_visible(vertex, &ls)).then_some((ls, f))
+    }
+
+    /// Whether the shadow ray of a light sample is unoccluded.
+    fn light_visible(&self, vertex: &PathVertex, ls: &crate::lights::LightSample) -> bool {
         let origin = vertex.point.spawn_origin(ls.wi);
         match ls.point {
             Some(lp) => {

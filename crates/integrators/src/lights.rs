@@ -287,10 +287,7 @@ impl Lights {
                 mis: self.environment_pdfs(),
             },
             Light::Area { triangle } => {
-                let [a, b, c] = scene.triangles[triangle as usize];
-                let su = u.x.sqrt();
-                let (b1, b2) = (u.y * su, 1.0 - su);
-                let q = a * (1.0 - b1 - b2) + b * b1 + c * b2;
+                let q = uniform_triangle(scene.triangles[triangle as usize], u);
                 let n = scene.geometric_normal(triangle as usize);
                 let d = q - p;
                 let wi = d.try_normalize()?;
@@ -441,10 +438,7 @@ impl Lights {
                 }
             }
             Light::Area { triangle } => {
-                let [a, b, c] = scene.triangles[triangle as usize];
-                let su = u_position.x.sqrt();
-                let (b1, b2) = (u_position.y * su, 1.0 - su);
-                let p = a * (1.0 - b1 - b2) + b * b1 + c * b2;
+                let p = uniform_triangle(scene.triangles[triangle as usize], u_position);
                 let n = scene.geometric_normal(triangle as usize);
                 let local = cosine_hemisphere(u_direction);
                 if local.z <= 0.0 {
@@ -464,6 +458,14 @@ impl Lights {
         (emission.throughput.is_finite() && emission.throughput.max_element() > 0.0)
             .then_some(emission)
     }
+}
+
+/// A uniformly distributed point of triangle [a, b, c] (square-root
+/// parametrisation, pbrt-v4 `SampleUniformTriangle`'s classic form).
+pub fn uniform_triangle([a, b, c]: [Vec3; 3], u: Vec2) -> Vec3 {
+    let su = u.x.sqrt();
+    let (b1, b2) = (u.y * su, 1.0 - su);
+    a * (1.0 - b1 - b2) + b * b1 + c * b2
 }
 
 /// Density of [`uniform_sphere`]: 1 / (4 pi).

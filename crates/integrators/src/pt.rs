@@ -143,13 +143,9 @@ impl Renderer {
         uv: glam::Vec2,
         use_bsdf: bool,
     ) -> Vec3 {
-        let Some(ls) = self.lights.sample(&self.scene, vertex.point.p, u_light, uv) else {
+        let Some((ls, f)) = self.visible_light_sample(vertex, u_light, uv) else {
             return Vec3::ZERO;
         };
-        let f = vertex.eval(ls.wi, TransportMode::Radiance);
-        if f.max_element() <= 0.0 || !self.light_visible(vertex, &ls) {
-            return Vec3::ZERO;
-        }
         let weight = if ls.is_delta || !use_bsdf {
             1.0
         } else {
