@@ -163,6 +163,7 @@ impl Renderer {
                     self.trace_light_path(it, index as u64, &mut vertices, &mut splats);
                     *out = self.trace_camera_path(it, index, &vertices, None);
                 }
+                self.flush_ray_count();
                 splats
             })
             .collect();
@@ -190,6 +191,7 @@ impl Renderer {
                     self.trace_light_path(it, i as u64, &mut vertices, &mut splats);
                     lengths.push(vertices.len() - before);
                 }
+                self.flush_ray_count();
                 (vertices, lengths, splats)
             })
             .collect();
@@ -224,6 +226,7 @@ impl Renderer {
                     let photons = Some((&grid, paths.vertices.as_slice()));
                     *out = self.trace_camera_path(it, index, paths.path(index), photons);
                 }
+                self.flush_ray_count();
             });
         for splats in &all_splats {
             splats.add_to(estimates);
@@ -264,7 +267,7 @@ impl Renderer {
         let mut throughput = emission.throughput;
         let emitted = throughput.max_element();
         for length in 1..=self.config.max_depth {
-            let Some(hit) = self.bvh.intersect(origin, direction, f32::INFINITY) else {
+            let Some(hit) = self.intersect(origin, direction, f32::INFINITY) else {
                 break;
             };
             let point = SurfacePoint::new(scene, &hit);
@@ -361,7 +364,7 @@ impl Renderer {
             return;
         }
         let origin = vertex.point.spawn_origin(dir);
-        if self.bvh.occluded(origin, camera.position - origin, 1.0) {
+        if self.occluded(origin, camera.position - origin, 1.0) {
             return;
         }
         // The pixel integral is over the image plane in pixel units: the
@@ -396,7 +399,7 @@ impl Renderer {
         let mut throughput = Vec3::ONE;
         let mut radiance = Vec3::ZERO;
         for length in 1..=self.config.max_depth {
-            let Some(hit) = self.bvh.intersect(origin, direction, f32::INFINITY) else {
+            let Some(hit) = self.intersect(origin, direction, f32::INFINITY) else {
                 if let Some(le) = self.lights.environment() {
                     let pdfs = self.lights.environment_pdfs();
                     let w = it.mis.environment_hit_weight(
@@ -556,7 +559,7 @@ impl Renderer {
         }
         let origin = camera.point.spawn_origin(dir);
         let end = light.point.spawn_origin(-dir);
-        if self.bvh.occluded(origin, end - origin, 1.0) {
+        if self.occluded(origin, end - origin, 1.0) {
             return Vec3::ZERO;
         }
         f * light.throughput * (weight / distance2)
@@ -621,9 +624,9 @@ impl Renderer {
                     let n = if lp.n.dot(-ls.wi) > 0.0 { lp.n } else { -lp.n };
                     accel::offset_ray_origin(lp.p, n)
                 };
-                !self.bvh.occluded(origin, end - origin, 1.0)
+                !self.occluded(origin, end - origin, 1.0)
             }
-            None => !self.bvh.occluded(origin, ls.wi, f32::INFINITY),
+            None => !self.occluded(origin, ls.wi, f32::INFINITY),
         }
     }
 }

@@ -65,7 +65,7 @@ impl Renderer {
         let mut prev_point = origin;
 
         for depth in 1..=self.config.max_depth {
-            let Some(hit) = self.bvh.intersect(origin, direction, f32::INFINITY) else {
+            let Some(hit) = self.intersect(origin, direction, f32::INFINITY) else {
                 if let Some(le) = self.lights.environment() {
                     let weight = if specular_bounce || !use_nee {
                         1.0

@@ -1,10 +1,11 @@
 //! The renderer: a scene prepared for ray queries and light sampling, and
 //! one iteration of the configured algorithm over the image.
 
+use std::cell::Cell;
 use std::fmt::Write as _;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use accel::Bvh;
+use accel::{Bvh, Hit};
 use glam::Vec3;
 use rayon::prelude::*;
 use regularization::tau::{alpha_cap, alpha_tau};
@@ -27,6 +28,15 @@ pub struct Renderer {
     features: SceneFeatures,
     /// Samples that were NaN or infinite and were dropped (set to zero).
     invalid_samples: AtomicU64,
+    /// Rays traced by finished iterations (closest-hit and shadow rays).
+    rays: AtomicU64,
+}
+
+thread_local! {
+    /// Rays traced by this thread since its count was last added to a
+    /// renderer's total: a plain per-thread counter costs nothing next to a
+    /// traversal, where one shared atomic would bounce between cores.
+    static THREAD_RAYS: Cell<u64> = const { Cell::new(0) };
 }
 
 impl Renderer {
@@ -43,7 +53,37 @@ impl Renderer {
             config,
             features,
             invalid_samples: AtomicU64::new(0),
+            rays: AtomicU64::new(0),
         }
+    }
+
+    /// Closest hit along `origin + t direction`, t in (0, t_max): every
+    /// integrator's ray query, counted for [`Renderer::rays_traced`].
+    pub(crate) fn intersect(&self, origin: Vec3, direction: Vec3, t_max: f32) -> Option<Hit> {
+        THREAD_RAYS.set(THREAD_RAYS.get() + 1);
+        self.bvh.intersect(origin, direction, t_max)
+    }
+
+    /// Whether anything lies along `origin + t direction`, t in (0, t_max)
+    /// (shadow rays), counted like [`Renderer::intersect`].
+    pub(crate) fn occluded(&self, origin: Vec3, direction: Vec3, t_max: f32) -> bool {
+        THREAD_RAYS.set(THREAD_RAYS.get() + 1);
+        self.bvh.occluded(origin, direction, t_max)
+    }
+
+    /// Adds this thread's ray count to the total; called at the end of every
+    /// parallel task, so that the total is exact after each iteration.
+    pub(crate) fn flush_ray_count(&self) {
+        let n = THREAD_RAYS.replace(0);
+        if n > 0 {
+            self.rays.fetch_add(n, Ordering::Relaxed);
+        }
+    }
+
+    /// Rays traced so far (camera, light, continuation and shadow rays), for
+    /// throughput figures (`cargo xtask bench`).
+    pub fn rays_traced(&self) -> u64 {
+        self.rays.load(Ordering::Relaxed)
     }
 
     /// The scene.
@@ -150,6 +190,7 @@ impl Renderer {
                 if invalid > 0 {
                     self.invalid_samples.fetch_add(invalid, Ordering::Relaxed);
                 }
+                self.flush_ray_count();
             });
     }
 

@@ -152,3 +152,40 @@ fn stiff_scene_renders_without_invalid_or_negative_pixels() {
         assert_eq!(bad, 0, "{mode:?}");
     }
 }
+
+/// The ray count is exact: BSDF-only PT at depth 1 traces one camera ray per
+/// pixel and nothing else; bidirectional counts do not depend on the thread
+/// count (every parallel task adds its count).
+#[test]
+fn rays_traced_counts_every_ray() {
+    let path = common::bundled("cornell-box");
+    let renderer = Renderer::new(
+        common::load(&path, 16, 12),
+        common::config(Strategies::BsdfOnly, Mode::Off, 1),
+    );
+    let mut film = renderer.new_film();
+    renderer.render(&mut film, 1, 3);
+    assert_eq!(renderer.rays_traced(), 3 * 16 * 12);
+
+    let count = |algorithm, threads| {
+        let mut config = common::config(Strategies::Mis, Mode::Selective, 6);
+        config.algorithm = algorithm;
+        let renderer = Renderer::new(common::load(&path, 16, 12), config);
+        let mut film = renderer.new_film();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| renderer.render(&mut film, 1, 2));
+        renderer.rays_traced()
+    };
+    for algorithm in [
+        integrators::Algorithm::Pt,
+        integrators::Algorithm::Bpt,
+        integrators::Algorithm::Ppm,
+    ] {
+        let one = count(algorithm, 1);
+        assert!(one > 2 * 16 * 12, "{algorithm}: {one}");
+        assert_eq!(one, count(algorithm, 2), "{algorithm}");
+    }
+}
