@@ -41,6 +41,25 @@ pub struct LightSample {
     pub mis: EmitterPdfs,
 }
 
+impl LightSample {
+    /// The sample as the `mis` crate takes it for next-event estimation.
+    /// Area lights: the solid-angle pdf of the sample; the others'
+    /// `direct_pdf` is already in the measure the crate takes.
+    pub fn mis_sample(&self) -> mis::LightSample {
+        let direct_pdf_w = if self.mis.kind == EmitterKind::Area {
+            self.pdf
+        } else {
+            self.mis.direct_pdf
+        };
+        mis::LightSample {
+            kind: self.mis.kind,
+            direct_pdf_w: f64::from(direct_pdf_w),
+            emission_pdf_w: f64::from(self.mis.emission_pdf_w),
+            cos_light: f64::from(self.mis.cos_light),
+        }
+    }
+}
+
 /// The pdfs of an emitter point or direction as the `mis` crate takes them
 /// (SmallVCM conventions, light-selection probability included).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -55,6 +74,18 @@ pub struct EmitterPdfs {
     pub emission_pdf_w: f32,
     /// |cos| at the emitter surface (1 without a surface).
     pub cos_light: f32,
+}
+
+impl EmitterPdfs {
+    /// The emission as the `mis` crate takes it (a light subpath's start).
+    pub fn emission(&self) -> mis::Emission {
+        mis::Emission {
+            kind: self.kind,
+            direct_pdf_a: f64::from(self.direct_pdf),
+            emission_pdf_w: f64::from(self.emission_pdf_w),
+            cos_light: f64::from(self.cos_light),
+        }
+    }
 }
 
 /// A ray leaving a light: where light subpaths start.

@@ -78,7 +78,7 @@ impl PathVertex {
         } else {
             point.frame
         };
-        let (bsdf, alpha_hat) = regularization.regularize(&bsdf_original, frame.to_local(wi));
+        let (bsdf, alpha_hat) = regularization.regularize(&bsdf_original);
         let alpha_hat = alpha_hat.filter(|hat| Some(hat.alpha) != bsdf_original.alpha());
         let tau = if alpha_hat.is_some() {
             regularization.tau()
@@ -172,6 +172,15 @@ impl PathVertex {
             f64::from(self.mis_pdf_rev(wo)),
             self.tau,
         )
+    }
+
+    /// The vertex as one end of a connection in direction `wo`, as the `mis`
+    /// crate takes it.
+    pub fn connection_end(&self, wo: Vec3) -> mis::ConnectionEnd {
+        mis::ConnectionEnd {
+            pdfs: self.connection_pdfs(wo),
+            cos: f64::from(self.cos(wo)),
+        }
     }
 
     /// |cos| between the shading normal and `w`.

@@ -8,7 +8,6 @@
 //! subpaths tau_k = tau_N. What is seen directly or only through mirrors stays
 //! sharp; a glass sphere seen on a diffuse floor is regularized.
 
-use glam::Vec3;
 use microfacet::Bsdf;
 
 use crate::tau::{AlphaHat, regularize};
@@ -70,13 +69,13 @@ impl PathRegularization {
         }
     }
 
-    /// The next vertex's BSDF, regularized for a query from `wi`, and its
-    /// alpha-hat (`None` for lobes without roughness). Store the result in
-    /// the vertex: every later use must see the same alpha-hat (SPEC §5).
-    pub fn regularize(&self, bsdf: &Bsdf, wi: Vec3) -> (Bsdf, Option<AlphaHat>) {
+    /// The next vertex's BSDF, regularized, and its alpha-hat (`None` for
+    /// lobes without roughness). Store the result in the vertex: every later
+    /// use must see the same alpha-hat (SPEC §5).
+    pub fn regularize(&self, bsdf: &Bsdf) -> (Bsdf, Option<AlphaHat>) {
         match self.mode {
             Mode::Off => (*bsdf, None),
-            Mode::Uniform | Mode::Selective => regularize(bsdf, wi, self.tau()),
+            Mode::Uniform | Mode::Selective => regularize(bsdf, self.tau()),
         }
     }
 
@@ -94,6 +93,7 @@ impl PathRegularization {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec3;
     use microfacet::{Conductor, Fresnel, Lambertian, MicrofacetModel, NdfKind, Shadowing};
 
     fn mirror() -> Bsdf {
@@ -132,12 +132,12 @@ mod tests {
     #[test]
     fn regularized_mirror_becomes_glossy() {
         let state = PathRegularization::new(Mode::Uniform, Subpath::Camera, 7.5);
-        let (bsdf, hat) = state.regularize(&mirror(), Vec3::Z);
+        let (bsdf, hat) = state.regularize(&mirror());
         assert!(mirror().is_specular());
         assert!(!bsdf.is_specular());
         assert!((hat.unwrap().alpha - 0.103).abs() < 1e-3);
         let (off, none) =
-            PathRegularization::new(Mode::Off, Subpath::Camera, 7.5).regularize(&mirror(), Vec3::Z);
+            PathRegularization::new(Mode::Off, Subpath::Camera, 7.5).regularize(&mirror());
         assert_eq!((off, none), (mirror(), None));
     }
 }

@@ -250,15 +250,25 @@ pub fn strict_peak(kind: NdfKind, alpha: f32) -> f64 {
 /// frame) under bound `tau`, and the alpha-hat used; `None` for lobes without
 /// a microfacet roughness (Lambertian), which are returned unchanged.
 ///
-/// Conductors bound their reflection; dielectrics both lobes with the
-/// indices seen from wi. A smooth (delta) lobe becomes glossy when alpha-hat
-/// rises above `microfacet::SMOOTH_ALPHA`.
-pub fn regularize(bsdf: &Bsdf, wi: glam::Vec3, tau: f64) -> (Bsdf, Option<AlphaHat>) {
+/// Conductors bound their reflection; dielectrics both lobes, refraction
+/// with the denser side as eta_t whichever side `wi` is on: J_sup is then the
+/// larger of the two directions' (max(eta_i, eta_t)^2/(eta_i - eta_t)^2, supp.
+/// eq. 7), so the bound holds both ways and the interface gets one alpha-hat.
+/// With SPEC §4's per-direction J_sup the camera and the light subpath
+/// would give one vertex different roughness, the techniques of a
+/// bidirectional method would estimate different integrands even in uniform
+/// mode, and their MIS weights would not sum to 1 (SPEC §6, tested in
+/// `integrators::bidir`). The cost: rays leaving the dense medium are
+/// blurred by eta more in alpha than their own bound needs.
+///
+/// A smooth (delta) lobe becomes glossy when alpha-hat rises above
+/// `microfacet::SMOOTH_ALPHA`.
+pub fn regularize(bsdf: &Bsdf, tau: f64) -> (Bsdf, Option<AlphaHat>) {
     let (model, lobe) = match bsdf {
         Bsdf::Lambertian(_) => return (*bsdf, None),
         Bsdf::Conductor(c) => (c.model, Lobe::Reflection),
         Bsdf::Dielectric(d) => {
-            let eta_t = if wi.z >= 0.0 { d.eta } else { 1.0 / d.eta };
+            let eta_t = d.eta.max(1.0 / d.eta);
             (d.model, Lobe::Dielectric { eta_i: 1.0, eta_t })
         }
     };
@@ -285,6 +295,33 @@ mod tests {
         let b = alpha_hat(NdfKind::BlinnPhong, 0.01, Lobe::Reflection, 7.5);
         let n_hat = 2.0 / f64::from(b.alpha).powi(2) - 2.0;
         assert!((n_hat / (8.0 * PI * 7.5 - 2.0) - 1.0).abs() < 1e-5);
+    }
+
+    /// One alpha-hat per dielectric interface, meeting the bound for light
+    /// entering and for light leaving the dense medium, whether the medium
+    /// is below (eta > 1) or above (eta < 1) the surface.
+    #[test]
+    fn dielectric_bound_holds_in_both_directions() {
+        let tau = 50.0;
+        for eta in [1.5f32, 1.0 / 1.5, 1.05, 1.0 / 1.05, 2.4] {
+            let bsdf = Bsdf::Dielectric(microfacet::Dielectric {
+                model: MicrofacetModel::new(NdfKind::Ggx, 0.0, Shadowing::Smith),
+                eta,
+            });
+            let (_, hat) = regularize(&bsdf, tau);
+            let hat = hat.expect("a dielectric has a roughness");
+            if hat.bound == Bound::Clamped {
+                continue; // eta 1.05 at this tau needs alpha > 1 (SPEC §5)
+            }
+            for (eta_i, eta_t) in [(1.0, eta), (eta, 1.0)] {
+                let peak =
+                    peak_density(NdfKind::Ggx, hat.alpha, Lobe::Transmission { eta_i, eta_t });
+                assert!(
+                    peak <= tau * (1.0 + BOUND_SLACK),
+                    "eta {eta}: {peak} > {tau}"
+                );
+            }
+        }
     }
 
     #[test]

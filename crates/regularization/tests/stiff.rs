@@ -110,7 +110,7 @@ fn path_regularization_and_p_hat_are_finite() {
                                 .after_vertex(&bsdf);
                             assert!(state.tau() > 0.0);
                             for wi in dirs {
-                                let (reg, hat) = state.regularize(&bsdf, wi);
+                                let (reg, hat) = state.regularize(&bsdf);
                                 let a = hat.map_or(1.0, |h| h.alpha);
                                 for wo in dirs {
                                     let p = p_hat(&bsdf, a, wi, wo);

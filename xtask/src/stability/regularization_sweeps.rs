@@ -387,10 +387,10 @@ fn p_hat_row(budget: Budget) -> Row {
             for &tau in &taus {
                 for &wi in &dirs {
                     let regularized = t.guard(
-                        || format!("regularize(&{repro}, {}, {tau:?})", v(wi)),
+                        || format!("regularize(&{repro}, {tau:?})"),
                         |t| {
                             t.evaluation();
-                            regularize(bsdf, wi, tau)
+                            regularize(bsdf, tau)
                         },
                     );
                     let Some((_, Some(hat))) = regularized else {
