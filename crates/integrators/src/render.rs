@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use accel::{Bvh, Hit};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use regularization::tau::{alpha_cap, alpha_tau};
 use regularization::{Lobe, Mode};
@@ -17,6 +17,28 @@ use crate::config::{Algorithm, RenderConfig, Strategies, mode_name};
 use crate::film::Film;
 use crate::lights::Lights;
 use crate::sampler::Sampler;
+
+/// The width of one pixel's footprint at the median distance of the
+/// surfaces seen through a grid of pixel centres: a pixel subtends
+/// 1 / image_plane_distance radians (the image plane is in pixel units).
+fn pixel_footprint(bvh: &Bvh, camera: &CameraRays) -> f32 {
+    let res = camera.camera().resolution;
+    let mut distances: Vec<f32> = (0..FOOTPRINT_GRID * FOOTPRINT_GRID)
+        .filter_map(|i| {
+            let (gx, gy) = (i % FOOTPRINT_GRID, i / FOOTPRINT_GRID);
+            let x = ((2 * gx + 1) * res.x) / (2 * FOOTPRINT_GRID);
+            let y = ((2 * gy + 1) * res.y) / (2 * FOOTPRINT_GRID);
+            let (o, d) = camera.ray(x, y, Vec2::splat(0.5));
+            bvh.intersect(o, d, f32::INFINITY).map(|hit| hit.t)
+        })
+        .collect();
+    if distances.is_empty() {
+        return f32::INFINITY;
+    }
+    let mid = distances.len() / 2;
+    let (_, median, _) = distances.select_nth_unstable_by(mid, f32::total_cmp);
+    *median / camera.image_plane_distance()
+}
 
 /// A scene ready to render with one configuration.
 pub struct Renderer {
@@ -30,7 +52,14 @@ pub struct Renderer {
     invalid_samples: AtomicU64,
     /// Rays traced by finished iterations (closest-hit and shadow rays).
     rays: AtomicU64,
+    /// Width of a pixel's footprint at the median distance of the surfaces
+    /// the camera sees (infinity when it sees none): the scale of what the
+    /// image resolves, which bounds the merge radius.
+    pub(crate) pixel_footprint: f32,
 }
+
+/// Camera rays per image side that estimate the distance of visible surfaces.
+const FOOTPRINT_GRID: u32 = 16;
 
 thread_local! {
     /// Rays traced by this thread since its count was last added to a
@@ -45,8 +74,10 @@ impl Renderer {
         let bvh = Bvh::build(&scene.triangles);
         let lights = Lights::new(&scene);
         let features = SceneFeatures::of(&scene);
+        let camera = CameraRays::new(scene.camera);
+        let pixel_footprint = pixel_footprint(&bvh, &camera);
         Self {
-            camera: CameraRays::new(scene.camera),
+            camera,
             scene,
             bvh,
             lights,
@@ -54,6 +85,7 @@ impl Renderer {
             features,
             invalid_samples: AtomicU64::new(0),
             rays: AtomicU64::new(0),
+            pixel_footprint,
         }
     }
 
@@ -257,11 +289,21 @@ impl Renderer {
             crate::pt::ROULETTE_DEPTH
         );
         if self.techniques().merging && c.algorithm != Algorithm::Pt {
+            let r1 = self.merge_radius(1);
+            let rule = if r1 < c.radius_factor * self.lights.scene_radius() {
+                format!(
+                    "capped at {} pixel footprints; {} x scene radius would be {:.4e}",
+                    crate::bidir::MAX_MERGE_RADIUS_PIXELS,
+                    c.radius_factor,
+                    c.radius_factor * self.lights.scene_radius()
+                )
+            } else {
+                format!("{} x scene radius", c.radius_factor)
+            };
             let _ = writeln!(
                 s,
-                "merge radius:     r_1 = {:.4e} ({} x scene radius), r_N = r_1 N^(({} - 1)/2)",
-                self.merge_radius(1),
-                c.radius_factor,
+                "merge radius:     r_1 = {r1:.4e} ({rule}; {:.2} pixel footprints), r_N = r_1 N^(({} - 1)/2)",
+                r1 / self.pixel_footprint,
                 c.radius_alpha
             );
         } else if c.algorithm == Algorithm::Vcm {

@@ -295,3 +295,29 @@ v = [0, 0, 0.8]
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `stiff` holds a 1e5-unit backdrop around a 10-unit set: a merge radius
+/// from the bounding radius alone (213 units) merged every camera vertex with
+/// every photon (6 s per iteration at 128x96). The footprint bound applies
+/// there and nowhere else among the bundled scenes at their resolutions.
+#[test]
+fn merge_radius_is_bounded_by_what_the_image_resolves() {
+    let radius = |name: &str| {
+        let scene = scene::load(&common::bundled(name), &scene::LoadOptions::default()).unwrap();
+        let (lo, hi) = scene.bounds();
+        let extent = (hi - lo).length();
+        let renderer = integrators::Renderer::new(scene, config(Algorithm::Ppm, Mode::Off, 1));
+        (renderer.merge_radius(1), extent)
+    };
+    let (stiff, extent) = radius("stiff");
+    eprintln!("stiff: r_1 = {stiff} (bounding box diagonal {extent})");
+    assert!(stiff < 1.0, "stiff: r_1 = {stiff}");
+    for name in ["caustic-glass", "glossy-caustic", "cornell-box"] {
+        let (r1, extent) = radius(name);
+        // 0.003 x the bounding radius = 0.0015 x the box diagonal.
+        assert!(
+            (r1 / (0.0015 * extent) - 1.0).abs() < 1e-3,
+            "{name}: r_1 = {r1}, diagonal {extent}"
+        );
+    }
+}
