@@ -1,9 +1,13 @@
 //! `cargo xtask <task>`: project automation that is not part of the renderer.
 //!
 //! Tasks:
-//! - `bench [--quick]`: runs the criterion micro-benchmarks of the math crates
-//!   and writes one table (markdown and JSON, with the machine's core count)
-//!   to `target/bench/`, for comparing commits side by side.
+//! - `bench [options]`: end-to-end throughput of every integrator on every
+//!   bundled scene (seconds per iteration, samples and rays per second, peak
+//!   memory), one child process per run (the hidden `bench-run` task), written
+//!   as JSON and a markdown table with the machine's core count to
+//!   `target/bench/`, for comparing commits side by side; `--quick` runs in
+//!   CI. `bench --micro [--quick]` runs the criterion micro-benchmarks of the
+//!   math crates instead.
 //! - `mitsuba [options]`: renders one scene with our path tracer and with
 //!   Mitsuba 3's (installed on demand into `target/mitsuba/venv`), and
 //!   compares speed and error against one reference (`target/mitsuba/`).
@@ -16,18 +20,14 @@ mod mitsuba;
 mod stability;
 mod study;
 
-const USAGE_BENCH: &str = "usage: cargo xtask <task>
-
-tasks:
-  bench [--quick]   run the criterion micro-benchmarks (crates/*/benches) and
-                    write target/bench/micro.md and target/bench/micro.json
-                    (--quick: 0.3 s warm-up and 1 s measurement per benchmark)";
+const USAGE_HEADER: &str = "usage: cargo xtask <task>\n\ntasks:";
 
 const USAGE_HELP: &str = "  help              print this text";
 
 fn usage() -> String {
     format!(
-        "{USAGE_BENCH}\n{}\n{}\n{}\n{USAGE_HELP}",
+        "{USAGE_HEADER}\n{}\n{}\n{}\n{}\n{USAGE_HELP}",
+        bench::USAGE,
         mitsuba::USAGE,
         study::USAGE,
         stability::USAGE
@@ -38,6 +38,8 @@ fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let result = match args.first().map(String::as_str) {
         Some("bench") => bench::run(&workspace_root(), &args[1..]),
+        // One run of `bench`, spawned by it; not listed in the usage.
+        Some("bench-run") => bench::run_child(&args[1..]),
         Some("mitsuba") => mitsuba::run(&workspace_root(), &args[1..]),
         Some("study") => study::run(&workspace_root(), &args[1..]),
         Some("stability") => stability::run(&workspace_root(), &args[1..]),

@@ -161,7 +161,7 @@ pub(super) enum Parsed {
 }
 
 /// A flag's value as a positive integer.
-fn positive(flag: &str, value: &str) -> Result<u64, String> {
+pub(crate) fn positive(flag: &str, value: &str) -> Result<u64, String> {
     match value.trim().parse::<u64>() {
         Ok(n) if n > 0 => Ok(n),
         _ => Err(format!(
@@ -171,7 +171,7 @@ fn positive(flag: &str, value: &str) -> Result<u64, String> {
 }
 
 /// `WxH` with both at least 1 and at most 16384.
-fn parse_resolution(value: &str) -> Result<UVec2, String> {
+pub(crate) fn parse_resolution(value: &str) -> Result<UVec2, String> {
     let err = || format!("--resolution: expected WxH (e.g. 128x96), got '{value}'");
     let (w, h) = value.split_once(['x', 'X']).ok_or_else(err)?;
     let parse = |s: &str| {

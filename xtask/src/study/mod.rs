@@ -37,6 +37,8 @@ use serde_json::json;
 use cache::ReferenceSpec;
 pub use cli::Config;
 use cli::{HELP, Options, Parsed};
+/// Flag-value parsers shared with `cargo xtask bench`.
+pub(crate) use cli::{parse_resolution, positive};
 use metrics::{Errors, Noise};
 use progress::Progress;
 
@@ -538,7 +540,7 @@ fn cores() -> usize {
 }
 
 /// The first three fields of /proc/loadavg ("?" where unavailable).
-fn load_average() -> String {
+pub(crate) fn load_average() -> String {
     fs::read_to_string("/proc/loadavg")
         .ok()
         .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
@@ -551,7 +553,7 @@ fn load_average() -> String {
 /// for the cores. Threads that have exited are not counted, which is fine
 /// for differences over an iteration (rayon's workers live on). None where
 /// /proc does not tell.
-fn cpu_seconds() -> Option<f64> {
+pub(crate) fn cpu_seconds() -> Option<f64> {
     let mut ns = 0u64;
     for task in fs::read_dir("/proc/self/task").ok()? {
         let path = task.ok()?.path().join("schedstat");

@@ -1,4 +1,4 @@
-//! `cargo xtask bench`: criterion micro-benchmarks collected into one table.
+//! `cargo xtask bench --micro`: criterion micro-benchmarks collected into one table.
 
 use std::fmt::Write as _;
 use std::fs;
@@ -23,7 +23,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
         [flag] if flag == "--quick" => true,
         _ => {
             return Err(format!(
-                "unexpected arguments {args:?}; usage: cargo xtask bench [--quick]"
+                "unexpected arguments {args:?}; usage: cargo xtask bench --micro [--quick]"
             ));
         }
     };
@@ -40,7 +40,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
         if quick {
             cargo_args.extend(["--warm-up-time", "0.3", "--measurement-time", "1"]);
         }
-        super::cargo(root, &cargo_args)?;
+        crate::cargo(root, &cargo_args)?;
     }
     let mut rows = collect(&criterion_dir)?;
     rows.sort_by(|a, b| a.id.cmp(&b.id));
