@@ -66,6 +66,18 @@ fn workspace_root() -> PathBuf {
         .unwrap_or_else(|| PathBuf::from("."))
 }
 
+/// The standard output of `git ARGS` run in `root`; None when git is missing,
+/// fails or `root` is not a checkout.
+fn git(root: &Path, args: &[&str]) -> Option<Vec<u8>> {
+    Command::new("git")
+        .args(args)
+        .current_dir(root)
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| o.stdout)
+}
+
 /// Runs `cargo` with `args` in `root`, inheriting the terminal.
 fn cargo(root: &Path, args: &[&str]) -> Result<(), String> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());

@@ -420,13 +420,7 @@ fn read_baseline(path: &Path) -> Result<Value, String> {
 /// nulls outside a git checkout.
 fn git_state(root: &Path) -> Value {
     let git = |args: &[&str]| {
-        Command::new("git")
-            .args(args)
-            .current_dir(root)
-            .output()
-            .ok()
-            .filter(|o| o.status.success())
-            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        crate::git(root, args).map(|out| String::from_utf8_lossy(&out).trim().to_string())
     };
     json!({
         "commit": git(&["rev-parse", "HEAD"]),

@@ -12,7 +12,6 @@
 
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use glam::Vec3;
 use serde_json::Value;
@@ -103,15 +102,7 @@ pub fn scene_hash(files: &[(String, Vec<u8>)]) -> u64 {
 /// an uncommitted change to the renderer does not reuse a stale reference.
 pub fn renderer_version(root: &Path) -> String {
     let mut version = format!("xtask {}", env!("CARGO_PKG_VERSION"));
-    let git = |args: &[&str]| {
-        Command::new("git")
-            .args(args)
-            .current_dir(root)
-            .output()
-            .ok()
-            .filter(|o| o.status.success())
-            .map(|o| o.stdout)
-    };
+    let git = |args: &[&str]| crate::git(root, args);
     if let Some(head) = git(&["rev-parse", "HEAD"]) {
         version.push_str(&format!(
             ", commit {}",
