@@ -220,12 +220,83 @@ fn stiff_scene_is_stable_for_every_integrator() {
 /// with PT, which uses neither.
 #[test]
 fn light_subpaths_are_adjoint_through_glass_with_shading_normals() {
-    let dir = std::env::temp_dir().join(format!("rlt-glass-{}", std::process::id()));
+    agree_with_pt(
+        "glass",
+        GLASS_SCENE,
+        1024,
+        2,
+        &[Algorithm::Bpt, Algorithm::Vcm],
+    );
+}
+
+/// `stiff` holds a 1e5-unit backdrop around a 10-unit set: a merge radius
+/// from the bounding radius alone (213 units) merged every camera vertex with
+/// every photon (6 s per iteration at 128x96). The footprint bound applies
+/// there and nowhere else among the bundled scenes at their resolutions.
+#[test]
+fn merge_radius_is_bounded_by_what_the_image_resolves() {
+    let radius = |name: &str| {
+        let scene = scene::load(&common::bundled(name), &scene::LoadOptions::default()).unwrap();
+        let (lo, hi) = scene.bounds();
+        let extent = (hi - lo).length();
+        let renderer = integrators::Renderer::new(scene, config(Algorithm::Ppm, Mode::Off, 1));
+        (renderer.merge_radius(1), extent)
+    };
+    let (stiff, extent) = radius("stiff");
+    eprintln!("stiff: r_1 = {stiff} (bounding box diagonal {extent})");
+    assert!(stiff < 1.0, "stiff: r_1 = {stiff}");
+    for name in ["caustic-glass", "glossy-caustic", "cornell-box"] {
+        let (r1, extent) = radius(name);
+        // 0.003 x the bounding radius = 0.0015 x the box diagonal.
+        assert!(
+            (r1 / (0.0015 * extent) - 1.0).abs() < 1e-3,
+            "{name}: r_1 = {r1}, diagonal {extent}"
+        );
+    }
+}
+
+/// Light subpaths on smoothed normals need Veach's shading-normal correction
+/// (Importance mode): on a coarse (3-ring) smooth-shaded diffuse sphere lit
+/// by an area light from the side, BPT (light tracing and connections from
+/// the sphere included) agrees with PT, which needs no correction. Without
+/// the correction BPT's image is 6 % darker and a block is rejected at
+/// p = 1.8e-6 (the glass test above does not see it: p = 0.077).
+#[test]
+fn light_subpaths_are_adjoint_on_smoothed_normals() {
+    agree_with_pt("smoothed normals", SMOOTH_SCENE, 4096, 4, &[Algorithm::Bpt]);
+}
+
+/// Writes `manifest` (a scene.toml at 16x12) to a temporary folder, renders
+/// it for `iterations` with PT and with each of `others` (regularization off,
+/// independent seeds), and asserts that each agrees with PT on `blocks` x
+/// `blocks` block means and the image mean.
+fn agree_with_pt(what: &str, manifest: &str, iterations: u64, blocks: u32, others: &[Algorithm]) {
+    let dir = std::env::temp_dir().join(format!(
+        "rlt-{}-{}",
+        what.replace(' ', "-"),
+        std::process::id()
+    ));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("scene.toml");
-    std::fs::write(
-        &path,
-        r#"
+    std::fs::write(&path, manifest).unwrap();
+    let render = |algorithm, seed| {
+        common::render(
+            common::load(&path, 16, 12),
+            config(algorithm, Mode::Off, seed),
+            iterations,
+        )
+    };
+    let pt = render(Algorithm::Pt, 1);
+    for (seed, &algorithm) in (2..).zip(others) {
+        let what = format!("{what}: pt vs {algorithm}");
+        let p = common::assert_films_agree(&pt, &render(algorithm, seed), blocks, &what);
+        eprintln!("{what}: smallest p {p:.3}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A coarse (6-ring, smooth-shaded) rough glass sphere around a diffuse core.
+const GLASS_SCENE: &str = r#"
 resolution = [16, 12]
 [camera]
 from = [0, 1.0, 2.6]
@@ -273,69 +344,10 @@ material = "lamp"
 origin = [-0.4, 1.8, -0.4]
 u = [0.8, 0, 0]
 v = [0, 0, 0.8]
-"#,
-    )
-    .unwrap();
-    let render = |algorithm, seed| {
-        common::render(
-            common::load(&path, 16, 12),
-            config(algorithm, Mode::Off, seed),
-            1024,
-        )
-    };
-    let pt = render(Algorithm::Pt, 1);
-    for (seed, algorithm) in [(2, Algorithm::Bpt), (3, Algorithm::Vcm)] {
-        let p = common::assert_films_agree(
-            &pt,
-            &render(algorithm, seed),
-            2,
-            &format!("glass: pt vs {algorithm}"),
-        );
-        eprintln!("glass: pt vs {algorithm}: smallest p {p:.3}");
-    }
-    std::fs::remove_dir_all(&dir).unwrap();
-}
+"#;
 
-/// `stiff` holds a 1e5-unit backdrop around a 10-unit set: a merge radius
-/// from the bounding radius alone (213 units) merged every camera vertex with
-/// every photon (6 s per iteration at 128x96). The footprint bound applies
-/// there and nowhere else among the bundled scenes at their resolutions.
-#[test]
-fn merge_radius_is_bounded_by_what_the_image_resolves() {
-    let radius = |name: &str| {
-        let scene = scene::load(&common::bundled(name), &scene::LoadOptions::default()).unwrap();
-        let (lo, hi) = scene.bounds();
-        let extent = (hi - lo).length();
-        let renderer = integrators::Renderer::new(scene, config(Algorithm::Ppm, Mode::Off, 1));
-        (renderer.merge_radius(1), extent)
-    };
-    let (stiff, extent) = radius("stiff");
-    eprintln!("stiff: r_1 = {stiff} (bounding box diagonal {extent})");
-    assert!(stiff < 1.0, "stiff: r_1 = {stiff}");
-    for name in ["caustic-glass", "glossy-caustic", "cornell-box"] {
-        let (r1, extent) = radius(name);
-        // 0.003 x the bounding radius = 0.0015 x the box diagonal.
-        assert!(
-            (r1 / (0.0015 * extent) - 1.0).abs() < 1e-3,
-            "{name}: r_1 = {r1}, diagonal {extent}"
-        );
-    }
-}
-
-/// Light subpaths on smoothed normals need Veach's shading-normal correction
-/// (Importance mode): on a coarse (3-ring) smooth-shaded diffuse sphere lit
-/// by an area light from the side, BPT (light tracing and connections from
-/// the sphere included) agrees with PT, which needs no correction. Without
-/// the correction BPT's image is 6 % darker and a block is rejected at
-/// p = 1.8e-6 (the glass test above does not see it: p = 0.077).
-#[test]
-fn light_subpaths_are_adjoint_on_smoothed_normals() {
-    let dir = std::env::temp_dir().join(format!("rlt-smooth-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("scene.toml");
-    std::fs::write(
-        &path,
-        r#"
+/// A coarse (3-ring, smooth-shaded) diffuse sphere lit from the side.
+const SMOOTH_SCENE: &str = r#"
 resolution = [16, 12]
 [camera]
 from = [0, 0.8, 2.2]
@@ -372,19 +384,4 @@ material = "lamp"
 origin = [1.2, 0.3, -0.4]
 u = [0, 0, 0.8]
 v = [0, 0.8, 0]
-"#,
-    )
-    .unwrap();
-    let render = |algorithm, seed| {
-        common::render(
-            common::load(&path, 16, 12),
-            config(algorithm, Mode::Off, seed),
-            4096,
-        )
-    };
-    let pt = render(Algorithm::Pt, 1);
-    let bpt = render(Algorithm::Bpt, 2);
-    let p = common::assert_films_agree(&pt, &bpt, 4, "smoothed: pt vs bpt");
-    eprintln!("smoothed normals: pt vs bpt: smallest p {p:.3}");
-    std::fs::remove_dir_all(&dir).unwrap();
-}
+"#;
