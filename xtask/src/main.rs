@@ -66,6 +66,16 @@ fn workspace_root() -> PathBuf {
         .unwrap_or_else(|| PathBuf::from("."))
 }
 
+/// Whether `args` is `[--quick]` (true) or empty (false), for tasks whose
+/// only flag it is; anything else is an error naming `usage`.
+fn quick_flag(args: &[String], usage: &str) -> Result<bool, String> {
+    match args {
+        [] => Ok(false),
+        [flag] if flag == "--quick" => Ok(true),
+        _ => Err(format!("unexpected arguments {args:?}; usage: {usage}")),
+    }
+}
+
 /// The standard output of `git ARGS` run in `root`; None when git is missing,
 /// fails or `root` is not a checkout.
 fn git(root: &Path, args: &[&str]) -> Option<Vec<u8>> {

@@ -178,15 +178,7 @@ impl Rng {
 }
 
 pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
-    let quick = match args {
-        [] => false,
-        [flag] if flag == "--quick" => true,
-        _ => {
-            return Err(format!(
-                "unexpected arguments {args:?}; usage: cargo xtask stability [--quick]"
-            ));
-        }
-    };
+    let quick = crate::quick_flag(args, "cargo xtask stability [--quick]")?;
     let budget = Budget { quick };
     let out = root.join("target").join("stability");
     let tmp = out.join("tmp");

@@ -18,15 +18,7 @@ struct Row {
 }
 
 pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
-    let quick = match args {
-        [] => false,
-        [flag] if flag == "--quick" => true,
-        _ => {
-            return Err(format!(
-                "unexpected arguments {args:?}; usage: cargo xtask bench --micro [--quick]"
-            ));
-        }
-    };
+    let quick = crate::quick_flag(args, "cargo xtask bench --micro [--quick]")?;
     let criterion_dir = root.join("target").join("criterion");
     // Stale results of renamed benchmarks would otherwise end up in the table.
     if criterion_dir.exists() {

@@ -79,24 +79,15 @@ fn reference_suffix(study: &Study, i: usize) -> (String, String) {
 fn write_charts(out: &Path, study: &Study) -> Result<Vec<String>, String> {
     let (w, h) = study.resolution;
     let mut files = Vec::new();
-    let series = |value: &dyn Fn(&super::Point) -> f64, by_iteration: bool| -> Vec<Series> {
+    type Axis<'a> = &'a dyn Fn(&super::Point) -> f64;
+    // One line per config: (x(p), y(p)) at each checkpoint p.
+    let series = |x: Axis, y: Axis| -> Vec<Series> {
         study
             .runs
             .iter()
             .map(|run| Series {
                 name: run.config.to_string(),
-                points: run
-                    .points
-                    .iter()
-                    .map(|p| {
-                        let x = if by_iteration {
-                            p.iteration as f64
-                        } else {
-                            p.seconds
-                        };
-                        (x, value(p))
-                    })
-                    .collect(),
+                points: run.points.iter().map(|p| (x(p), y(p))).collect(),
             })
             .collect()
     };
@@ -121,7 +112,7 @@ fn write_charts(out: &Path, study: &Study) -> Result<Vec<String>, String> {
                 ),
                 x_label: "render time (s, wall clock)".into(),
                 y_label: format!("{metric} (luminance)"),
-                series: series(value, false),
+                series: series(&|p| p.seconds, value),
             };
             files.extend(plot::write_chart(out, &format!("{stem}{suffix}"), &chart)?);
         }
@@ -139,18 +130,9 @@ fn write_charts(out: &Path, study: &Study) -> Result<Vec<String>, String> {
             ),
             x_label: "render CPU time (s, all threads)".into(),
             y_label: "RMSE (luminance)".into(),
-            series: study
-                .runs
-                .iter()
-                .map(|run| Series {
-                    name: run.config.to_string(),
-                    points: run
-                        .points
-                        .iter()
-                        .map(|p| (p.cpu_seconds.unwrap_or(f64::NAN), p.errors[0].rmse))
-                        .collect(),
-                })
-                .collect(),
+            series: series(&|p| p.cpu_seconds.unwrap_or(f64::NAN), &|p| {
+                p.errors[0].rmse
+            }),
         };
         files.extend(plot::write_chart(out, "rmse-vs-cpu-time", &chart)?);
     }
@@ -158,7 +140,9 @@ fn write_charts(out: &Path, study: &Study) -> Result<Vec<String>, String> {
         title: format!("Noise vs iterations, {} {w}x{h}", study.scene_name),
         x_label: "iterations N".into(),
         y_label: "mean s^2/N (luminance)".into(),
-        series: series(&|p| p.noise.map_or(f64::NAN, |n| n.variance), true),
+        series: series(&|p| p.iteration as f64, &|p| {
+            p.noise.map_or(f64::NAN, |n| n.variance)
+        }),
     };
     files.extend(plot::write_chart(out, "noise-vs-iterations", &chart)?);
     Ok(files)
