@@ -49,6 +49,11 @@ const LIGHT_STREAM: u64 = 1 << 48;
 /// Sampler dimensions of a light subpath's start (light choice, position, direction).
 const EMISSION_DIMENSIONS: u32 = 5;
 
+/// Sampler dimensions per light subpath vertex: BSDF lobe (1), direction
+/// (2), roulette (1). Packed back to back, so that a vertex mostly needs
+/// one new 4-dimension Sobol set (with a camera vertex's stride of 7, two).
+const LIGHT_DIMENSIONS_PER_VERTEX: u32 = 4;
+
 /// What a light subpath leaves at a non-specular vertex: enough to rebuild
 /// its [`PathVertex`] with the regularization a technique needs, and its MIS
 /// state. Kept small: with merging there are pixels x path length of them.
@@ -73,6 +78,9 @@ struct Iteration {
     radius: f32,
     /// 1 / (pi r^2 light_paths): the merge kernel's normalisation.
     merge_normalisation: f32,
+    /// Contributions of connections and light tracing below this go
+    /// through [`shadow_roulette`].
+    roulette_threshold: f32,
 }
 
 /// One iteration's light subpaths, in light-path order.
@@ -144,6 +152,7 @@ impl Renderer {
             radius,
             merge_normalisation: 1.0
                 / (std::f32::consts::PI * radius * radius * light_paths as f32),
+            roulette_threshold: self.config.shadow_roulette * self.pixel_scale,
         }
     }
 
@@ -286,13 +295,14 @@ impl Renderer {
                 });
             }
             if techniques.connections && length < self.config.max_depth {
-                self.connect_to_camera(it, &vertex, &state, splats);
+                let u = sampler.keyed_1d(u64::from(length));
+                self.connect_to_camera(it, &vertex, &state, u, splats);
             }
             // Every further vertex makes paths of at least length + 2 segments.
             if length + 2 > self.config.max_depth {
                 break;
             }
-            sampler.set_dimension(EMISSION_DIMENSIONS + (length - 1) * DIMENSIONS_PER_VERTEX + 3);
+            sampler.set_dimension(EMISSION_DIMENSIONS + (length - 1) * LIGHT_DIMENSIONS_PER_VERTEX);
             let (u_lobe, u_bsdf) = (sampler.next_1d(), sampler.next_2d());
             let u_roulette = sampler.next_1d();
             let Some(s) = vertex.sample(u_lobe, u_bsdf, TransportMode::Importance) else {
@@ -328,24 +338,32 @@ impl Renderer {
         it: &Iteration,
         light_vertex: &PathVertex,
         state: &SubpathState,
+        u_roulette: f32,
         splats: &mut Splats,
     ) {
-        let seen_from_camera = PathRegularization::new(it.mode, Subpath::Camera, it.tau_n);
-        let vertex = &PathVertex::new(
-            &self.scene,
-            light_vertex.point,
-            light_vertex.wi,
-            light_vertex.throughput,
-            0.0,
-            seen_from_camera,
-        );
+        let camera = self.camera.camera();
+        let Some((x, y)) = self.camera.project(light_vertex.point.p) else {
+            return;
+        };
+        // Without regularization both rules leave the vertex as it is.
+        let rebuilt;
+        let vertex = if it.mode == Mode::Off {
+            light_vertex
+        } else {
+            let seen_from_camera = PathRegularization::new(it.mode, Subpath::Camera, it.tau_n);
+            rebuilt = PathVertex::new(
+                &self.scene,
+                light_vertex.point,
+                light_vertex.wi,
+                light_vertex.throughput,
+                0.0,
+                seen_from_camera,
+            );
+            &rebuilt
+        };
         if vertex.is_specular() {
             return;
         }
-        let camera = self.camera.camera();
-        let Some((x, y)) = self.camera.project(vertex.point.p) else {
-            return;
-        };
         let to_camera = camera.position - vertex.point.p;
         let distance = to_camera.length();
         let dir = to_camera / distance;
@@ -363,16 +381,20 @@ impl Renderer {
         if weight <= 0.0 {
             return;
         }
-        let origin = vertex.point.spawn_origin(dir);
-        if self.occluded(origin, camera.position - origin, 1.0) {
-            return;
-        }
         // The pixel integral is over the image plane in pixel units: the
         // surface-to-image factor is camera_pdf_w / d^2 (SmallVCM's
         // ConnectToCamera); each of the N light paths is one sample.
         let light_paths = (camera.resolution.x * camera.resolution.y) as f32;
         let contribution =
             vertex.throughput * f * (weight * camera_pdf_w / (distance * distance * light_paths));
+        let Some(contribution) = shadow_roulette(contribution, it.roulette_threshold, u_roulette)
+        else {
+            return;
+        };
+        let origin = vertex.point.spawn_origin(dir);
+        if self.occluded(origin, camera.position - origin, 1.0) {
+            return;
+        }
         let pixel = y * camera.resolution.x + x;
         splats.push(pixel, contribution);
     }
@@ -445,7 +467,9 @@ impl Renderer {
                         throughput * self.next_event_vcm(it, &vertex, &state, u_light, uv_light);
                     for light in light_path {
                         if light.length + length < self.config.max_depth {
-                            radiance += throughput * self.connect(&vertex, &state, light, &it.mis);
+                            let key = u64::from(length) << 32 | u64::from(light.length);
+                            let u = sampler.keyed_1d(key);
+                            radiance += self.connect(it, &vertex, &state, light, u);
                         }
                     }
                 }
@@ -491,16 +515,31 @@ impl Renderer {
         f * ls.li * (weight / ls.pdf)
     }
 
-    /// A vertex connection between a camera vertex and a light vertex. The
-    /// light vertex is regularized as the camera subpath would regularize
-    /// its next vertex (see [`Renderer::connect_to_camera`]).
+    /// A vertex connection between a camera vertex and a light vertex: the
+    /// contribution to the pixel (camera throughput included). The light
+    /// vertex is regularized as the camera subpath would regularize its next
+    /// vertex (see [`Renderer::connect_to_camera`]).
     fn connect(
         &self,
+        it: &Iteration,
         camera: &PathVertex,
         camera_state: &SubpathState,
         light: &LightVertex,
-        mis_config: &MisConfig,
+        u_roulette: f32,
     ) -> Vec3 {
+        let d = light.point.p - camera.point.p;
+        let distance2 = d.length_squared();
+        let distance = distance2.sqrt();
+        if !(distance > 0.0) {
+            return Vec3::ZERO;
+        }
+        let dir = d / distance;
+        // The camera side first: it is zero for every light vertex behind
+        // the camera vertex's surface, and needs no vertex to be rebuilt.
+        let f_camera = camera.eval(dir, TransportMode::Radiance);
+        if f_camera.max_element() <= 0.0 {
+            return Vec3::ZERO;
+        }
         let light_vertex = PathVertex::new(
             &self.scene,
             light.point,
@@ -512,20 +551,11 @@ impl Renderer {
         if light_vertex.is_specular() {
             return Vec3::ZERO;
         }
-        let d = light.point.p - camera.point.p;
-        let distance2 = d.length_squared();
-        let distance = distance2.sqrt();
-        if !(distance > 0.0) {
-            return Vec3::ZERO;
-        }
-        let dir = d / distance;
-        let f_camera = camera.eval(dir, TransportMode::Radiance);
-        let f_light = light_vertex.eval(-dir, TransportMode::Importance);
-        let f = f_camera * f_light;
+        let f = f_camera * light_vertex.eval(-dir, TransportMode::Importance);
         if f.max_element() <= 0.0 {
             return Vec3::ZERO;
         }
-        let weight = mis_config.connection_weight(
+        let weight = it.mis.connection_weight(
             &light.state,
             &light_vertex.connection_end(-dir),
             camera_state,
@@ -535,12 +565,17 @@ impl Renderer {
         if weight <= 0.0 {
             return Vec3::ZERO;
         }
+        let contribution = camera.throughput * f * light.throughput * (weight / distance2);
+        let Some(contribution) = shadow_roulette(contribution, it.roulette_threshold, u_roulette)
+        else {
+            return Vec3::ZERO;
+        };
         let origin = camera.point.spawn_origin(dir);
         let end = light.point.spawn_origin(-dir);
         if self.occluded(origin, end - origin, 1.0) {
             return Vec3::ZERO;
         }
-        f * light.throughput * (weight / distance2)
+        contribution
     }
 
     /// Vertex merging at a camera vertex: density estimation over the light
@@ -609,6 +644,26 @@ impl Renderer {
     }
 }
 
+/// Russian roulette on a shadow ray (Veach 1997, §10.4.1, "efficiency-
+/// optimized Russian roulette"): a contribution whose largest component c is
+/// below `threshold` keeps its shadow ray with probability c / threshold and
+/// is divided by it, so its expectation is unchanged. Many connections carry
+/// a small share of a pixel (their MIS weights split the path among the
+/// techniques); skipping most of their rays costs little variance. MIS
+/// weights are unaffected: visibility is in no technique's density.
+///
+/// Returns the contribution to test for visibility, or `None` when the ray
+/// is skipped. A non-finite contribution is kept (and later counted as an
+/// invalid sample).
+fn shadow_roulette(contribution: Vec3, threshold: f32, u: f32) -> Option<Vec3> {
+    let c = contribution.max_element();
+    if !(c < threshold) {
+        return Some(contribution);
+    }
+    let q = c / threshold;
+    (u < q).then(|| contribution / q)
+}
+
 /// The `mis` crate's record of a sampled scattering event.
 fn scatter_event(vertex: &PathVertex, s: &crate::vertex::VertexSample) -> Scatter {
     let pdfs = if s.is_specular {
@@ -651,6 +706,35 @@ mod tests {
     use crate::config::{Regularization, RenderConfig};
     use crate::lights::EmitterPdfs;
     use mis::EmitterKind;
+
+    /// The roulette keeps a contribution's expectation: averaged over a
+    /// stratified grid of u it returns the contribution (to the grid's
+    /// resolution); above the threshold, or without one, it is the identity.
+    #[test]
+    fn shadow_roulette_is_unbiased() {
+        let n: u32 = 1 << 16;
+        let c = Vec3::new(0.03, 0.01, 0.0);
+        let mean = (0..n)
+            .filter_map(|i| shadow_roulette(c, 0.1, (i as f32 + 0.5) / n as f32))
+            .map(Vec3::as_dvec3)
+            .sum::<glam::DVec3>()
+            / f64::from(n);
+        // One grid cell more or less kept changes the mean by threshold / n.
+        let tolerance = 0.1 / f64::from(n);
+        assert!(
+            (mean - c.as_dvec3()).abs().max_element() < tolerance,
+            "{mean} vs {c}"
+        );
+        let kept = (0..n)
+            .filter(|&i| shadow_roulette(c, 0.1, (i as f32 + 0.5) / n as f32).is_some())
+            .count();
+        assert_eq!(kept, (0.3 * f64::from(n)).round() as usize);
+        for u in [0.0, 0.5, 0.999] {
+            assert_eq!(shadow_roulette(c, 0.02, u), Some(c));
+            assert_eq!(shadow_roulette(c, 0.0, u), Some(c));
+            assert!(shadow_roulette(Vec3::NAN, 0.1, u).is_some_and(|v| v.is_nan()));
+        }
+    }
 
     /// The light end x_0 of a complete path, seen from its last camera vertex.
     struct LightEnd {

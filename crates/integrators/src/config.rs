@@ -169,11 +169,25 @@ pub struct RenderConfig {
     /// The progressive radius exponent alpha_r of SPEC §7:
     /// r_i = r_1 i^((alpha_r - 1) / 2).
     pub radius_alpha: f32,
+    /// Russian roulette on the shadow rays of vertex connections and light
+    /// tracing in BPT and VCM (Veach 1997, §10.4.1): a contribution below
+    /// this fraction of the mean pixel value is tested for visibility only
+    /// with probability contribution / threshold. 0 traces every shadow ray.
+    pub shadow_roulette: f32,
 }
 
 /// Default first merge radius: 0.3 % of the scene's bounding-sphere radius
 /// (SmallVCM's default factor).
 pub const DEFAULT_RADIUS_FACTOR: f32 = 0.003;
+
+/// Default shadow-ray roulette threshold, as a fraction of the mean pixel
+/// value. Measured on `cornell-box` (BPT, 128x128, 64 iterations), against
+/// no roulette: 0.1 traces 23 % fewer rays (10.3 instead of 13.4 per
+/// sample) and raises the mean per-pixel variance by 0.1 %, the mean
+/// relative variance (var / (mean^2 + 0.01), SPEC §8) by 5 %; 0.25 and 0.5
+/// skip 32 % and 38 % of the rays but raise the relative variance by 34 %
+/// and 105 % (a threshold set by the image mean makes dark pixels noisier).
+pub const DEFAULT_SHADOW_ROULETTE: f32 = 0.1;
 
 /// Default radius reduction exponent alpha_r (SPEC §7; Knaus and Zwicker 2011).
 pub const DEFAULT_RADIUS_ALPHA: f32 = 0.75;
@@ -208,6 +222,7 @@ impl Default for RenderConfig {
             virtual_merges: None,
             radius_factor: DEFAULT_RADIUS_FACTOR,
             radius_alpha: DEFAULT_RADIUS_ALPHA,
+            shadow_roulette: DEFAULT_SHADOW_ROULETTE,
         }
     }
 }

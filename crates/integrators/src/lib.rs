@@ -25,7 +25,8 @@ pub mod vertex;
 
 pub use config::{
     Algorithm, ConfigError, DEFAULT_MAX_DEPTH, DEFAULT_RADIUS_ALPHA, DEFAULT_RADIUS_FACTOR,
-    DEFAULT_TAU_0, Regularization, RenderConfig, Strategies, mode_name, parse_mode,
+    DEFAULT_SHADOW_ROULETTE, DEFAULT_TAU_0, Regularization, RenderConfig, Strategies, mode_name,
+    parse_mode,
 };
 pub use film::Film;
 pub use regularization::Mode;

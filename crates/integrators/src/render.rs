@@ -56,10 +56,19 @@ pub struct Renderer {
     /// the camera sees (infinity when it sees none): the scale of what the
     /// image resolves, which bounds the merge radius.
     pub(crate) pixel_footprint: f32,
+    /// The mean pixel value (largest RGB component) of a small path-traced
+    /// preview: the scale of the shadow-ray roulette threshold (0 when the
+    /// algorithm does not use the roulette).
+    pub(crate) pixel_scale: f32,
 }
 
 /// Camera rays per image side that estimate the distance of visible surfaces.
 const FOOTPRINT_GRID: u32 = 16;
+
+/// Pixels per image side, and paths per pixel, of the path-traced preview
+/// that estimates the mean pixel value (about 4 ms on `cornell-box`).
+const PREVIEW_GRID: u32 = 32;
+const PREVIEW_PATHS: u64 = 4;
 
 thread_local! {
     /// Rays traced by this thread since its count was last added to a
@@ -76,7 +85,7 @@ impl Renderer {
         let features = SceneFeatures::of(&scene);
         let camera = CameraRays::new(scene.camera);
         let pixel_footprint = pixel_footprint(&bvh, &camera);
-        Self {
+        let mut renderer = Self {
             camera,
             scene,
             bvh,
@@ -86,6 +95,45 @@ impl Renderer {
             invalid_samples: AtomicU64::new(0),
             rays: AtomicU64::new(0),
             pixel_footprint,
+            pixel_scale: 0.0,
+        };
+        if renderer.techniques().connections
+            && config.algorithm != Algorithm::Pt
+            && config.shadow_roulette > 0.0
+        {
+            renderer.pixel_scale = renderer.preview_pixel_mean();
+        }
+        renderer
+    }
+
+    /// The mean over a grid of pixels of path-traced estimates (largest RGB
+    /// component), from random streams of iteration 0, which renders never
+    /// use. Its rays are not counted in [`Renderer::rays_traced`]. Returns 0
+    /// when the mean is not a positive finite number.
+    fn preview_pixel_mean(&self) -> f32 {
+        let res = self.scene.camera.resolution;
+        let rays_before = THREAD_RAYS.get();
+        let mut sum = 0.0f64;
+        for i in 0..PREVIEW_GRID * PREVIEW_GRID {
+            let (gx, gy) = (i % PREVIEW_GRID, i / PREVIEW_GRID);
+            let x = ((2 * gx + 1) * res.x) / (2 * PREVIEW_GRID);
+            let y = ((2 * gy + 1) * res.y) / (2 * PREVIEW_GRID);
+            for k in 0..PREVIEW_PATHS {
+                let stream = (u64::from(y) * u64::from(res.x) + u64::from(x)) * PREVIEW_PATHS + k;
+                let mut sampler = Sampler::new(self.config.seed, 0, stream);
+                let (o, d) = self.camera.ray(x, y, sampler.next_2d());
+                sum += f64::from(
+                    self.trace_path(o, d, &mut sampler, self.tau_at(1))
+                        .max_element(),
+                );
+            }
+        }
+        THREAD_RAYS.set(rays_before);
+        let mean = (sum / f64::from(PREVIEW_GRID * PREVIEW_GRID) / PREVIEW_PATHS as f64) as f32;
+        if mean.is_finite() && mean > 0.0 {
+            mean
+        } else {
+            0.0
         }
     }
 
@@ -288,6 +336,15 @@ impl Renderer {
             "strategies:       {strategies}; Russian roulette from depth {}",
             crate::pt::ROULETTE_DEPTH
         );
+        if self.pixel_scale > 0.0 {
+            let _ = writeln!(
+                s,
+                "shadow roulette:  connection and light-tracing contributions below {:.4e} ({} x the preview's mean pixel value {:.4e}) keep their shadow ray with probability contribution / threshold (Veach 1997, §10.4.1)",
+                c.shadow_roulette * self.pixel_scale,
+                c.shadow_roulette,
+                self.pixel_scale
+            );
+        }
         if self.techniques().merging && c.algorithm != Algorithm::Pt {
             let r1 = self.merge_radius(1);
             let rule = if r1 < c.radius_factor * self.lights.scene_radius() {

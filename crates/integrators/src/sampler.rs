@@ -12,10 +12,14 @@
 //! input repeats a value.
 
 use glam::Vec2;
+use sobol_burley::parts;
 
 /// Sobol points per scramble seed (the table's index limit): iteration
 /// numbers beyond it start a new, independently scrambled sequence.
 const POINTS_PER_SEED: u64 = 1 << 16;
+
+/// `sobol_burley::sample_4d`'s salt of the stream seed for the point shuffle.
+const SHUFFLE_SALT: u32 = 0x79c6_8e4a;
 
 /// splitmix64's finaliser (Steele et al. 2014): a bijective 64-bit mix.
 fn mix(mut z: u64) -> u64 {
@@ -31,12 +35,16 @@ fn unit_f32(bits: u64) -> f32 {
 
 /// The random stream of one pixel (or light subpath) in one iteration.
 ///
-/// Sobol values are computed four dimensions at a time (`sample_4d`, SIMD)
-/// and cached: a path vertex uses seven consecutive dimensions.
+/// Sobol values are computed four dimensions at a time (SIMD) and cached: a
+/// path vertex uses seven consecutive dimensions.
 #[derive(Clone, Copy, Debug)]
 pub struct Sampler {
     index: u32,
     seed: u64,
+    /// The point index after the stream's Owen shuffle (bit-reversed), the
+    /// first step of `sobol_burley::sample_4d`, which depends only on the
+    /// stream: computed once here instead of once per 4 dimensions.
+    shuffled_rev_index: u32,
     dimension: u32,
     /// The 4-dimension set held in `cache` (`u32::MAX`: none).
     cached_set: u32,
@@ -48,9 +56,15 @@ impl Sampler {
     /// long as the caller is consistent) under the user's `seed`.
     pub fn new(seed: u64, iteration: u64, stream: u64) -> Self {
         let epoch = iteration / POINTS_PER_SEED;
+        let index = (iteration % POINTS_PER_SEED) as u32;
+        let seed = mix(mix(mix(seed) ^ stream) ^ epoch.wrapping_mul(0x9e37_79b9_7f4a_7c15));
         Self {
-            index: (iteration % POINTS_PER_SEED) as u32,
-            seed: mix(mix(mix(seed) ^ stream) ^ epoch.wrapping_mul(0x9e37_79b9_7f4a_7c15)),
+            index,
+            seed,
+            shuffled_rev_index: parts::owen_scramble_rev(
+                index.reverse_bits(),
+                parts::hash(seed as u32 ^ SHUFFLE_SALT),
+            ),
             dimension: 0,
             cached_set: u32::MAX,
             cache: [0.0; 4],
@@ -70,7 +84,7 @@ impl Sampler {
         if d < sobol_burley::NUM_DIMENSIONS {
             let set = d / 4;
             if set != self.cached_set {
-                self.cache = sobol_burley::sample_4d(self.index, set, self.seed as u32);
+                self.cache = self.sobol_4d(set);
                 self.cached_set = set;
             }
             self.cache[(d % 4) as usize]
@@ -79,6 +93,34 @@ impl Sampler {
                 self.seed ^ mix(u64::from(d) << 32 | u64::from(self.index))
             ))
         }
+    }
+
+    /// A value in [0, 1) for a decision with no place in the per-vertex
+    /// dimension layout (one per vertex pair, for instance), named by `key`:
+    /// a hash of the stream, the iteration and the key, independent of the
+    /// Sobol dimensions and of [`Sampler::next_1d`]'s position.
+    pub fn keyed_1d(&self, key: u64) -> f32 {
+        /// Sets the hash input apart from the dimension fallback of `next_1d`.
+        const KEYED: u64 = 0x5851_f42d_4c95_7f2d;
+        unit_f32(mix(
+            self.seed ^ mix(mix(key ^ KEYED) ^ u64::from(self.index))
+        ))
+    }
+
+    /// Dimensions 4 set .. 4 set + 3: `sobol_burley::sample_4d(index, set,
+    /// seed)` (Burley 2020: Sobol, then per-dimension Owen scrambling), from
+    /// the crate's public parts with the stream's shuffle done once.
+    fn sobol_4d(&self, set: u32) -> [f32; 4] {
+        /// `sample_4d`'s constants: a multiplier that decorrelates
+        /// structured seeds, and one scramble salt per dimension of a set.
+        const SEED_MULTIPLIER: u32 = 0x9c8f_2d3b;
+        const DIMENSION_SALTS: [u32; 4] = [0x912f_69ba, 0x174f_18ab, 0x691e_72ca, 0xb40c_c1b8];
+        let sobol = parts::sobol_int4_rev(self.shuffled_rev_index, set);
+        let seed = (self.seed as u32).wrapping_mul(SEED_MULTIPLIER);
+        let scramble = parts::Int4::from([seed ^ set; 4]) ^ DIMENSION_SALTS.into();
+        parts::owen_scramble_int4_rev(sobol, parts::hash_int4(scramble))
+            .reverse_bits()
+            .to_f32_norm()
     }
 
     /// The next two values.
@@ -121,6 +163,28 @@ mod tests {
                 "dimension {d}"
             );
         }
+        for (it, stream, set) in [(0, 0, 0), (1, 5, 3), (65_535, 1 << 48, 63)] {
+            let s = Sampler::new(11, it, stream);
+            let expected = sobol_burley::sample_4d(s.index, set, s.seed as u32);
+            assert_eq!(s.sobol_4d(set), expected, "iteration {it}, set {set}");
+        }
+    }
+
+    #[test]
+    fn keyed_values_are_uniform_and_apart_from_dimensions() {
+        let n = 4096;
+        let xs: Vec<f64> = (0..n)
+            .map(|it| f64::from(Sampler::new(42, it, 5).keyed_1d(0x0003_0002)))
+            .collect();
+        let mean = xs.iter().sum::<f64>() / n as f64;
+        let se = (1.0 / 12.0 / n as f64).sqrt();
+        assert!((mean - 0.5).abs() < 5.0 * se, "mean {mean}");
+        let mut s = Sampler::new(42, 7, 5);
+        let key = s.keyed_1d(300);
+        s.set_dimension(300);
+        assert_ne!(key, s.next_1d());
+        assert_ne!(key, Sampler::new(42, 7, 5).keyed_1d(301));
+        assert_ne!(key, Sampler::new(42, 7, 6).keyed_1d(300));
     }
 
     #[test]

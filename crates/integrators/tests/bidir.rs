@@ -171,6 +171,35 @@ fn regularized_caustic_approaches_the_reference_as_tau_grows() {
     assert!((late - reference).abs() < (early - reference).abs());
 }
 
+/// Shadow-ray roulette (Veach 1997, §10.4.1) keeps BPT unbiased and
+/// skips rays: with a threshold of the mean pixel value, which sends most
+/// connections and light-tracing contributions through the roulette, the
+/// image agrees with BPT without roulette (block means, measured variance,
+/// independent seeds) and fewer rays are traced. (Without the division by
+/// the survival probability a block is 60 % darker: p < 1e-300.)
+#[test]
+fn shadow_roulette_keeps_the_image_and_skips_rays() {
+    let run = |shadow_roulette, seed| {
+        let config = RenderConfig {
+            shadow_roulette,
+            ..config(Algorithm::Bpt, Mode::Off, seed)
+        };
+        let renderer = Renderer::new(
+            common::load(&common::bundled("cornell-box"), 32, 32),
+            config,
+        );
+        let mut film = renderer.new_film();
+        renderer.render(&mut film, 1, 128);
+        (film, renderer.rays_traced())
+    };
+    let (all_rays, traced_all) = run(0.0, 1);
+    let (roulette, traced_roulette) = run(1.0, 2);
+    let p = common::assert_films_agree(&all_rays, &roulette, 4, "bpt with vs without roulette");
+    let saved = 1.0 - traced_roulette as f64 / traced_all as f64;
+    eprintln!("shadow roulette: smallest p {p:.3}; {saved:.3} of the rays skipped");
+    assert!(saved > 0.2, "only {saved:.3} of the rays skipped");
+}
+
 #[test]
 fn bidirectional_images_do_not_depend_on_thread_count() {
     for algorithm in [Algorithm::Bpt, Algorithm::Vcm, Algorithm::Ppm] {

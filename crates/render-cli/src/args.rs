@@ -141,6 +141,15 @@ pub struct Cli {
     #[arg(long, value_name = "FRACTION", value_parser = parse_radius, help_heading = "Rendering")]
     pub radius: Option<f32>,
 
+    /// Russian roulette on the shadow rays of bpt and vcm's vertex connections and light
+    /// tracing (Veach 1997, §10.4.1): a contribution c below this fraction t of the mean pixel
+    /// value (from a small path-traced preview) keeps its shadow ray with probability c / t and
+    /// is scaled by t / c, so the image stays unbiased; 0 traces every shadow ray.
+    /// [default: 0.1]
+    #[arg(long, value_name = "FRACTION", value_parser = parse_shadow_roulette, allow_negative_numbers = true,
+          help_heading = "Rendering")]
+    pub shadow_roulette: Option<f32>,
+
     /// Image size in pixels, WIDTHxHEIGHT (e.g. 640x480), each in 1..=16384.
     /// [default: the manifest's, else 512 wide at the camera's aspect ratio]
     #[arg(long, value_name = "WxH", value_parser = parse_resolution, help_heading = "Camera")]
@@ -453,6 +462,9 @@ impl Cli {
                 regularization,
                 virtual_merges: self.virtual_merges,
                 radius_factor: self.radius.unwrap_or(integrators::DEFAULT_RADIUS_FACTOR),
+                shadow_roulette: self
+                    .shadow_roulette
+                    .unwrap_or(integrators::DEFAULT_SHADOW_ROULETTE),
                 ..RenderConfig::default()
             },
             budget,
@@ -580,6 +592,15 @@ fn parse_radius(s: &str) -> Result<f32, String> {
     match s.parse::<f32>() {
         Ok(r) if r > 0.0 && r.is_finite() => Ok(r),
         _ => Err("expected a positive number (a fraction of the scene radius, e.g. 0.003)".into()),
+    }
+}
+
+fn parse_shadow_roulette(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(t) if t >= 0.0 && t.is_finite() => Ok(t),
+        _ => Err(
+            "expected a number >= 0 (a fraction of the mean pixel value, e.g. 0.1; 0: off)".into(),
+        ),
     }
 }
 
