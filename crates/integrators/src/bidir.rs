@@ -372,6 +372,15 @@ impl Renderer {
             return;
         }
         let camera_pdf_w = self.camera.pdf_w(-dir);
+        // The pixel integral is over the image plane in pixel units: the
+        // surface-to-image factor is camera_pdf_w / d^2 (SmallVCM's
+        // ConnectToCamera); each of the N light paths is one sample.
+        let light_paths = (camera.resolution.x * camera.resolution.y) as f32;
+        let unweighted =
+            vertex.throughput * f * (camera_pdf_w / (distance * distance * light_paths));
+        if roulette_skips(unweighted, it.roulette_threshold, u_roulette) {
+            return;
+        }
         let weight = it.mis.light_tracing_weight(
             state,
             &vertex.connection_end(dir),
@@ -381,13 +390,8 @@ impl Renderer {
         if weight <= 0.0 {
             return;
         }
-        // The pixel integral is over the image plane in pixel units: the
-        // surface-to-image factor is camera_pdf_w / d^2 (SmallVCM's
-        // ConnectToCamera); each of the N light paths is one sample.
-        let light_paths = (camera.resolution.x * camera.resolution.y) as f32;
-        let contribution =
-            vertex.throughput * f * (weight * camera_pdf_w / (distance * distance * light_paths));
-        let Some(contribution) = shadow_roulette(contribution, it.roulette_threshold, u_roulette)
+        let Some(contribution) =
+            shadow_roulette(unweighted * weight, it.roulette_threshold, u_roulette)
         else {
             return;
         };
@@ -555,6 +559,10 @@ impl Renderer {
         if f.max_element() <= 0.0 {
             return Vec3::ZERO;
         }
+        let unweighted = camera.throughput * f * light.throughput / distance2;
+        if roulette_skips(unweighted, it.roulette_threshold, u_roulette) {
+            return Vec3::ZERO;
+        }
         let weight = it.mis.connection_weight(
             &light.state,
             &light_vertex.connection_end(-dir),
@@ -565,8 +573,8 @@ impl Renderer {
         if weight <= 0.0 {
             return Vec3::ZERO;
         }
-        let contribution = camera.throughput * f * light.throughput * (weight / distance2);
-        let Some(contribution) = shadow_roulette(contribution, it.roulette_threshold, u_roulette)
+        let Some(contribution) =
+            shadow_roulette(unweighted * weight, it.roulette_threshold, u_roulette)
         else {
             return Vec3::ZERO;
         };
@@ -664,6 +672,15 @@ fn shadow_roulette(contribution: Vec3, threshold: f32, u: f32) -> Option<Vec3> {
     (u < q).then(|| contribution / q)
 }
 
+/// True when [`shadow_roulette`] is sure to skip every contribution at most
+/// `bound` (componentwise) with the same `u`: the MIS weight (at most 1) of
+/// a connection need not be computed when its unweighted contribution
+/// already fails the roulette. The same decisions, reached sooner.
+fn roulette_skips(bound: Vec3, threshold: f32, u: f32) -> bool {
+    let b = bound.max_element();
+    b < threshold && u >= b / threshold
+}
+
 /// The `mis` crate's record of a sampled scattering event.
 fn scatter_event(vertex: &PathVertex, s: &crate::vertex::VertexSample) -> Scatter {
     let pdfs = if s.is_specular {
@@ -729,6 +746,18 @@ mod tests {
             .filter(|&i| shadow_roulette(c, 0.1, (i as f32 + 0.5) / n as f32).is_some())
             .count();
         assert_eq!(kept, (0.3 * f64::from(n)).round() as usize);
+        // The early test skips only what the roulette would skip.
+        let mut early = 0;
+        for i in 0..n {
+            let u = (i as f32 + 0.5) / n as f32;
+            for w in [1.0, 0.5, 0.1] {
+                if roulette_skips(c, 0.1, u) {
+                    early += 1;
+                    assert_eq!(shadow_roulette(c * w, 0.1, u), None, "u {u}, weight {w}");
+                }
+            }
+        }
+        assert_eq!(early, 3 * (n - kept as u32));
         for u in [0.0, 0.5, 0.999] {
             assert_eq!(shadow_roulette(c, 0.02, u), Some(c));
             assert_eq!(shadow_roulette(c, 0.0, u), Some(c));
