@@ -67,6 +67,26 @@ pub(crate) struct LightVertex {
     state: SubpathState,
     /// Segments from the light to this vertex.
     length: u32,
+    /// The largest component of `throughput` times the vertex's
+    /// [`PathVertex::importance_bound`]: throughput times f |cos| towards
+    /// `wo` is at most `bound` |wo.n_g|.
+    bound: f32,
+}
+
+impl LightVertex {
+    /// An upper bound of the largest component of `throughput` times the
+    /// vertex's f |cos| towards `wo` (infinity when the lobe has no cheap
+    /// bound).
+    fn bound_towards(&self, wo: Vec3) -> f32 {
+        let (cos_in, cos_out) = (self.wi.dot(self.point.ng), wo.dot(self.point.ng));
+        // A lobe with a finite bound only reflects: nothing leaves through
+        // the other side of the geometric surface (`PathVertex::eval`).
+        if self.bound.is_finite() && cos_in * cos_out <= 0.0 {
+            0.0
+        } else {
+            self.bound * cos_out.abs()
+        }
+    }
 }
 
 /// The settings of one iteration.
@@ -292,6 +312,7 @@ impl Renderer {
                     throughput,
                     state,
                     length,
+                    bound: throughput.max_element() * vertex.importance_bound(),
                 });
             }
             if techniques.connections && length < self.config.max_depth {
@@ -345,9 +366,10 @@ impl Renderer {
         let Some((x, y)) = self.camera.project(light_vertex.point.p) else {
             return;
         };
-        // Without regularization both rules leave the vertex as it is.
+        // Without regularization, or for a lobe without roughness, both
+        // rules leave the vertex as it is.
         let rebuilt;
-        let vertex = if it.mode == Mode::Off {
+        let vertex = if it.mode == Mode::Off || light_vertex.is_regularization_invariant() {
             light_vertex
         } else {
             let seen_from_camera = PathRegularization::new(it.mode, Subpath::Camera, it.tau_n);
@@ -378,7 +400,7 @@ impl Renderer {
         let light_paths = (camera.resolution.x * camera.resolution.y) as f32;
         let unweighted =
             vertex.throughput * f * (camera_pdf_w / (distance * distance * light_paths));
-        if roulette_skips(unweighted, it.roulette_threshold, u_roulette) {
+        if roulette_skips(unweighted.max_element(), it.roulette_threshold, u_roulette) {
             return;
         }
         let weight = it.mis.light_tracing_weight(
@@ -467,8 +489,9 @@ impl Renderer {
 
             if !vertex.is_specular() {
                 if techniques.connections {
-                    radiance +=
-                        throughput * self.next_event_vcm(it, &vertex, &state, u_light, uv_light);
+                    // The emitter point of next-event estimation is light vertex 0.
+                    let u = sampler.keyed_1d(u64::from(length) << 32);
+                    radiance += self.next_event_vcm(it, &vertex, &state, u_light, uv_light, u);
                     for light in light_path {
                         if light.length + length < self.config.max_depth {
                             let key = u64::from(length) << 32 | u64::from(light.length);
@@ -500,7 +523,9 @@ impl Renderer {
     }
 
     /// Next-event estimation (s = 1) at a camera vertex, weighted against
-    /// every other technique.
+    /// every other technique: the contribution to the pixel (camera
+    /// throughput included). Its shadow ray goes through the same roulette
+    /// as those of connections: its MIS weight shares the path with them.
     fn next_event_vcm(
         &self,
         it: &Iteration,
@@ -508,15 +533,27 @@ impl Renderer {
         state: &SubpathState,
         u_light: f32,
         uv: Vec2,
+        u_roulette: f32,
     ) -> Vec3 {
-        let Some((ls, f)) = self.visible_light_sample(vertex, u_light, uv) else {
+        let Some(ls) = self.lights.sample(&self.scene, vertex.point.p, u_light, uv) else {
             return Vec3::ZERO;
         };
+        let f = vertex.eval(ls.wi, TransportMode::Radiance);
+        if f.max_element() <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let unweighted = vertex.throughput * f * ls.li / ls.pdf;
+        if roulette_skips(unweighted.max_element(), it.roulette_threshold, u_roulette) {
+            return Vec3::ZERO;
+        }
         let weight =
             it.mis
                 .next_event_weight(state, &vertex.connection_end(ls.wi), &ls.mis_sample())
                 as f32;
-        f * ls.li * (weight / ls.pdf)
+        match shadow_roulette(unweighted * weight, it.roulette_threshold, u_roulette) {
+            Some(contribution) if self.light_visible(vertex, &ls) => contribution,
+            _ => Vec3::ZERO,
+        }
     }
 
     /// A vertex connection between a camera vertex and a light vertex: the
@@ -544,6 +581,14 @@ impl Renderer {
         if f_camera.max_element() <= 0.0 {
             return Vec3::ZERO;
         }
+        // With a bound of the light side, the roulette often decides before
+        // the light vertex is rebuilt (the same decisions as from the
+        // contribution itself).
+        let bound =
+            (camera.throughput * f_camera).max_element() * light.bound_towards(-dir) / distance2;
+        if roulette_skips(bound, it.roulette_threshold, u_roulette) {
+            return Vec3::ZERO;
+        }
         let light_vertex = PathVertex::new(
             &self.scene,
             light.point,
@@ -560,7 +605,7 @@ impl Renderer {
             return Vec3::ZERO;
         }
         let unweighted = camera.throughput * f * light.throughput / distance2;
-        if roulette_skips(unweighted, it.roulette_threshold, u_roulette) {
+        if roulette_skips(unweighted.max_element(), it.roulette_threshold, u_roulette) {
             return Vec3::ZERO;
         }
         let weight = it.mis.connection_weight(
@@ -672,13 +717,14 @@ fn shadow_roulette(contribution: Vec3, threshold: f32, u: f32) -> Option<Vec3> {
     (u < q).then(|| contribution / q)
 }
 
-/// True when [`shadow_roulette`] is sure to skip every contribution at most
-/// `bound` (componentwise) with the same `u`: the MIS weight (at most 1) of
-/// a connection need not be computed when its unweighted contribution
-/// already fails the roulette. The same decisions, reached sooner.
-fn roulette_skips(bound: Vec3, threshold: f32, u: f32) -> bool {
-    let b = bound.max_element();
-    b < threshold && u >= b / threshold
+/// True when [`shadow_roulette`] is sure to skip every contribution whose
+/// largest component is at most `bound`, with the same `u`: the MIS weight
+/// (at most 1) of a connection need not be computed when its unweighted
+/// contribution already fails the roulette, nor its BSDFs evaluated when a
+/// bound of them does. The same decisions, reached sooner. A NaN bound
+/// decides nothing.
+fn roulette_skips(bound: f32, threshold: f32, u: f32) -> bool {
+    bound < threshold && u >= bound / threshold
 }
 
 /// The `mis` crate's record of a sampled scattering event.
@@ -751,7 +797,7 @@ mod tests {
         for i in 0..n {
             let u = (i as f32 + 0.5) / n as f32;
             for w in [1.0, 0.5, 0.1] {
-                if roulette_skips(c, 0.1, u) {
+                if roulette_skips(c.max_element(), 0.1, u) {
                     early += 1;
                     assert_eq!(shadow_roulette(c * w, 0.1, u), None, "u {u}, weight {w}");
                 }
@@ -763,6 +809,86 @@ mod tests {
             assert_eq!(shadow_roulette(c, 0.0, u), Some(c));
             assert!(shadow_roulette(Vec3::NAN, 0.1, u).is_some_and(|v| v.is_nan()));
         }
+    }
+
+    /// Unit directions spread over the sphere (a Fibonacci lattice).
+    fn sphere_directions(n: u32) -> impl Iterator<Item = Vec3> {
+        (0..n).map(move |i| {
+            let z = 1.0 - (2.0 * i as f32 + 1.0) / n as f32;
+            let phi = i as f32 * 2.399_963;
+            let r = (1.0 - z * z).sqrt();
+            Vec3::new(r * phi.cos(), r * phi.sin(), z)
+        })
+    }
+
+    /// A light vertex's bound holds towards every direction, with shading
+    /// normals away from the geometric one (where the shading correction
+    /// exceeds 1), is the value itself where the two normals agree (so it
+    /// lets the roulette skip work), and is infinite for microfacet lobes.
+    #[test]
+    fn light_vertex_bound_holds_towards_every_direction() {
+        let r = renderer("glossy-caustic", Algorithm::Bpt, Mode::Off, false);
+        let it = r.iteration(1);
+        let material = |diffuse: bool| {
+            r.scene
+                .materials
+                .iter()
+                .position(|m| matches!(m.surface, scene::Surface::Diffuse { .. }) == diffuse)
+                .expect("the scene has diffuse and glossy materials") as u32
+        };
+        let state = SubpathRay::from_camera(&it.mis, 1.0).arrive(&it.mis, 1.0, 1.0);
+        let light_vertex = |point: SurfacePoint, wi: Vec3| {
+            let throughput = Vec3::new(0.5, 2.0, 1.0);
+            let regularization = PathRegularization::new(Mode::Off, Subpath::Light, 1.0);
+            let vertex = PathVertex::new(&r.scene, point, wi, throughput, 0.0, regularization);
+            let light = LightVertex {
+                point,
+                wi,
+                throughput,
+                state,
+                length: 1,
+                bound: throughput.max_element() * vertex.importance_bound(),
+            };
+            (vertex, light)
+        };
+        let ng = Vec3::Z;
+        let mut tight = 0;
+        for tilt in [0.0, 0.3, 0.8] {
+            let ns = Vec3::new(tilt, 0.2 * tilt, 1.0).normalize();
+            let point = SurfacePoint {
+                p: Vec3::ZERO,
+                n_winding: ng,
+                ng,
+                frame: crate::geometry::Frame::from_normal(ns),
+                uv: Vec2::ZERO,
+                triangle: 0,
+                material: material(true),
+            };
+            for wi in sphere_directions(64) {
+                let (vertex, light) = light_vertex(point, wi);
+                for wo in sphere_directions(256) {
+                    let value = (vertex.throughput * vertex.eval(wo, TransportMode::Importance))
+                        .max_element();
+                    let bound = light.bound_towards(wo);
+                    assert!(
+                        value <= bound * (1.0 + 1e-5),
+                        "{value} > {bound}: {wi} {wo} {ns}"
+                    );
+                    if tilt == 0.0 {
+                        // Equal, zero included (wo on the other side).
+                        assert!(value >= bound * (1.0 - 1e-5), "{value} < {bound}");
+                        tight += usize::from(value > 0.0);
+                    }
+                }
+            }
+            let glossy = SurfacePoint {
+                material: material(false),
+                ..point
+            };
+            let (_, light) = light_vertex(glossy, Vec3::Z);
+            assert_eq!(light.bound_towards(Vec3::Z), f32::INFINITY);
+        }
+        assert!(tight > 1000, "{tight}");
     }
 
     /// The light end x_0 of a complete path, seen from its last camera vertex.

@@ -182,11 +182,13 @@ pub const DEFAULT_RADIUS_FACTOR: f32 = 0.003;
 
 /// Default shadow-ray roulette threshold, as a fraction of the mean pixel
 /// value. Measured on `cornell-box` (BPT, 128x128, 64 iterations), against
-/// no roulette: 0.1 traces 23 % fewer rays (10.3 instead of 13.4 per
+/// no roulette: 0.1 traces 26 % fewer rays (9.9 instead of 13.4 per
 /// sample) and raises the mean per-pixel variance by 0.1 %, the mean
-/// relative variance (var / (mean^2 + 0.01), SPEC §8) by 5 %; 0.25 and 0.5
-/// skip 32 % and 38 % of the rays but raise the relative variance by 34 %
-/// and 105 % (a threshold set by the image mean makes dark pixels noisier).
+/// relative variance (var / (mean^2 + 0.01), SPEC §8) by 6.5 %. With
+/// connections and light tracing only (next-event estimation outside the
+/// roulette): 0.1, 0.25 and 0.5 skip 23 %, 32 % and 38 % of the rays and
+/// raise the relative variance by 5 %, 34 % and 105 % (a threshold set by
+/// the image mean makes dark pixels noisier).
 pub const DEFAULT_SHADOW_ROULETTE: f32 = 0.1;
 
 /// Default radius reduction exponent alpha_r (SPEC §7; Knaus and Zwicker 2011).

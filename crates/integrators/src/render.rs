@@ -340,7 +340,7 @@ impl Renderer {
         if self.pixel_scale > 0.0 {
             let _ = writeln!(
                 s,
-                "shadow roulette:  connection and light-tracing contributions below {:.4e} ({} x the preview's mean pixel value {:.4e}) keep their shadow ray with probability contribution / threshold (Veach 1997, §10.4.1)",
+                "shadow roulette:  next-event, connection and light-tracing contributions below {:.4e} ({} x the preview's mean pixel value {:.4e}) keep their shadow ray with probability contribution / threshold (Veach 1997, §10.4.1)",
                 c.shadow_roulette * self.pixel_scale,
                 c.shadow_roulette,
                 self.pixel_scale

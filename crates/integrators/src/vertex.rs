@@ -122,6 +122,30 @@ impl PathVertex {
         self.bsdf.eval(wi_l, wo_l, mode) * wo_l.z.abs() * self.shading_correction(wo, mode)
     }
 
+    /// A bound c with `eval(wo, Importance).max_element()` at most
+    /// c |wo.n_g| for every `wo`: with the shading correction, the cosine a
+    /// light subpath carries is the geometric one (Veach 1997, eq. 5.19),
+    /// so for a Lambertian lobe c = max(R) / pi |wi.n_s| / |wi.n_g|.
+    /// Infinity for microfacet lobes, whose peak has no cheap bound (it
+    /// grows without limit as alpha shrinks). Lets the bidirectional core
+    /// skip work whose outcome the bound already decides.
+    pub fn importance_bound(&self) -> f32 {
+        let Bsdf::Lambertian(lambertian) = self.bsdf else {
+            return f32::INFINITY;
+        };
+        lambertian.reflectance.max_element()
+            * std::f32::consts::FRAC_1_PI
+            * self.wi.dot(self.frame.n).abs()
+            / self.wi.dot(self.point.ng).abs()
+    }
+
+    /// True when no regularization rule changes this vertex (a Lambertian
+    /// lobe has no roughness to raise): it need not be rebuilt for the
+    /// rule of another subpath.
+    pub fn is_regularization_invariant(&self) -> bool {
+        self.bsdf_original.alpha().is_none()
+    }
+
     /// f(wi, wo) without a cosine (for density estimation at merges).
     pub fn f(&self, wo: Vec3, mode: TransportMode) -> Vec3 {
         if !self.geometrically_consistent(wo) {
@@ -148,28 +172,30 @@ impl PathVertex {
     /// The density MIS uses for `wo` sampled from this vertex: the sampling
     /// pdf, or p-hat (paper eq 13) where regularization raised alpha.
     pub fn mis_pdf(&self, wo: Vec3) -> f32 {
-        let (wi_l, wo_l) = (self.frame.to_local(self.wi), self.frame.to_local(wo));
+        self.mis_pdf_local(self.frame.to_local(self.wi), self.frame.to_local(wo))
+    }
+
+    /// The MIS density of sampling `wi` from `wo` (the reverse direction).
+    pub fn mis_pdf_rev(&self, wo: Vec3) -> f32 {
+        self.mis_pdf_local(self.frame.to_local(wo), self.frame.to_local(self.wi))
+    }
+
+    /// [`PathVertex::mis_pdf`] of sampling `wo_l` from `wi_l` (frame coordinates).
+    #[inline]
+    fn mis_pdf_local(&self, wi_l: Vec3, wo_l: Vec3) -> f32 {
         match self.alpha_hat {
             Some(hat) => p_hat(&self.bsdf_original, hat.alpha, wi_l, wo_l),
             None => self.bsdf.pdf(wi_l, wo_l),
         }
     }
 
-    /// The MIS density of sampling `wi` from `wo` (the reverse direction).
-    pub fn mis_pdf_rev(&self, wo: Vec3) -> f32 {
-        let (wi_l, wo_l) = (self.frame.to_local(self.wi), self.frame.to_local(wo));
-        match self.alpha_hat {
-            Some(hat) => p_hat(&self.bsdf_original, hat.alpha, wo_l, wi_l),
-            None => self.bsdf.pdf(wo_l, wi_l),
-        }
-    }
-
     /// The vertex's pdfs for a connection or merge in direction `wo`, as the
     /// `mis` crate takes them.
     pub fn connection_pdfs(&self, wo: Vec3) -> mis::VertexPdfs {
+        let (wi_l, wo_l) = (self.frame.to_local(self.wi), self.frame.to_local(wo));
         mis::VertexPdfs::regularized(
-            f64::from(self.mis_pdf(wo)),
-            f64::from(self.mis_pdf_rev(wo)),
+            f64::from(self.mis_pdf_local(wi_l, wo_l)),
+            f64::from(self.mis_pdf_local(wo_l, wi_l)),
             self.tau,
         )
     }

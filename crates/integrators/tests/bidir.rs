@@ -173,10 +173,11 @@ fn regularized_caustic_approaches_the_reference_as_tau_grows() {
 
 /// Shadow-ray roulette (Veach 1997, §10.4.1) keeps BPT unbiased and
 /// skips rays: with a threshold of the mean pixel value, which sends most
-/// connections and light-tracing contributions through the roulette, the
-/// image agrees with BPT without roulette (block means, measured variance,
-/// independent seeds) and fewer rays are traced. (Without the division by
-/// the survival probability a block is 60 % darker: p < 1e-300.)
+/// next-event, connection and light-tracing contributions through the
+/// roulette, the image agrees with BPT without roulette (block means,
+/// measured variance, independent seeds) and fewer rays are traced.
+/// (Without the division by the survival probability a block is 60 %
+/// darker: p < 1e-300.)
 #[test]
 fn shadow_roulette_keeps_the_image_and_skips_rays() {
     let run = |shadow_roulette, seed| {
