@@ -45,6 +45,11 @@ pub const USAGE: &str =
       --resolution WxH      image size of every scene (default 256x192)
       --iterations N        timed iterations, after 1 untimed warm-up
                             (default 8)
+      --repeat N            rounds: every (scene, integrator) runs once per
+                            round, rounds one after the other, and each row
+                            reports its median round (and the range): on a
+                            shared machine, load that comes and goes then
+                            skews all rows alike (default 1)
       --quick               64x48 and 2 iterations (explicit flags win),
                             measured with the current (dev-profile) build:
                             for CI
@@ -72,6 +77,8 @@ struct Options {
     integrators: Vec<Algorithm>,
     resolution: (u32, u32),
     iterations: u64,
+    /// Rounds over all (scene, integrator) pairs; each row reports its median.
+    repeat: u64,
     /// Small image, few iterations, the current build.
     quick: bool,
     baseline: Option<PathBuf>,
@@ -84,7 +91,7 @@ impl Options {
     /// `Ok(None)` asks for the help text.
     fn parse(args: &[String], bundled: &[String]) -> Result<Option<Self>, String> {
         let (mut scenes, mut integrators) = (None, None);
-        let (mut resolution, mut iterations) = (None, None);
+        let (mut resolution, mut iterations, mut repeat) = (None, None, None);
         let (mut quick, mut baseline, mut out) = (false, None, None);
         let mut rest = args.iter();
         while let Some(arg) = rest.next() {
@@ -107,6 +114,7 @@ impl Options {
                 "--integrators",
                 "--resolution",
                 "--iterations",
+                "--repeat",
                 "--baseline",
                 "--out",
             ];
@@ -129,6 +137,7 @@ impl Options {
                     resolution = Some((r.x, r.y));
                 }
                 "--iterations" => iterations = Some(crate::study::positive(flag, value)?),
+                "--repeat" => repeat = Some(crate::study::positive(flag, value)?),
                 "--baseline" => baseline = Some(PathBuf::from(value)),
                 _ => out = Some(PathBuf::from(value)),
             }
@@ -144,6 +153,7 @@ impl Options {
                 .unwrap_or_else(|| Algorithm::ALL.iter().map(|&(a, _)| a).collect()),
             resolution: resolution.unwrap_or(default_resolution),
             iterations: iterations.unwrap_or(default_iterations),
+            repeat: repeat.unwrap_or(1),
             quick,
             baseline,
             out,
@@ -265,6 +275,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
         "resolution": [options.resolution.0, options.resolution.1],
         "iterations": options.iterations,
         "warmup_iterations": 1,
+        "repeat": options.repeat,
         "total_seconds": started.elapsed().as_secs_f64(),
         "runs": runs,
     });
@@ -288,7 +299,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
         Err(format!(
             "{} of {} runs failed: {}",
             failed.len(),
-            runs_total(&options),
+            runs.len(),
             failed.join("; ")
         ))
     }
@@ -318,18 +329,22 @@ fn child_executable(root: &Path, quick: bool) -> Result<(PathBuf, &'static str),
     Ok((target.join("release").join(exe), "release"))
 }
 
-fn runs_total(options: &Options) -> usize {
-    options.scenes.len() * options.integrators.len()
-}
-
 /// Every (scene, integrator) of `options`, one child process after the
-/// other, with a progress line each on stderr.
+/// other, `options.repeat` rounds, with a progress line each on stderr.
+/// One row per pair: its median round (see [`median_round`]).
 fn run_all(root: &Path, exe: &Path, options: &Options) -> Vec<Value> {
-    let mut runs = Vec::new();
-    for scene in &options.scenes {
-        for &algorithm in &options.integrators {
-            let n = runs.len() + 1;
-            eprint!("[{n}/{}] {scene} {algorithm} ... ", runs_total(options));
+    let pairs: Vec<(&String, Algorithm)> = options
+        .scenes
+        .iter()
+        .flat_map(|scene| options.integrators.iter().map(move |&a| (scene, a)))
+        .collect();
+    let total = pairs.len() as u64 * options.repeat;
+    let mut rounds: Vec<Vec<Value>> = vec![Vec::new(); pairs.len()];
+    let mut n = 0;
+    for _ in 0..options.repeat {
+        for (&(scene, algorithm), round) in pairs.iter().zip(&mut rounds) {
+            n += 1;
+            eprint!("[{n}/{total}] {scene} {algorithm} ... ");
             let _ = std::io::stderr().flush();
             let scene_file = root.join("scenes").join(scene).join("scene.toml");
             let mut result = spawn_run(exe, &scene_file, algorithm, options);
@@ -339,10 +354,28 @@ fn run_all(root: &Path, exe: &Path, options: &Options) -> Vec<Value> {
             }
             result["scene"] = json!(scene);
             result["integrator"] = json!(algorithm.name());
-            runs.push(result);
+            round.push(result);
         }
     }
-    runs
+    rounds.into_iter().map(median_round).collect()
+}
+
+/// The row of one (scene, integrator) from its rounds: the first failed
+/// round if any failed; otherwise the round with the median seconds per
+/// iteration (the lower one of an even count), with every round's seconds
+/// per iteration as `"rounds_seconds_per_iteration"` when there are several.
+fn median_round(mut rounds: Vec<Value>) -> Value {
+    if let Some(i) = rounds.iter().position(|r| r["status"] != "ok") {
+        return rounds.swap_remove(i);
+    }
+    let seconds = |r: &Value| r["seconds_per_iteration"].as_f64().unwrap_or(f64::NAN);
+    let all: Vec<f64> = rounds.iter().map(seconds).collect();
+    rounds.sort_by(|a, b| seconds(a).total_cmp(&seconds(b)));
+    let mut row = rounds.swap_remove((rounds.len() - 1) / 2);
+    if all.len() > 1 {
+        row["rounds_seconds_per_iteration"] = json!(all);
+    }
+    row
 }
 
 /// Runs one (scene, integrator) in a child process and returns its JSON
@@ -491,7 +524,10 @@ mod tests {
         let all = parse(&[]).unwrap();
         assert_eq!(all.scenes, bundled());
         assert_eq!(all.integrators.len(), 4);
-        assert_eq!((all.resolution, all.iterations), ((256, 192), 8));
+        assert_eq!(
+            (all.resolution, all.iterations, all.repeat),
+            ((256, 192), 8, 1)
+        );
         assert!(!all.quick && all.baseline.is_none() && all.out.is_none());
 
         let quick = parse(&["--quick"]).unwrap();
@@ -505,6 +541,8 @@ mod tests {
             "--resolution",
             "32x24",
             "--iterations=3",
+            "--repeat",
+            "5",
             "--baseline",
             "old.json",
             "--out",
@@ -513,7 +551,10 @@ mod tests {
         .unwrap();
         assert_eq!(some.scenes, ["cornell-box", "stiff"], "bundled order");
         assert_eq!(some.integrators, [Algorithm::Pt, Algorithm::Vcm]);
-        assert_eq!((some.resolution, some.iterations), ((32, 24), 3));
+        assert_eq!(
+            (some.resolution, some.iterations, some.repeat),
+            ((32, 24), 3, 5)
+        );
         assert!(some.quick);
         assert_eq!(some.baseline, Some(PathBuf::from("old.json")));
         assert_eq!(some.out, Some(PathBuf::from("x")));
@@ -539,6 +580,7 @@ mod tests {
             (&["--resolution", "0x10"], "--resolution"),
             (&["--iterations", "0"], "--iterations"),
             (&["--iterations", "many"], "--iterations"),
+            (&["--repeat", "0"], "--repeat"),
             (&["--quick=yes"], "--quick: takes no value"),
             (&["--out"], "--out: missing value"),
         ];
@@ -556,6 +598,7 @@ mod tests {
             "--integrators",
             "--resolution",
             "--iterations",
+            "--repeat",
             "--quick",
             "--baseline",
             "--out",
@@ -563,6 +606,25 @@ mod tests {
         ] {
             assert!(USAGE.contains(flag), "{flag}");
         }
+    }
+
+    /// A row is its median round, with every round listed; a failure wins.
+    #[test]
+    fn rows_are_median_rounds() {
+        let ok = |s: f64, rays: f64| json!({ "status": "ok", "seconds_per_iteration": s, "rays_per_sample": rays });
+        let row = median_round(vec![ok(0.9, 1.0), ok(0.5, 2.0), ok(0.7, 3.0)]);
+        assert_eq!(row["seconds_per_iteration"], 0.7);
+        assert_eq!(
+            row["rays_per_sample"], 3.0,
+            "the median round's other fields"
+        );
+        assert_eq!(row["rounds_seconds_per_iteration"], json!([0.9, 0.5, 0.7]));
+        let even = median_round(vec![ok(0.9, 1.0), ok(0.5, 2.0), ok(0.7, 3.0), ok(0.6, 4.0)]);
+        assert_eq!(even["seconds_per_iteration"], 0.6, "the lower median");
+        let single = median_round(vec![ok(0.9, 1.0)]);
+        assert_eq!(single, ok(0.9, 1.0), "one round: no list");
+        let failed = median_round(vec![ok(0.9, 1.0), failed("boom".into())]);
+        assert_eq!(failed["error"], "boom");
     }
 
     #[test]

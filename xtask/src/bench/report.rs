@@ -40,6 +40,14 @@ pub fn markdown(doc: &Value, baseline: Option<(&str, &Value)>) -> String {
         doc["warmup_iterations"],
         doc["total_seconds"].as_f64().unwrap_or(f64::NAN)
     );
+    let repeat = doc["repeat"].as_u64().unwrap_or(1);
+    if repeat > 1 {
+        let _ = writeln!(
+            md,
+            "- {repeat} rounds (every row once per round): each row is its median round, \
+             s/iteration with the range of the rounds"
+        );
+    }
     let old = baseline.map(|(path, base)| {
         let _ = writeln!(
             md,
@@ -85,8 +93,9 @@ pub fn markdown(doc: &Value, baseline: Option<(&str, &Value)>) -> String {
             let n = |k: &str| run[k].as_f64().unwrap_or(f64::NAN);
             let _ = write!(
                 md,
-                " {} | {} | {} | {:.2} | {:.1} | {} |",
+                " {}{} | {} | {} | {:.2} | {:.1} | {} |",
                 sig3(n("seconds_per_iteration")),
+                range(&run["rounds_seconds_per_iteration"]),
                 si(n("samples_per_second")),
                 si(n("rays_per_second")),
                 n("rays_per_sample"),
@@ -210,6 +219,25 @@ fn resolution(doc: &Value) -> String {
 
 /// Three significant digits without an exponent ("0.0123", "1.23", "123",
 /// "1234"); "-" when not finite.
+/// " (min-max)" of a row's rounds, or nothing for a single round.
+fn range(rounds: &Value) -> String {
+    let seconds: Vec<f64> = rounds
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(Value::as_f64)
+        .collect();
+    if seconds.len() < 2 {
+        return String::new();
+    }
+    let (min, max) = seconds
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &s| {
+            (lo.min(s), hi.max(s))
+        });
+    format!(" ({}-{})", sig3(min), sig3(max))
+}
+
 pub(super) fn sig3(x: f64) -> String {
     if !x.is_finite() {
         return "-".into();
@@ -282,6 +310,18 @@ mod tests {
             assert!(md.contains(needle), "{needle}\n{md}");
         }
         assert!(!md.contains("new/old") && !md.contains("baseline"), "{md}");
+        assert!(!md.contains("rounds"), "{md}");
+
+        let mut median = ok("cornell-box", "bpt", 0.652);
+        median["rounds_seconds_per_iteration"] = json!([0.7, 0.652, 0.631]);
+        let mut repeated = doc("release", vec![median]);
+        repeated["repeat"] = json!(3);
+        let md = markdown(&repeated, None);
+        assert!(md.contains("- 3 rounds (every row once per round)"), "{md}");
+        assert!(
+            md.contains("| cornell-box | bpt | 0.652 (0.631-0.700) |"),
+            "{md}"
+        );
     }
 
     #[test]
