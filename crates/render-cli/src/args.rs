@@ -142,9 +142,10 @@ pub struct Cli {
     pub radius: Option<f32>,
 
     /// Russian roulette on the shadow rays of bpt and vcm's next-event estimation, vertex
-    /// connections and light tracing (Veach 1997, §10.4.1): a contribution c below this fraction t of the mean pixel
-    /// value (from a small path-traced preview) keeps its shadow ray with probability c / t and
-    /// is scaled by t / c, so the image stays unbiased; 0 traces every shadow ray.
+    /// connections and light tracing (Veach 1997, §10.4.1): a contribution c below this
+    /// fraction t of the mean pixel value (from a small path-traced preview) keeps its shadow
+    /// ray with probability c / t and is scaled by t / c, so the image stays unbiased; 0 traces
+    /// every shadow ray.
     /// [default: 0.1]
     #[arg(long, value_name = "FRACTION", value_parser = parse_shadow_roulette, allow_negative_numbers = true,
           help_heading = "Rendering")]
