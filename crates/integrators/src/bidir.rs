@@ -665,7 +665,8 @@ impl Renderer {
 
     /// A light sample for a camera vertex with the vertex's f |cos| towards
     /// it, if both are non-zero and the shadow ray is unoccluded (the start
-    /// of next-event estimation in PT and in the bidirectional core).
+    /// of PT's next-event estimation; the bidirectional core's decides its
+    /// roulette before the shadow ray, see `next_event_vcm`).
     pub(crate) fn visible_light_sample(
         &self,
         vertex: &PathVertex,
