@@ -98,9 +98,27 @@ struct Iteration {
     radius: f32,
     /// 1 / (pi r^2 light_paths): the merge kernel's normalisation.
     merge_normalisation: f32,
-    /// Contributions of connections and light tracing below this go
-    /// through [`shadow_roulette`].
+    /// Contributions of next-event estimation, connections and light
+    /// tracing below this go through [`shadow_roulette`].
     roulette_threshold: f32,
+}
+
+impl Iteration {
+    /// The shadow-ray roulette of a contribution whose MIS weight `weight`
+    /// computes: the weighted contribution whose visibility is to be
+    /// tested, or `None` when the ray is skipped or the weight is zero. The
+    /// weight (at most 1) is computed only when the unweighted contribution
+    /// does not already fail the roulette.
+    fn roulette(&self, unweighted: Vec3, u: f32, weight: impl FnOnce() -> f32) -> Option<Vec3> {
+        if roulette_skips(unweighted.max_element(), self.roulette_threshold, u) {
+            return None;
+        }
+        let weight = weight();
+        if weight <= 0.0 {
+            return None;
+        }
+        shadow_roulette(unweighted * weight, self.roulette_threshold, u)
+    }
 }
 
 /// One iteration's light subpaths, in light-path order.
@@ -400,21 +418,14 @@ impl Renderer {
         let light_paths = (camera.resolution.x * camera.resolution.y) as f32;
         let unweighted =
             vertex.throughput * f * (camera_pdf_w / (distance * distance * light_paths));
-        if roulette_skips(unweighted.max_element(), it.roulette_threshold, u_roulette) {
-            return;
-        }
-        let weight = it.mis.light_tracing_weight(
-            state,
-            &vertex.connection_end(dir),
-            f64::from(camera_pdf_w),
-            f64::from(distance),
-        ) as f32;
-        if weight <= 0.0 {
-            return;
-        }
-        let Some(contribution) =
-            shadow_roulette(unweighted * weight, it.roulette_threshold, u_roulette)
-        else {
+        let Some(contribution) = it.roulette(unweighted, u_roulette, || {
+            it.mis.light_tracing_weight(
+                state,
+                &vertex.connection_end(dir),
+                f64::from(camera_pdf_w),
+                f64::from(distance),
+            ) as f32
+        }) else {
             return;
         };
         let origin = vertex.point.spawn_origin(dir);
@@ -543,14 +554,12 @@ impl Renderer {
             return Vec3::ZERO;
         }
         let unweighted = vertex.throughput * f * ls.li / ls.pdf;
-        if roulette_skips(unweighted.max_element(), it.roulette_threshold, u_roulette) {
-            return Vec3::ZERO;
-        }
-        let weight =
+        let contribution = it.roulette(unweighted, u_roulette, || {
             it.mis
                 .next_event_weight(state, &vertex.connection_end(ls.wi), &ls.mis_sample())
-                as f32;
-        match shadow_roulette(unweighted * weight, it.roulette_threshold, u_roulette) {
+                as f32
+        });
+        match contribution {
             Some(contribution) if self.light_visible(vertex, &ls) => contribution,
             _ => Vec3::ZERO,
         }
@@ -605,22 +614,15 @@ impl Renderer {
             return Vec3::ZERO;
         }
         let unweighted = camera.throughput * f * light.throughput / distance2;
-        if roulette_skips(unweighted.max_element(), it.roulette_threshold, u_roulette) {
-            return Vec3::ZERO;
-        }
-        let weight = it.mis.connection_weight(
-            &light.state,
-            &light_vertex.connection_end(-dir),
-            camera_state,
-            &camera.connection_end(dir),
-            f64::from(distance),
-        ) as f32;
-        if weight <= 0.0 {
-            return Vec3::ZERO;
-        }
-        let Some(contribution) =
-            shadow_roulette(unweighted * weight, it.roulette_threshold, u_roulette)
-        else {
+        let Some(contribution) = it.roulette(unweighted, u_roulette, || {
+            it.mis.connection_weight(
+                &light.state,
+                &light_vertex.connection_end(-dir),
+                camera_state,
+                &camera.connection_end(dir),
+                f64::from(distance),
+            ) as f32
+        }) else {
             return Vec3::ZERO;
         };
         let origin = camera.point.spawn_origin(dir);

@@ -169,10 +169,11 @@ pub struct RenderConfig {
     /// The progressive radius exponent alpha_r of SPEC §7:
     /// r_i = r_1 i^((alpha_r - 1) / 2).
     pub radius_alpha: f32,
-    /// Russian roulette on the shadow rays of vertex connections and light
-    /// tracing in BPT and VCM (Veach 1997, §10.4.1): a contribution below
-    /// this fraction of the mean pixel value is tested for visibility only
-    /// with probability contribution / threshold. 0 traces every shadow ray.
+    /// Russian roulette on the shadow rays of next-event estimation, vertex
+    /// connections and light tracing in BPT and VCM (Veach 1997, §10.4.1):
+    /// a contribution below this fraction of the mean pixel value is tested
+    /// for visibility only with probability contribution / threshold. 0
+    /// traces every shadow ray.
     pub shadow_roulette: f32,
 }
 

@@ -114,6 +114,7 @@ impl Renderer {
     fn preview_pixel_mean(&self) -> f32 {
         let res = self.scene.camera.resolution;
         let rays_before = THREAD_RAYS.get();
+        let tau_1 = self.tau_at(1);
         let mut sum = 0.0f64;
         for i in 0..PREVIEW_GRID * PREVIEW_GRID {
             let (gx, gy) = (i % PREVIEW_GRID, i / PREVIEW_GRID);
@@ -123,10 +124,7 @@ impl Renderer {
                 let stream = (u64::from(y) * u64::from(res.x) + u64::from(x)) * PREVIEW_PATHS + k;
                 let mut sampler = Sampler::new(self.config.seed, 0, stream);
                 let (o, d) = self.camera.ray(x, y, sampler.next_2d());
-                sum += f64::from(
-                    self.trace_path(o, d, &mut sampler, self.tau_at(1))
-                        .max_element(),
-                );
+                sum += f64::from(self.trace_path(o, d, &mut sampler, tau_1).max_element());
             }
         }
         THREAD_RAYS.set(rays_before);
