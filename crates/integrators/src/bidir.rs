@@ -75,8 +75,9 @@ pub(crate) struct LightVertex {
 
 impl LightVertex {
     /// An upper bound of the largest component of `throughput` times the
-    /// vertex's f |cos| towards `wo` (infinity when the lobe has no cheap
-    /// bound).
+    /// vertex's f |cos| towards unit `wo` (infinity when the lobe has no
+    /// cheap bound). Proportional to |wo|: a direction of any length gives
+    /// the bound times its length.
     fn bound_towards(&self, wo: Vec3) -> f32 {
         let (cos_in, cos_out) = (self.wi.dot(self.point.ng), wo.dot(self.point.ng));
         // A lobe with a finite bound only reflects: nothing leaves through
@@ -578,14 +579,19 @@ impl Renderer {
         u_roulette: f32,
     ) -> Vec3 {
         let d = light.point.p - camera.point.p;
+        // What is zero whichever the distance, first: a light vertex behind
+        // the camera vertex's surface, or seen from behind its own.
+        let light_bound = light.bound_towards(-d);
+        if !camera.is_consistent_towards(d) || light_bound <= 0.0 {
+            return Vec3::ZERO;
+        }
         let distance2 = d.length_squared();
         let distance = distance2.sqrt();
         if !(distance > 0.0) {
             return Vec3::ZERO;
         }
         let dir = d / distance;
-        // The camera side first: it is zero for every light vertex behind
-        // the camera vertex's surface, and needs no vertex to be rebuilt.
+        // The camera side next: it needs no vertex to be rebuilt.
         let f_camera = camera.eval(dir, TransportMode::Radiance);
         if f_camera.max_element() <= 0.0 {
             return Vec3::ZERO;
@@ -594,7 +600,7 @@ impl Renderer {
         // the light vertex is rebuilt (the same decisions as from the
         // contribution itself).
         let bound =
-            (camera.throughput * f_camera).max_element() * light.bound_towards(-dir) / distance2;
+            (camera.throughput * f_camera).max_element() * (light_bound / distance) / distance2;
         if roulette_skips(bound, it.roulette_threshold, u_roulette) {
             return Vec3::ZERO;
         }

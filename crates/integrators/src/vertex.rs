@@ -104,10 +104,11 @@ impl PathVertex {
         self.bsdf.is_specular()
     }
 
-    /// False when `wo` leaves through the other side of the geometric surface
-    /// than `wi` while the lobe only reflects: shading normals must not let
-    /// light leak through a surface.
-    fn geometrically_consistent(&self, wo: Vec3) -> bool {
+    /// False when `wo` (of any length) leaves through the other side of the
+    /// geometric surface than `wi` while the lobe only reflects: shading
+    /// normals must not let light leak through a surface. `eval` and `f`
+    /// are zero towards such a `wo`.
+    pub fn is_consistent_towards(&self, wo: Vec3) -> bool {
         matches!(self.bsdf, Bsdf::Dielectric(_))
             || self.point.ng.dot(wo) * self.point.ng.dot(self.wi) > 0.0
     }
@@ -115,7 +116,7 @@ impl PathVertex {
     /// f(wi, wo) |cos(wo, n_s)| for world direction `wo`; on light subpaths
     /// (`Importance`) with the shading-normal correction.
     pub fn eval(&self, wo: Vec3, mode: TransportMode) -> Vec3 {
-        if !self.geometrically_consistent(wo) {
+        if !self.is_consistent_towards(wo) {
             return Vec3::ZERO;
         }
         let (wi_l, wo_l) = (self.frame.to_local(self.wi), self.frame.to_local(wo));
@@ -148,7 +149,7 @@ impl PathVertex {
 
     /// f(wi, wo) without a cosine (for density estimation at merges).
     pub fn f(&self, wo: Vec3, mode: TransportMode) -> Vec3 {
-        if !self.geometrically_consistent(wo) {
+        if !self.is_consistent_towards(wo) {
             return Vec3::ZERO;
         }
         self.bsdf
@@ -219,7 +220,7 @@ impl PathVertex {
         let wi_l = self.frame.to_local(self.wi);
         let s = self.bsdf.sample(wi_l, uc, u, mode)?;
         let wo = self.frame.to_world(s.wo);
-        if !self.geometrically_consistent(wo) || !(s.pdf > 0.0) {
+        if !self.is_consistent_towards(wo) || !(s.pdf > 0.0) {
             return None;
         }
         let weight = s.f * (s.wo.z.abs() / s.pdf) * self.shading_correction(wo, mode);
