@@ -66,15 +66,24 @@ fn write_atomically(
 }
 
 /// Writes a linear RGB image (row-major, `width * height` pixels) as a 32-bit
-/// float OpenEXR file.
+/// float OpenEXR file: RLE-compressed 64x64 tiles (the `exr` crate's
+/// default), stored in increasing order, so that an image always gives the
+/// same bytes (the crate's default order is whichever tile finished
+/// compressing first).
 pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Result<(), ImageError> {
+    use exr::prelude::*;
     assert_eq!(pixels.len(), width as usize * height as usize);
+    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
+        let p = pixels[y * width as usize + x];
+        (p.x, p.y, p.z)
+    });
+    let encoding = Encoding {
+        line_order: LineOrder::Increasing,
+        ..Encoding::FAST_LOSSLESS
+    };
+    let image = Image::from_encoded_channels((width as usize, height as usize), encoding, channels);
     write_atomically(path, |tmp| {
-        exr::prelude::write_rgb_file(tmp, width as usize, height as usize, |x, y| {
-            let p = pixels[y * width as usize + x];
-            (p.x, p.y, p.z)
-        })
-        .map_err(|e| exr_error(tmp, e))
+        image.write().to_file(tmp).map_err(|e| exr_error(tmp, e))
     })
 }
 
@@ -196,6 +205,28 @@ mod tests {
         assert_eq!((back.width, back.height), (w, h));
         assert_eq!(back.pixels, pixels);
         assert!(!dir.join("a.exr.partial").exists());
+        fs::remove_dir_all(dir).unwrap();
+    }
+
+    /// The same image gives the same bytes: the tiles are compressed in
+    /// parallel, and a file whose bytes depended on which finished first
+    /// could not be compared with `cmp` or a checksum.
+    #[test]
+    fn exr_bytes_do_not_depend_on_scheduling() {
+        let dir = temp_dir("exr-bytes");
+        let (w, h) = (640, 384);
+        let pixels: Vec<Vec3> = (0..w * h)
+            .map(|i| Vec3::splat(((i as u64 * 0x9e37_79b9) % 1000) as f32))
+            .collect();
+        let path = dir.join("a.exr");
+        let write = || {
+            write_exr(&path, w, h, &pixels).unwrap();
+            fs::read(&path).unwrap()
+        };
+        let first = write();
+        for _ in 0..8 {
+            assert!(write() == first, "two writes of one image differ");
+        }
         fs::remove_dir_all(dir).unwrap();
     }
 
