@@ -122,16 +122,31 @@ impl Iteration {
     }
 }
 
-/// One iteration's light subpaths, in light-path order.
+/// One iteration's light subpaths, as the blocks of [`LIGHT_BLOCK`] paths
+/// traced them: not copied into one array, a copy that held the light
+/// vertices twice (PPM on `cornell-box` at 512x512: 93 MB of them per
+/// iteration; peak memory 220 MB with the copy, 150 MB without).
 struct LightPaths {
-    vertices: Vec<LightVertex>,
-    /// Vertex range of light path i: `starts[i]..starts[i + 1]`.
-    starts: Vec<usize>,
+    /// The light vertices of each block, in light-path order.
+    blocks: Vec<Vec<LightVertex>>,
+    /// Where light path i's vertices end in its block; they start where
+    /// path i - 1's end, or at 0 for a block's first path.
+    ends: Vec<usize>,
 }
 
 impl LightPaths {
     fn path(&self, i: usize) -> &[LightVertex] {
-        &self.vertices[self.starts[i]..self.starts[i + 1]]
+        let start = if i.is_multiple_of(LIGHT_BLOCK) {
+            0
+        } else {
+            self.ends[i - 1]
+        };
+        &self.blocks[i / LIGHT_BLOCK][start..self.ends[i]]
+    }
+
+    /// Every light vertex, in light-path order.
+    fn vertices(&self) -> impl Iterator<Item = &LightVertex> {
+        self.blocks.iter().flatten()
     }
 }
 
@@ -236,44 +251,37 @@ impl Renderer {
     /// hash grid (the photon map, freed at the end of the iteration).
     fn render_with_photon_map(&self, it: &Iteration, estimates: &mut [Vec3]) {
         let light_paths = estimates.len();
-        // Light pass, in fixed blocks; the blocks' vertices and splats are
-        // concatenated in block order.
+        // Light pass, in fixed blocks.
         let blocks: Vec<(Vec<LightVertex>, Vec<usize>, Splats)> = (0..light_paths)
             .into_par_iter()
             .step_by(LIGHT_BLOCK)
             .map(|first| {
                 let mut vertices = Vec::new();
-                let mut lengths = Vec::with_capacity(LIGHT_BLOCK);
+                let mut ends = Vec::with_capacity(LIGHT_BLOCK);
                 let mut splats = Splats::default();
                 for i in first..(first + LIGHT_BLOCK).min(light_paths) {
-                    let before = vertices.len();
                     self.trace_light_path(it, i as u64, &mut vertices, &mut splats);
-                    lengths.push(vertices.len() - before);
+                    ends.push(vertices.len());
                 }
                 self.flush_ray_count();
-                (vertices, lengths, splats)
+                // Kept to the end of the iteration: without the growth slack.
+                vertices.shrink_to_fit();
+                (vertices, ends, splats)
             })
             .collect();
         let mut paths = LightPaths {
-            vertices: Vec::with_capacity(blocks.iter().map(|b| b.0.len()).sum()),
-            starts: Vec::with_capacity(light_paths + 1),
+            blocks: Vec::with_capacity(blocks.len()),
+            ends: Vec::with_capacity(light_paths),
         };
-        paths.starts.push(0);
         let mut all_splats = Vec::with_capacity(blocks.len());
-        // Consumed block by block, so that at most one block's vertices
-        // exist twice.
-        for (vertices, lengths, splats) in blocks {
-            paths.vertices.extend(vertices);
-            for len in lengths {
-                paths
-                    .starts
-                    .push(paths.starts.last().copied().unwrap_or(0) + len);
-            }
+        for (vertices, ends, splats) in blocks {
+            paths.blocks.push(vertices);
+            paths.ends.extend(ends);
             all_splats.push(splats);
         }
-        let points: Vec<Vec3> = paths.vertices.iter().map(|v| v.point.p).collect();
-        let grid = HashGrid::with_points(&points, it.radius);
-        drop(points);
+        let photons: Vec<&LightVertex> = paths.vertices().collect();
+        let mut grid = HashGrid::new();
+        grid.build_with(photons.len(), it.radius, |i| photons[i].point.p);
 
         // Camera pass.
         estimates
@@ -282,7 +290,7 @@ impl Renderer {
             .for_each(|(block, chunk)| {
                 for (k, out) in chunk.iter_mut().enumerate() {
                     let index = block * LIGHT_BLOCK + k;
-                    let photons = Some((&grid, paths.vertices.as_slice()));
+                    let photons = Some((&grid, photons.as_slice()));
                     *out = self.trace_camera_path(it, index, paths.path(index), photons);
                 }
                 self.flush_ray_count();
@@ -446,7 +454,7 @@ impl Renderer {
         it: &Iteration,
         index: usize,
         light_path: &[LightVertex],
-        photons: Option<(&HashGrid, &[LightVertex])>,
+        photons: Option<(&HashGrid, &[&LightVertex])>,
     ) -> Vec3 {
         let scene = &self.scene;
         let techniques = it.mis.techniques();
@@ -648,12 +656,12 @@ impl Renderer {
         camera: &PathVertex,
         camera_state: &SubpathState,
         length: u32,
-        photons: &[LightVertex],
+        photons: &[&LightVertex],
         grid: &HashGrid,
     ) -> Vec3 {
         let mut sum = Vec3::ZERO;
         grid.for_each_within(camera.point.p, it.radius, |i| {
-            let light = &photons[i];
+            let light = photons[i];
             if light.length + length > self.config.max_depth {
                 return;
             }
