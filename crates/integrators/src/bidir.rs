@@ -555,13 +555,9 @@ impl Renderer {
         uv: Vec2,
         u_roulette: f32,
     ) -> Vec3 {
-        let Some(ls) = self.lights.sample(&self.scene, vertex.point.p, u_light, uv) else {
+        let Some((ls, f)) = self.light_sample(vertex, u_light, uv) else {
             return Vec3::ZERO;
         };
-        let f = vertex.eval(ls.wi, TransportMode::Radiance);
-        if f.max_element() <= 0.0 {
-            return Vec3::ZERO;
-        }
         let unweighted = vertex.throughput * f * ls.li / ls.pdf;
         let contribution = it.roulette(unweighted, u_roulette, || {
             it.mis
@@ -680,10 +676,10 @@ impl Renderer {
     }
 
     /// A light sample for a camera vertex with the vertex's f |cos| towards
-    /// it, if both are non-zero and the shadow ray is unoccluded (the start
-    /// of PT's next-event estimation; the bidirectional core's decides its
-    /// roulette before the shadow ray, see `next_event_vcm`).
-    pub(crate) fn visible_light_sample(
+    /// it, if both are non-zero (the start of next-event estimation; the
+    /// shadow ray is the caller's: the bidirectional core decides its
+    /// roulette first, see `next_event_vcm`).
+    fn light_sample(
         &self,
         vertex: &PathVertex,
         u_light: f32,
@@ -693,7 +689,19 @@ impl Renderer {
             .lights
             .sample(&self.scene, vertex.point.p, u_light, uv)?;
         let f = vertex.eval(ls.wi, TransportMode::Radiance);
-        (f.max_element() > 0.0 && self.light_visible(vertex, &ls)).then_some((ls, f))
+        (f.max_element() > 0.0).then_some((ls, f))
+    }
+
+    /// [`Renderer::light_sample`] when its shadow ray is unoccluded (PT's
+    /// next-event estimation).
+    pub(crate) fn visible_light_sample(
+        &self,
+        vertex: &PathVertex,
+        u_light: f32,
+        uv: Vec2,
+    ) -> Option<(crate::lights::LightSample, Vec3)> {
+        self.light_sample(vertex, u_light, uv)
+            .filter(|(ls, _)| self.light_visible(vertex, ls))
     }
 
     /// Whether the shadow ray of a light sample is unoccluded.
