@@ -515,7 +515,7 @@ impl Renderer {
                     for light in light_path {
                         if light.length + length < self.config.max_depth {
                             let key = u64::from(length) << 32 | u64::from(light.length);
-                            let u = sampler.keyed_1d(key);
+                            let u = || sampler.keyed_1d(key);
                             radiance += self.connect(it, &vertex, &state, light, u);
                         }
                     }
@@ -573,14 +573,16 @@ impl Renderer {
     /// A vertex connection between a camera vertex and a light vertex: the
     /// contribution to the pixel (camera throughput included). The light
     /// vertex is regularized as the camera subpath would regularize its next
-    /// vertex (see [`Renderer::connect_to_camera`]).
+    /// vertex (see [`Renderer::connect_to_camera`]). `u_roulette` draws the
+    /// roulette's random number, a hash: a third of the pairs are rejected
+    /// on geometry alone and need none.
     fn connect(
         &self,
         it: &Iteration,
         camera: &PathVertex,
         camera_state: &SubpathState,
         light: &LightVertex,
-        u_roulette: f32,
+        u_roulette: impl FnOnce() -> f32,
     ) -> Vec3 {
         let d = light.point.p - camera.point.p;
         // What is zero whichever the distance, first: a light vertex behind
@@ -603,6 +605,7 @@ impl Renderer {
         // With a bound of the light side, the roulette often decides before
         // the light vertex is rebuilt (the same decisions as from the
         // contribution itself).
+        let u_roulette = u_roulette();
         let bound =
             (camera.throughput * f_camera).max_element() * (light_bound / distance) / distance2;
         if roulette_skips(bound, it.roulette_threshold, u_roulette) {

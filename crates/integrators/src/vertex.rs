@@ -22,6 +22,9 @@ pub struct PathVertex {
     pub frame: Frame,
     /// Unit direction towards the previous vertex of the subpath.
     pub wi: Vec3,
+    /// `wi` in `frame`'s coordinates: every evaluation at the vertex needs
+    /// it, connections many times.
+    wi_local: Vec3,
     /// The BSDF as the material defines it (textures resolved).
     pub bsdf_original: Bsdf,
     /// The BSDF actually used: `bsdf_original` with alpha-hat.
@@ -89,6 +92,7 @@ impl PathVertex {
             point,
             frame,
             wi,
+            wi_local: frame.to_local(wi),
             bsdf_original,
             bsdf,
             alpha_hat,
@@ -115,11 +119,12 @@ impl PathVertex {
 
     /// f(wi, wo) |cos(wo, n_s)| for world direction `wo`; on light subpaths
     /// (`Importance`) with the shading-normal correction.
+    #[inline]
     pub fn eval(&self, wo: Vec3, mode: TransportMode) -> Vec3 {
         if !self.is_consistent_towards(wo) {
             return Vec3::ZERO;
         }
-        let (wi_l, wo_l) = (self.frame.to_local(self.wi), self.frame.to_local(wo));
+        let (wi_l, wo_l) = (self.wi_local, self.frame.to_local(wo));
         self.bsdf.eval(wi_l, wo_l, mode) * wo_l.z.abs() * self.shading_correction(wo, mode)
     }
 
@@ -152,8 +157,7 @@ impl PathVertex {
         if !self.is_consistent_towards(wo) {
             return Vec3::ZERO;
         }
-        self.bsdf
-            .eval(self.frame.to_local(self.wi), self.frame.to_local(wo), mode)
+        self.bsdf.eval(self.wi_local, self.frame.to_local(wo), mode)
     }
 
     /// Veach's (1997, eq. 5.19) adjoint correction for shading normals on
@@ -173,12 +177,12 @@ impl PathVertex {
     /// The density MIS uses for `wo` sampled from this vertex: the sampling
     /// pdf, or p-hat (paper eq 13) where regularization raised alpha.
     pub fn mis_pdf(&self, wo: Vec3) -> f32 {
-        self.mis_pdf_local(self.frame.to_local(self.wi), self.frame.to_local(wo))
+        self.mis_pdf_local(self.wi_local, self.frame.to_local(wo))
     }
 
     /// The MIS density of sampling `wi` from `wo` (the reverse direction).
     pub fn mis_pdf_rev(&self, wo: Vec3) -> f32 {
-        self.mis_pdf_local(self.frame.to_local(wo), self.frame.to_local(self.wi))
+        self.mis_pdf_local(self.frame.to_local(wo), self.wi_local)
     }
 
     /// [`PathVertex::mis_pdf`] of sampling `wo_l` from `wi_l` (frame coordinates).
@@ -193,7 +197,7 @@ impl PathVertex {
     /// The vertex's pdfs for a connection or merge in direction `wo`, as the
     /// `mis` crate takes them.
     pub fn connection_pdfs(&self, wo: Vec3) -> mis::VertexPdfs {
-        let (wi_l, wo_l) = (self.frame.to_local(self.wi), self.frame.to_local(wo));
+        let (wi_l, wo_l) = (self.wi_local, self.frame.to_local(wo));
         mis::VertexPdfs::regularized(
             f64::from(self.mis_pdf_local(wi_l, wo_l)),
             f64::from(self.mis_pdf_local(wo_l, wi_l)),
@@ -217,7 +221,7 @@ impl PathVertex {
 
     /// Samples an outgoing direction from `uc` and `u`.
     pub fn sample(&self, uc: f32, u: Vec2, mode: TransportMode) -> Option<VertexSample> {
-        let wi_l = self.frame.to_local(self.wi);
+        let wi_l = self.wi_local;
         let s = self.bsdf.sample(wi_l, uc, u, mode)?;
         let wo = self.frame.to_world(s.wo);
         if !self.is_consistent_towards(wo) || !(s.pdf > 0.0) {
