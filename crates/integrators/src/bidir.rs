@@ -329,7 +329,7 @@ impl Renderer {
             let Some(hit) = self.intersect(origin, direction, f32::INFINITY) else {
                 break;
             };
-            let point = SurfacePoint::new(scene, &hit);
+            let point = self.surface_point(&hit);
             let vertex = PathVertex::new(scene, point, -direction, throughput, 0.0, regularization);
             let state = ray.arrive(&it.mis, f64::from(hit.t), f64::from(vertex.cos(direction)));
             if !vertex.is_specular() {
@@ -481,7 +481,7 @@ impl Renderer {
                 }
                 break;
             };
-            let point = SurfacePoint::new(scene, &hit);
+            let point = self.surface_point(&hit);
             let vertex = PathVertex::new(scene, point, -direction, throughput, 0.0, regularization);
             regularization = vertex.regularization;
             let state = ray.arrive(&it.mis, f64::from(hit.t), f64::from(vertex.cos(direction)));
@@ -489,7 +489,7 @@ impl Renderer {
             let emission = scene.materials[point.material as usize].emission;
             let cos_light = point.n_winding.dot(-direction);
             if emission.max_element() > 0.0 && cos_light > 0.0 {
-                let pdfs = self.lights.area_pdfs(scene, point.triangle, cos_light);
+                let pdfs = self.lights.area_pdfs(point.triangle, cos_light);
                 let w = it.mis.emitter_hit_weight(
                     &state,
                     &EmitterHit {
@@ -949,7 +949,7 @@ mod tests {
             let Some(hit) = r.intersect(origin, direction, f32::INFINITY) else {
                 break;
             };
-            let point = SurfacePoint::new(&r.scene, &hit);
+            let point = r.surface_point(&hit);
             let vertex =
                 PathVertex::new(&r.scene, point, -direction, Vec3::ONE, 0.0, regularization);
             regularization = vertex.regularization;
@@ -960,7 +960,7 @@ mod tests {
             {
                 let d = last.p - point.p;
                 let cos = point.n_winding.dot(d.normalize()).abs();
-                let pdfs = r.lights.area_pdfs(&r.scene, point.triangle, cos);
+                let pdfs = r.lights.area_pdfs(point.triangle, cos);
                 let d2 = f64::from(d.length_squared());
                 paths.push(CompletePath {
                     camera: camera.clone(),

@@ -71,12 +71,12 @@ pub struct SurfacePoint {
 }
 
 impl SurfacePoint {
-    /// The surface point of `hit` in `scene`.
-    pub fn new(scene: &Scene, hit: &Hit) -> Self {
+    /// The surface point of `hit` in `scene`, whose triangle has the
+    /// geometric normal `n_winding` ([`Scene::geometric_normal`]).
+    pub fn new(scene: &Scene, n_winding: Vec3, hit: &Hit) -> Self {
         let i = hit.triangle as usize;
         let b = Vec3::new(1.0 - hit.b1 - hit.b2, hit.b1, hit.b2);
         let interpolate = |v: [Vec3; 3]| v[0] * b.x + v[1] * b.y + v[2] * b.z;
-        let n_winding = scene.geometric_normal(i);
         let ns = interpolate(scene.normals[i])
             .try_normalize()
             .unwrap_or(n_winding);

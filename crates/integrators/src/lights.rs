@@ -118,6 +118,12 @@ pub struct Lights {
     cdf: Vec<f32>,
     /// Selection probability per light.
     pmf: Vec<f32>,
+    /// Per light: the area density of choosing a point of an area light
+    /// (selection probability / triangle area), 0 for other lights.
+    area_pdf_a: Vec<f32>,
+    /// Per light: an area light's geometric normal (emitting side), zero
+    /// for other lights. Stored: every light sample needs it.
+    area_normal: Vec<Vec3>,
     /// Light index of each emissive triangle (`u32::MAX` for others).
     triangle_light: Vec<u32>,
     /// Index of the environment light, if any.
@@ -185,10 +191,27 @@ impl Lights {
         if let Some(last) = cdf.last_mut() {
             *last = 1.0;
         }
+        let area_triangle = |light: &Light| match *light {
+            Light::Area { triangle } => Some(triangle as usize),
+            _ => None,
+        };
+        let area_pdf_a = scene
+            .lights
+            .iter()
+            .zip(&pmf)
+            .map(|(light, &pmf)| area_triangle(light).map_or(0.0, |t| pmf / scene.triangle_area(t)))
+            .collect();
+        let area_normal = scene
+            .lights
+            .iter()
+            .map(|light| area_triangle(light).map_or(Vec3::ZERO, |t| scene.geometric_normal(t)))
+            .collect();
         Self {
             lights: scene.lights.clone(),
             cdf,
             pmf,
+            area_pdf_a,
+            area_normal,
             triangle_light,
             environment,
             scene_centre: 0.5 * (lo + hi),
@@ -218,7 +241,7 @@ impl Lights {
 
     /// Density, in solid angle at `from`, with which [`Lights::sample`]
     /// produces the point `p` (normal `n`) of emissive triangle `triangle`.
-    pub fn area_pdf(&self, scene: &Scene, triangle: u32, from: Vec3, p: Vec3, n: Vec3) -> f32 {
+    pub fn area_pdf(&self, triangle: u32, from: Vec3, p: Vec3, n: Vec3) -> f32 {
         let Some(&light) = self.triangle_light.get(triangle as usize) else {
             return 0.0;
         };
@@ -228,7 +251,7 @@ impl Lights {
         let d = p - from;
         let dist2 = d.length_squared();
         let cos = (n.dot(d) / dist2.sqrt()).abs();
-        let pdf = self.pmf[light as usize] / scene.triangle_area(triangle as usize) * dist2 / cos;
+        let pdf = self.area_pdf_a[light as usize] * dist2 / cos;
         if pdf.is_finite() { pdf } else { 0.0 }
     }
 
@@ -319,7 +342,7 @@ impl Lights {
             },
             Light::Area { triangle } => {
                 let q = uniform_triangle(scene.triangles[triangle as usize], u);
-                let n = scene.geometric_normal(triangle as usize);
+                let n = self.area_normal[index];
                 let d = q - p;
                 let wi = d.try_normalize()?;
                 if n.dot(-wi) <= 0.0 {
@@ -327,7 +350,7 @@ impl Lights {
                 }
                 let material =
                     &scene.materials[scene.triangle_materials[triangle as usize] as usize];
-                let pdf = self.area_pdf(scene, triangle, p, q, n);
+                let pdf = self.area_pdf(triangle, p, q, n);
                 if pdf <= 0.0 {
                     return None;
                 }
@@ -337,7 +360,7 @@ impl Lights {
                     pdf,
                     point: Some(LightPoint { p: q, n }),
                     is_delta: false,
-                    mis: self.area_pdfs(scene, triangle, n.dot(-wi)),
+                    mis: self.area_pdfs(triangle, n.dot(-wi)),
                 }
             }
         };
@@ -357,12 +380,12 @@ impl Lights {
 
     /// MIS pdfs of the point of emissive triangle `triangle` seen at cosine
     /// `cos_light` (towards the other vertex).
-    pub fn area_pdfs(&self, scene: &Scene, triangle: u32, cos_light: f32) -> EmitterPdfs {
-        let light = self.triangle_light.get(triangle as usize).copied();
-        let pmf = light
-            .filter(|&l| l != u32::MAX)
-            .map_or(0.0, |l| self.pmf[l as usize]);
-        let pdf_a = pmf / scene.triangle_area(triangle as usize);
+    pub fn area_pdfs(&self, triangle: u32, cos_light: f32) -> EmitterPdfs {
+        let pdf_a = self
+            .triangle_light
+            .get(triangle as usize)
+            .filter(|&&l| l != u32::MAX)
+            .map_or(0.0, |&l| self.area_pdf_a[l as usize]);
         EmitterPdfs {
             kind: EmitterKind::Area,
             direct_pdf: pdf_a,
@@ -470,14 +493,14 @@ impl Lights {
             }
             Light::Area { triangle } => {
                 let p = uniform_triangle(scene.triangles[triangle as usize], u_position);
-                let n = scene.geometric_normal(triangle as usize);
+                let n = self.area_normal[index];
                 let local = cosine_hemisphere(u_direction);
                 if local.z <= 0.0 {
                     return None;
                 }
                 let material =
                     &scene.materials[scene.triangle_materials[triangle as usize] as usize];
-                let mis = self.area_pdfs(scene, triangle, local.z);
+                let mis = self.area_pdfs(triangle, local.z);
                 Emission {
                     origin: accel::offset_ray_origin(p, n),
                     direction: crate::geometry::Frame::from_normal(n).to_world(local),

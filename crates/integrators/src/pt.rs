@@ -9,7 +9,6 @@ use mis::power_heuristic;
 use regularization::{PathRegularization, Subpath};
 
 use crate::config::Strategies;
-use crate::geometry::SurfacePoint;
 use crate::render::Renderer;
 use crate::sampler::Sampler;
 use crate::vertex::PathVertex;
@@ -78,7 +77,7 @@ impl Renderer {
                 }
                 break;
             };
-            let point = SurfacePoint::new(scene, &hit);
+            let point = self.surface_point(&hit);
             let wi = -direction;
 
             // Emission found by the previous bounce.
@@ -89,13 +88,9 @@ impl Renderer {
                 } else if !use_bsdf {
                     0.0
                 } else {
-                    let light_pdf = self.lights.area_pdf(
-                        scene,
-                        point.triangle,
-                        prev_point,
-                        point.p,
-                        point.n_winding,
-                    );
+                    let light_pdf =
+                        self.lights
+                            .area_pdf(point.triangle, prev_point, point.p, point.n_winding);
                     mis_weight(prev_mis_pdf, light_pdf)
                 };
                 radiance += throughput * emission * weight;
