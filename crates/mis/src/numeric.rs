@@ -39,28 +39,30 @@ pub(crate) fn abs(x: f64) -> f64 {
     nonneg(x.abs())
 }
 
-/// Saturating product of two values in `[0, RATIO_MAX]`.
+/// Saturating product of two finite, non-negative values (such as
+/// [`nonneg`] returns).
 ///
-/// Zero times anything is zero (no `0 * inf`), and the product never exceeds
-/// [`RATIO_MAX`].
+/// With finite factors zero times anything is zero (no `0 * inf`), and an
+/// overflow to `inf` is clamped to [`RATIO_MAX`]. No branch: the MIS
+/// recursions call this at every vertex and connection.
 #[inline]
 pub(crate) fn mul(a: f64, b: f64) -> f64 {
-    if a == 0.0 || b == 0.0 {
-        0.0
-    } else {
-        (a * b).min(RATIO_MAX)
-    }
+    debug_assert!(finite_nonneg(a) && finite_nonneg(b), "{a} * {b}");
+    (a * b).min(RATIO_MAX)
 }
 
-/// Saturating quotient of two values in `[0, RATIO_MAX]`: `0 / b = 0` for any
-/// `b`, and the denominator is floored at [`DENOM_MIN`].
+/// Saturating quotient of a finite, non-negative `a` by any `b`: the
+/// denominator is floored at [`DENOM_MIN`] (NaN included), so `0 / b = 0`
+/// and nothing divides by zero.
 #[inline]
 pub(crate) fn div(a: f64, b: f64) -> f64 {
-    if a == 0.0 {
-        0.0
-    } else {
-        (a / b.max(DENOM_MIN)).min(RATIO_MAX)
-    }
+    debug_assert!(finite_nonneg(a), "{a} / {b}");
+    (a / b.max(DENOM_MIN)).min(RATIO_MAX)
+}
+
+/// What [`mul`] and [`div`] require of their operands.
+fn finite_nonneg(x: f64) -> bool {
+    x.is_finite() && x >= 0.0
 }
 
 /// Saturating sum of values in `[0, RATIO_MAX]`.
