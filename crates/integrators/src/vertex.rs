@@ -22,8 +22,9 @@ pub struct PathVertex {
     pub frame: Frame,
     /// Unit direction towards the previous vertex of the subpath.
     pub wi: Vec3,
-    /// `wi` in `frame`'s coordinates: every evaluation at the vertex needs
-    /// it, connections many times.
+    /// `wi` in `frame`'s coordinates, fixed with both by
+    /// [`PathVertex::new`]: every evaluation at the vertex needs it,
+    /// connections many times.
     wi_local: Vec3,
     /// The BSDF as the material defines it (textures resolved).
     pub bsdf_original: Bsdf,
