@@ -284,14 +284,14 @@ impl Renderer {
         grid.build_with(photons.len(), it.radius, |i| photons[i].point.p);
 
         // Camera pass.
+        let photon_map = Some((&grid, photons.as_slice()));
         estimates
             .par_chunks_mut(LIGHT_BLOCK)
             .enumerate()
             .for_each(|(block, chunk)| {
                 for (k, out) in chunk.iter_mut().enumerate() {
                     let index = block * LIGHT_BLOCK + k;
-                    let photons = Some((&grid, photons.as_slice()));
-                    *out = self.trace_camera_path(it, index, paths.path(index), photons);
+                    *out = self.trace_camera_path(it, index, paths.path(index), photon_map);
                 }
                 self.flush_ray_count();
             });
