@@ -36,7 +36,7 @@ use std::process::{Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
 
 use glam::{UVec2, Vec3};
-use integrators::image_io::{read_exr, write_exr};
+use image_io::{read_exr, write_exr};
 use integrators::{Regularization, RenderConfig, Renderer};
 use scene::{Light, LoadOptions, Scene, Surface};
 use serde_json::{Value, json};

@@ -33,15 +33,6 @@ use crate::vertex::PathVertex;
 /// splats are added in the same order whatever the thread count.
 const LIGHT_BLOCK: usize = 256;
 
-/// Largest initial merge radius, in pixel footprints at the median distance
-/// of visible surfaces. The bounding radius alone is no scale when the scene
-/// holds a huge backdrop: on `stiff` (a 1e5 wall around a 10-unit set) it
-/// gave r_1 = 213: every camera vertex merged with every photon, 0.65 s per
-/// PPM iteration at 64x48 against 0.005 s for PT (now 0.024 s, r_1 = 0.36).
-/// On the other bundled scenes r_1 is 0.5-1.1 footprints at their manifest
-/// resolutions, so the bound does not change them.
-pub(crate) const MAX_MERGE_RADIUS_PIXELS: f32 = 8.0;
-
 /// Sampler streams of light subpaths start here (camera subpaths use the
 /// pixel index), so the two never share random numbers.
 const LIGHT_STREAM: u64 = 1 << 48;
@@ -172,13 +163,9 @@ impl Renderer {
         self.features().near_specular_materials > 0 || self.features().transmission
     }
 
-    /// Merge radius of iteration `n` (SPEC §7): r_1 n^((alpha_r - 1) / 2),
-    /// with r_1 = `radius_factor` x the scene's bounding radius, but at most
-    /// [`MAX_MERGE_RADIUS_PIXELS`] pixel footprints.
+    /// Merge radius of iteration `n` (SPEC §7; see [`crate::merge_radius::MergeRadius`]).
     pub fn merge_radius(&self, n: u64) -> f32 {
-        let r1 = (self.config.radius_factor * self.lights.scene_radius())
-            .min(MAX_MERGE_RADIUS_PIXELS * self.pixel_footprint);
-        r1 * (n.max(1) as f32).powf(0.5 * (self.config.radius_alpha - 1.0))
+        self.merge_radius.at(n)
     }
 
     fn iteration(&self, n: u64) -> Iteration {

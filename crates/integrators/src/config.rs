@@ -4,7 +4,8 @@
 use std::fmt;
 use std::str::FromStr;
 
-use regularization::{Mode, Schedule, ScheduleError};
+use regularization::tau::alpha_tau;
+use regularization::{Lobe, Mode, Schedule, ScheduleError};
 
 /// A light-transport algorithm.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -74,29 +75,6 @@ pub enum Strategies {
     BsdfOnly,
 }
 
-/// Parses a regularization mode name: `off`, `uniform` or `selective`.
-pub fn parse_mode(s: &str) -> Result<Mode, ConfigError> {
-    match s.to_ascii_lowercase().as_str() {
-        "off" => Ok(Mode::Off),
-        "uniform" => Ok(Mode::Uniform),
-        "selective" => Ok(Mode::Selective),
-        _ => Err(ConfigError::UnknownName {
-            what: "regularization mode",
-            given: s.to_owned(),
-            expected: "off, uniform, selective",
-        }),
-    }
-}
-
-/// The name of a regularization mode (inverse of [`parse_mode`]).
-pub fn mode_name(mode: Mode) -> &'static str {
-    match mode {
-        Mode::Off => "off",
-        Mode::Uniform => "uniform",
-        Mode::Selective => "selective",
-    }
-}
-
 /// Default tau_0 (SPEC §5): alpha_tau = 0.103 at the first iteration. Our
 /// tau bounds the outgoing density (D/4 for reflection); implementations
 /// that bound D itself use 4x this value (30) for the same blur.
@@ -137,6 +115,12 @@ impl Regularization {
             (_, true) => self.schedule.tau_at(n.max(1)),
             (_, false) => self.schedule.tau_0(),
         }
+    }
+
+    /// The roughness a reflection lobe is raised to at iteration `n`,
+    /// alpha_tau(tau_N) (SPEC §5): the blur of the regularization.
+    pub fn alpha_tau_at(&self, n: u64) -> f64 {
+        alpha_tau(Lobe::Reflection, self.tau_at(n))
     }
 }
 
@@ -260,15 +244,6 @@ mod tests {
         assert_eq!("PT".parse::<Algorithm>(), Ok(Algorithm::Pt));
         let e = "xyz".parse::<Algorithm>().unwrap_err().to_string();
         assert!(e.contains("'xyz'") && e.contains("pt"), "{e}");
-        for m in [Mode::Off, Mode::Uniform, Mode::Selective] {
-            assert_eq!(parse_mode(mode_name(m)), Ok(m));
-        }
-        assert!(
-            parse_mode("strict")
-                .unwrap_err()
-                .to_string()
-                .contains("selective")
-        );
     }
 
     #[test]

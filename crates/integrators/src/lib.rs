@@ -16,8 +16,8 @@ pub mod camera;
 pub mod config;
 pub mod film;
 pub mod geometry;
-pub mod image_io;
 pub mod lights;
+pub mod merge_radius;
 mod pt;
 pub mod render;
 pub mod sampler;
@@ -25,9 +25,9 @@ pub mod vertex;
 
 pub use config::{
     Algorithm, ConfigError, DEFAULT_MAX_DEPTH, DEFAULT_RADIUS_ALPHA, DEFAULT_RADIUS_FACTOR,
-    DEFAULT_SHADOW_ROULETTE, DEFAULT_TAU_0, Regularization, RenderConfig, Strategies, mode_name,
-    parse_mode,
+    DEFAULT_SHADOW_ROULETTE, DEFAULT_TAU_0, Regularization, RenderConfig, Strategies,
 };
 pub use film::Film;
-pub use regularization::Mode;
+pub use pt::ROULETTE_DEPTH;
+pub use regularization::{Mode, Schedule};
 pub use render::Renderer;

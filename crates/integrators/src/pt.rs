@@ -14,7 +14,7 @@ use crate::sampler::Sampler;
 use crate::vertex::PathVertex;
 
 /// Depth (in vertices) from which Russian roulette may end paths.
-pub(crate) const ROULETTE_DEPTH: u32 = 3;
+pub const ROULETTE_DEPTH: u32 = 3;
 
 /// Sampler dimensions used per vertex: light choice (1), light point (2),
 /// BSDF lobe choice (1), BSDF direction (2), roulette (1).

@@ -2,44 +2,22 @@
 //! one iteration of the configured algorithm over the image.
 
 use std::cell::Cell;
-use std::fmt::Write as _;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use accel::{Bvh, Hit};
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
 use regularization::tau::{alpha_cap, alpha_tau};
 use regularization::{Lobe, Mode};
 use scene::{Scene, SceneFeatures};
 
 use crate::camera::CameraRays;
-use crate::config::{Algorithm, RenderConfig, Strategies, mode_name};
+use crate::config::{Algorithm, RenderConfig};
 use crate::film::Film;
 use crate::geometry::SurfacePoint;
 use crate::lights::Lights;
+use crate::merge_radius::{MergeRadius, pixel_footprint};
 use crate::sampler::Sampler;
-
-/// The width of one pixel's footprint at the median distance of the
-/// surfaces seen through a grid of pixel centres: a pixel subtends
-/// 1 / image_plane_distance radians (the image plane is in pixel units).
-fn pixel_footprint(bvh: &Bvh, camera: &CameraRays) -> f32 {
-    let res = camera.camera().resolution;
-    let mut distances: Vec<f32> = (0..FOOTPRINT_GRID * FOOTPRINT_GRID)
-        .filter_map(|i| {
-            let (gx, gy) = (i % FOOTPRINT_GRID, i / FOOTPRINT_GRID);
-            let x = ((2 * gx + 1) * res.x) / (2 * FOOTPRINT_GRID);
-            let y = ((2 * gy + 1) * res.y) / (2 * FOOTPRINT_GRID);
-            let (o, d) = camera.ray(x, y, Vec2::splat(0.5));
-            bvh.intersect(o, d, f32::INFINITY).map(|hit| hit.t)
-        })
-        .collect();
-    if distances.is_empty() {
-        return f32::INFINITY;
-    }
-    let mid = distances.len() / 2;
-    let (_, median, _) = distances.select_nth_unstable_by(mid, f32::total_cmp);
-    *median / camera.image_plane_distance()
-}
 
 /// A scene ready to render with one configuration.
 pub struct Renderer {
@@ -57,18 +35,13 @@ pub struct Renderer {
     invalid_samples: AtomicU64,
     /// Rays traced by finished iterations (closest-hit and shadow rays).
     rays: AtomicU64,
-    /// Width of a pixel's footprint at the median distance of the surfaces
-    /// the camera sees (infinity when it sees none): the scale of what the
-    /// image resolves, which bounds the merge radius.
-    pub(crate) pixel_footprint: f32,
+    /// The merge radius of every iteration (PPM, VCM).
+    pub(crate) merge_radius: MergeRadius,
     /// The mean pixel value (largest RGB component) of a small path-traced
     /// preview: the scale of the shadow-ray roulette threshold (0 when the
     /// algorithm does not use the roulette).
     pub(crate) pixel_scale: f32,
 }
-
-/// Camera rays per image side that estimate the distance of visible surfaces.
-const FOOTPRINT_GRID: u32 = 16;
 
 /// Pixels per image side, and paths per pixel, of the path-traced preview
 /// that estimates the mean pixel value (4096 paths whatever the resolution:
@@ -90,7 +63,12 @@ impl Renderer {
         let lights = Lights::new(&scene);
         let features = SceneFeatures::of(&scene);
         let camera = CameraRays::new(scene.camera);
-        let pixel_footprint = pixel_footprint(&bvh, &camera);
+        let merge_radius = MergeRadius::new(
+            config.radius_factor,
+            lights.scene_radius(),
+            pixel_footprint(&bvh, &camera),
+            config.radius_alpha,
+        );
         let geometric_normals = (0..scene.triangles.len())
             .map(|i| scene.geometric_normal(i))
             .collect();
@@ -104,7 +82,7 @@ impl Renderer {
             features,
             invalid_samples: AtomicU64::new(0),
             rays: AtomicU64::new(0),
-            pixel_footprint,
+            merge_radius,
             pixel_scale: 0.0,
         };
         if renderer.techniques().connections
@@ -178,6 +156,17 @@ impl Renderer {
     /// throughput figures (`cargo xtask bench`).
     pub fn rays_traced(&self) -> u64 {
         self.rays.load(Ordering::Relaxed)
+    }
+
+    /// The mean pixel value of a small path-traced preview, the scale of
+    /// the shadow-ray roulette threshold; 0 when the roulette is off.
+    pub fn shadow_roulette_scale(&self) -> f32 {
+        self.pixel_scale
+    }
+
+    /// The merge-radius rule, fixed when the renderer is made.
+    pub fn merge_radius_rule(&self) -> &MergeRadius {
+        &self.merge_radius
     }
 
     /// The scene.
@@ -307,130 +296,5 @@ impl Renderer {
             self.render_iteration(n, &mut estimates);
             film.add_iteration(&estimates);
         }
-    }
-
-    /// A human-readable account of what will run and why (for `--explain`).
-    pub fn explain(&self) -> String {
-        let c = &self.config;
-        let f = &self.features;
-        let mut s = String::new();
-        let _ = writeln!(
-            s,
-            "integrator:       {} (max depth {}, seed {})",
-            c.algorithm, c.max_depth, c.seed
-        );
-        let strategies = match (c.algorithm, c.strategies) {
-            (Algorithm::Pt, Strategies::Mis) => {
-                "next-event estimation + BSDF sampling, power-heuristic MIS".to_owned()
-            }
-            (Algorithm::Pt, Strategies::NeeOnly) => "next-event estimation only".to_owned(),
-            (Algorithm::Pt, Strategies::BsdfOnly) => "BSDF sampling only".to_owned(),
-            _ => {
-                let t = self.techniques();
-                let mut list = Vec::new();
-                if t.connections {
-                    list.push(
-                        "emitter hits, next-event estimation, vertex connections, light tracing",
-                    );
-                }
-                if t.merging {
-                    list.push("vertex merging");
-                }
-                if t.virtual_merges && self.regularization_matters(c.regularization.tau_at(1)) {
-                    list.push("virtual merges (supp. §6)");
-                }
-                format!(
-                    "one light subpath per pixel; {}; balance-heuristic VCM MIS",
-                    list.join(", ")
-                )
-            }
-        };
-        let _ = writeln!(
-            s,
-            "strategies:       {strategies}; Russian roulette from depth {}",
-            crate::pt::ROULETTE_DEPTH
-        );
-        if self.pixel_scale > 0.0 {
-            let _ = writeln!(
-                s,
-                "shadow roulette:  next-event, connection and light-tracing contributions below {:.4e} ({} x the preview's mean pixel value {:.4e}) keep their shadow ray with probability contribution / threshold (Veach 1997, §10.4.1)",
-                c.shadow_roulette * self.pixel_scale,
-                c.shadow_roulette,
-                self.pixel_scale
-            );
-        }
-        if self.techniques().merging && c.algorithm != Algorithm::Pt {
-            let r1 = self.merge_radius(1);
-            let rule = if r1 < c.radius_factor * self.lights.scene_radius() {
-                format!(
-                    "capped at {} pixel footprints; {} x scene radius would be {:.4e}",
-                    crate::bidir::MAX_MERGE_RADIUS_PIXELS,
-                    c.radius_factor,
-                    c.radius_factor * self.lights.scene_radius()
-                )
-            } else {
-                format!("{} x scene radius", c.radius_factor)
-            };
-            let _ = writeln!(
-                s,
-                "merge radius:     r_1 = {r1:.4e} ({rule}; {:.2} pixel footprints), r_N = r_1 N^(({} - 1)/2)",
-                r1 / self.pixel_footprint,
-                c.radius_alpha
-            );
-        } else if c.algorithm == Algorithm::Vcm {
-            let _ = writeln!(
-                s,
-                "merging:          left out: no near-specular or refractive surface, so connections sample every path well (VCM runs as BPT)"
-            );
-        }
-        let r = &c.regularization;
-        let _ = write!(s, "regularization:   {}", mode_name(r.mode));
-        if r.mode != Mode::Off {
-            let _ = write!(
-                s,
-                ", tau_0 = {} ({}), alpha_tau at N = 1: {:.4}",
-                r.schedule.tau_0(),
-                if r.progressive {
-                    "progressive: tau_N = tau(r_0 N^(-1/6))"
-                } else {
-                    "fixed"
-                },
-                alpha_tau(Lobe::Reflection, r.tau_at(1))
-            );
-            if !self.regularization_matters(r.tau_at(1)) {
-                let _ = write!(
-                    s,
-                    "\n                  inactive: no surface is sharper than alpha_tau (smallest alpha {}), so the render equals the unregularized one",
-                    f.smallest_alpha.map_or("none".into(), |a| a.to_string())
-                );
-            }
-        }
-        let _ = writeln!(s);
-        let _ = writeln!(
-            s,
-            "left out:         {}{}{}",
-            if f.transmission {
-                ""
-            } else {
-                "refraction code (no dielectric); "
-            },
-            if f.textured {
-                ""
-            } else {
-                "texture lookups (no textures); "
-            },
-            if f.environment {
-                ""
-            } else {
-                "environment lookups (no environment light)"
-            },
-        );
-        if self.lights.is_empty() {
-            let _ = writeln!(
-                s,
-                "warning:          the scene has no light; the image will be black"
-            );
-        }
-        s
     }
 }

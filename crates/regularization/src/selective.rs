@@ -8,6 +8,9 @@
 //! subpaths tau_k = tau_N. What is seen directly or only through mirrors stays
 //! sharp; a glass sphere seen on a diffuse floor is regularized.
 
+use std::fmt;
+use std::str::FromStr;
+
 use microfacet::Bsdf;
 
 use crate::tau::{AlphaHat, regularize};
@@ -25,6 +28,47 @@ pub enum Mode {
     Uniform,
     /// The path-diffusion rule above (the default).
     Selective,
+}
+
+impl Mode {
+    /// Every mode with its name, as command lines and manifests spell it.
+    pub const ALL: [(Self, &'static str); 3] = [
+        (Self::Off, "off"),
+        (Self::Uniform, "uniform"),
+        (Self::Selective, "selective"),
+    ];
+
+    /// The mode's name (`off`, `uniform`, `selective`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Off => "off",
+            Self::Uniform => "uniform",
+            Self::Selective => "selective",
+        }
+    }
+}
+
+impl fmt::Display for Mode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A name that is not a regularization mode.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("unknown regularization mode '{0}' (expected one of: off, uniform, selective)")]
+pub struct UnknownMode(pub String);
+
+impl FromStr for Mode {
+    type Err = UnknownMode;
+    /// Parses a mode name, ignoring ASCII case.
+    fn from_str(s: &str) -> Result<Self, UnknownMode> {
+        Self::ALL
+            .iter()
+            .find(|(_, name)| name.eq_ignore_ascii_case(s))
+            .map(|(mode, _)| *mode)
+            .ok_or_else(|| UnknownMode(s.to_owned()))
+    }
 }
 
 /// Which end a subpath starts from.
@@ -95,6 +139,17 @@ mod tests {
     use super::*;
     use glam::Vec3;
     use microfacet::{Conductor, Fresnel, Lambertian, MicrofacetModel, NdfKind, Shadowing};
+
+    #[test]
+    fn mode_names_round_trip_and_errors_list_the_choices() {
+        for (mode, name) in Mode::ALL {
+            assert_eq!(mode.to_string(), name);
+            assert_eq!(name.parse::<Mode>(), Ok(mode));
+            assert_eq!(name.to_uppercase().parse::<Mode>(), Ok(mode));
+        }
+        let e = "strict".parse::<Mode>().unwrap_err().to_string();
+        assert!(e.contains("'strict'") && e.contains("selective"), "{e}");
+    }
 
     fn mirror() -> Bsdf {
         Bsdf::Conductor(Conductor {

@@ -13,10 +13,9 @@ use std::time::Duration;
 use clap::Parser;
 use glam::{UVec2, Vec3};
 use integrators::{
-    Algorithm, DEFAULT_MAX_DEPTH, DEFAULT_TAU_0, Regularization, RenderConfig, Strategies,
-    mode_name, parse_mode,
+    Algorithm, DEFAULT_MAX_DEPTH, DEFAULT_TAU_0, Mode, Regularization, RenderConfig, Schedule,
+    Strategies,
 };
-use regularization::{Mode, Schedule};
 use scene::{Camera, LoadOptions, RenderSettings};
 
 /// Iterations when neither a flag nor the manifest gives a count or a time.
@@ -496,7 +495,7 @@ impl Settings {
                 },
                 self.budget.origin,
             ),
-            ("regularize", mode_name(r.mode).to_owned(), self.mode),
+            ("regularize", r.mode.to_string(), self.mode),
             ("tau0", r.schedule.tau_0().to_string(), self.tau0),
             (
                 "progressive",
@@ -611,7 +610,7 @@ fn parse_algorithm(s: &str) -> Result<Algorithm, String> {
 }
 
 fn parse_regularize(s: &str) -> Result<Mode, String> {
-    parse_mode(s).map_err(|e| e.to_string())
+    s.parse::<Mode>().map_err(|e| e.to_string())
 }
 
 /// tau_0 must exceed 1/(2 pi) (the schedule's own check and message).

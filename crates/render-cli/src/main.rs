@@ -9,14 +9,15 @@
 //! left behind.
 
 mod args;
+mod explain;
 mod render;
 
 use std::io::Write;
 use std::process::ExitCode;
 
 use clap::Parser;
+use image_io::{ImageError, write_exr, write_png};
 use integrators::Renderer;
-use integrators::image_io::{ImageError, write_exr, write_png};
 use scene::SceneError;
 
 use crate::args::{ArgError, Budget, Cli, Outputs, Settings};
@@ -125,7 +126,7 @@ fn print_explanation(cli: &Cli, renderer: &Renderer, settings: &Settings, output
     let (width, height) = renderer.resolution();
     let mut text = format!("scene:            {}\n", cli.scene.display());
     text += &format!("{}\n", renderer.features());
-    text += &format!("{}\n", renderer.explain().trim_end());
+    text += &format!("{}\n", explain::integrator(renderer).trim_end());
     text += &settings.describe();
     text += &format!("resolution:       {width}x{height}\n");
     text += &format!("threads:          {}\n", rayon::current_num_threads());

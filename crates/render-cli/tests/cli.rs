@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use integrators::image_io::read_exr;
+use image_io::read_exr;
 
 const TINY: [&str; 4] = ["--resolution", "16x12", "--iterations", "2"];
 

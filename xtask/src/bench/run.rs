@@ -10,7 +10,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use glam::{UVec2, Vec3};
-use integrators::{Algorithm, DEFAULT_TAU_0, Regularization, RenderConfig, Renderer, parse_mode};
+use integrators::{Algorithm, DEFAULT_TAU_0, Mode, Regularization, RenderConfig, Renderer};
 use scene::{LoadOptions, RenderSettings};
 use serde_json::json;
 
@@ -73,7 +73,7 @@ pub fn child(args: &[String]) -> Result<(), String> {
         "height": h,
         "iterations": iterations,
         "max_depth": config.max_depth,
-        "regularize": integrators::mode_name(config.regularization.mode),
+        "regularize": config.regularization.mode.name(),
         "tau0": config.regularization.schedule.tau_0(),
         "threads": rayon::current_num_threads(),
         "build_seconds": build_seconds,
@@ -100,7 +100,7 @@ pub fn child(args: &[String]) -> Result<(), String> {
 fn render_config(manifest: &RenderSettings, algorithm: Algorithm) -> Result<RenderConfig, String> {
     let defaults = RenderConfig::default();
     let mode = match manifest.regularize.as_deref() {
-        Some(name) => parse_mode(name).map_err(|e| e.to_string())?,
+        Some(name) => name.parse::<Mode>().map_err(|e| e.to_string())?,
         None => defaults.regularization.mode,
     };
     let tau0 = manifest.tau0.unwrap_or(DEFAULT_TAU_0);

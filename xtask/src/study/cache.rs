@@ -180,7 +180,7 @@ pub fn load(dir: &Path, key: &str, width: u32, height: u32) -> Option<(Vec<Vec3>
     if meta["key"].as_str() != Some(key) {
         return None;
     }
-    let image = integrators::image_io::read_exr(&exr).ok()?;
+    let image = image_io::read_exr(&exr).ok()?;
     ((image.width, image.height) == (width, height)).then_some((image.pixels, meta))
 }
 
@@ -195,7 +195,7 @@ pub fn store(
 ) -> Result<(), String> {
     fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     let (exr, json) = paths(dir, key);
-    integrators::image_io::write_exr(&exr, width, height, pixels).map_err(|e| e.to_string())?;
+    image_io::write_exr(&exr, width, height, pixels).map_err(|e| e.to_string())?;
     let text = serde_json::to_string_pretty(meta).map_err(|e| e.to_string())?;
     let partial = json.with_extension("json.partial");
     fs::write(&partial, text + "\n").map_err(|e| format!("{}: {e}", partial.display()))?;

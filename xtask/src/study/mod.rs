@@ -532,7 +532,7 @@ fn render_reference(
 }
 
 fn write_exr(path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Result<(), String> {
-    integrators::image_io::write_exr(path, width, height, pixels).map_err(|e| e.to_string())
+    image_io::write_exr(path, width, height, pixels).map_err(|e| e.to_string())
 }
 
 fn cores() -> usize {

@@ -229,7 +229,7 @@ pub fn write(
         sheet.text(label, scale, ox, oy + th + GAP / 2);
         order.push(label.clone());
     }
-    integrators::image_io::write_png(path, sheet.width, sheet.height, &sheet.pixels, 0.0)
+    image_io::write_png(path, sheet.width, sheet.height, &sheet.pixels, 0.0)
         .map_err(|e| e.to_string())?;
     Ok(SheetInfo {
         order,
