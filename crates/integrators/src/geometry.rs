@@ -1,8 +1,35 @@
-//! Surface points: the shading frame and the data of a ray hit.
+//! Surface points: the shading frame and the data of a ray hit; the
+//! scene's bounding sphere.
 
 use accel::Hit;
 use glam::{Vec2, Vec3};
 use scene::Scene;
+
+/// The sphere around the scene's bounding box: where lights at infinity
+/// emit from, and the scale of the merge radius.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BoundingSphere {
+    /// Centre of the bounding box.
+    pub centre: Vec3,
+    /// Half the box's diagonal, at least [`MIN_SCENE_RADIUS`].
+    pub radius: f32,
+}
+
+/// Smallest bounding radius: keeps a scene of one point (or none) from a
+/// zero radius, which would divide by zero in the emission density of
+/// lights at infinity.
+pub const MIN_SCENE_RADIUS: f32 = 1e-3;
+
+impl BoundingSphere {
+    /// The bounding sphere of `scene`'s triangles.
+    pub fn of(scene: &Scene) -> Self {
+        let (lo, hi) = scene.bounds();
+        Self {
+            centre: 0.5 * (lo + hi),
+            radius: (0.5 * (hi - lo).length()).max(MIN_SCENE_RADIUS),
+        }
+    }
+}
 
 /// An orthonormal frame around a normal; BSDFs work in it with the normal as +z.
 #[derive(Clone, Copy, Debug, PartialEq)]

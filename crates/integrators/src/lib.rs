@@ -1,12 +1,13 @@
 //! Light transport: the film, deterministic samplers, camera rays, light
-//! sampling, the shared path vertex, and the integrators.
+//! sampling, the shared path vertex, and the integrators: path tracing
+//! (`pt`) and one bidirectional core for BPT, PPM and VCM (`bidir`), all
+//! regularized per SPEC §5-§6.
 //!
-//! This integrator is path tracing (`pt`) with next-event
-//! estimation, BSDF sampling and MIS, regularized per SPEC §5-§6. A
-//! [`Renderer`] holds a scene prepared for rendering with one
-//! [`RenderConfig`]; [`Renderer::render_iteration`] renders one iteration
-//! (one sample per pixel) into per-pixel estimates, which a [`Film`]
-//! accumulates with their noise.
+//! A [`Renderer`] holds a scene prepared once for rendering
+//! ([`context::SceneContext`]) and the integrator of one [`RenderConfig`];
+//! [`Renderer::render_iteration`] renders one iteration (one sample per
+//! pixel) into per-pixel estimates, which a [`Film`] accumulates with their
+//! noise.
 //!
 //! Everything here is deterministic: the value of a pixel is a pure function
 //! of (seed, iteration, pixel), whatever the thread count.
@@ -14,12 +15,16 @@
 mod bidir;
 pub mod camera;
 pub mod config;
+pub mod context;
 pub mod film;
 pub mod geometry;
+mod integrator;
 pub mod lights;
 pub mod merge_radius;
+mod nee;
 mod pt;
 pub mod render;
+pub mod roulette;
 pub mod sampler;
 pub mod vertex;
 
@@ -28,6 +33,6 @@ pub use config::{
     DEFAULT_SHADOW_ROULETTE, DEFAULT_TAU_0, Regularization, RenderConfig, Strategies,
 };
 pub use film::Film;
-pub use pt::ROULETTE_DEPTH;
 pub use regularization::{Mode, Schedule};
 pub use render::Renderer;
+pub use roulette::ROULETTE_DEPTH;

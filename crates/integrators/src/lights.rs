@@ -7,6 +7,8 @@ use glam::{Vec2, Vec3};
 use mis::EmitterKind;
 use scene::{Light, Scene};
 
+use crate::geometry::BoundingSphere;
+
 /// Luminance weights (Rec. 709) to turn RGB power into one number.
 fn luminance(c: Vec3) -> f32 {
     c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
@@ -77,6 +79,14 @@ pub struct EmitterPdfs {
 }
 
 impl EmitterPdfs {
+    /// The emitter as the `mis` crate takes it when a camera subpath hits it.
+    pub fn hit(&self) -> mis::EmitterHit {
+        mis::EmitterHit {
+            direct_pdf_a: f64::from(self.direct_pdf),
+            emission_pdf_w: f64::from(self.emission_pdf_w),
+        }
+    }
+
     /// The emission as the `mis` crate takes it (a light subpath's start).
     pub fn emission(&self) -> mis::Emission {
         mis::Emission {
@@ -135,10 +145,10 @@ pub struct Lights {
 }
 
 impl Lights {
-    /// Builds the selection distribution over `scene.lights`.
-    pub fn new(scene: &Scene) -> Self {
-        let (lo, hi) = scene.bounds();
-        let scene_radius = (0.5 * (hi - lo).length()).max(1e-3);
+    /// Builds the selection distribution over `scene.lights`; lights at
+    /// infinity emit into the scene's bounding sphere `bounds`.
+    pub fn new(scene: &Scene, bounds: BoundingSphere) -> Self {
+        let scene_radius = bounds.radius;
         let mut triangle_light = vec![u32::MAX; scene.triangles.len()];
         let mut environment = None;
         let power: Vec<f32> = scene
@@ -214,7 +224,7 @@ impl Lights {
             area_normal,
             triangle_light,
             environment,
-            scene_centre: 0.5 * (lo + hi),
+            scene_centre: bounds.centre,
             scene_radius,
         }
     }
@@ -240,18 +250,13 @@ impl Lights {
     }
 
     /// Density, in solid angle at `from`, with which [`Lights::sample`]
-    /// produces the point `p` (normal `n`) of emissive triangle `triangle`.
-    pub fn area_pdf(&self, triangle: u32, from: Vec3, p: Vec3, n: Vec3) -> f32 {
-        let Some(&light) = self.triangle_light.get(triangle as usize) else {
-            return 0.0;
-        };
-        if light == u32::MAX {
-            return 0.0;
-        }
+    /// produces the point `p` (normal `n`) of emissive triangle `triangle`:
+    /// [`Lights::area_pdfs`]'s area density times d^2 / |cos|.
+    pub fn area_pdf_w(&self, triangle: u32, from: Vec3, p: Vec3, n: Vec3) -> f32 {
         let d = p - from;
         let dist2 = d.length_squared();
         let cos = (n.dot(d) / dist2.sqrt()).abs();
-        let pdf = self.area_pdf_a[light as usize] * dist2 / cos;
+        let pdf = self.area_pdfs(triangle, cos).direct_pdf * dist2 / cos;
         if pdf.is_finite() { pdf } else { 0.0 }
     }
 
@@ -350,7 +355,7 @@ impl Lights {
                 }
                 let material =
                     &scene.materials[scene.triangle_materials[triangle as usize] as usize];
-                let pdf = self.area_pdf(triangle, p, q, n);
+                let pdf = self.area_pdf_w(triangle, p, q, n);
                 if pdf <= 0.0 {
                     return None;
                 }
@@ -367,11 +372,6 @@ impl Lights {
         (sample.li.max_element() > 0.0 && sample.pdf.is_finite()).then_some(sample)
     }
 
-    /// Radius of the scene's bounding sphere.
-    pub fn scene_radius(&self) -> f32 {
-        self.scene_radius
-    }
-
     /// Area of the disk (the scene's bounding sphere's cross-section) from
     /// which lights at infinity emit.
     fn disk_area(&self) -> f32 {
@@ -379,7 +379,9 @@ impl Lights {
     }
 
     /// MIS pdfs of the point of emissive triangle `triangle` seen at cosine
-    /// `cos_light` (towards the other vertex).
+    /// `cos_light` (towards the other vertex): the one area density of
+    /// every technique that reaches an area light.
+    #[inline]
     pub fn area_pdfs(&self, triangle: u32, cos_light: f32) -> EmitterPdfs {
         let pdf_a = self
             .triangle_light

@@ -88,13 +88,13 @@ mod tests {
     #[test]
     fn the_footprint_caps_r1_and_the_radius_shrinks() {
         let free = MergeRadius::new(0.003, 10.0, 1.0, 0.75);
-        assert_eq!(free.r1, 0.03);
+        assert_eq!(free.r1, 0.003 * 10.0);
         assert!(!free.is_capped());
         let capped = MergeRadius::new(0.003, 1e5, 0.01, 0.75);
         assert_eq!(capped.r1, MAX_MERGE_RADIUS_PIXELS * 0.01);
         assert!(capped.is_capped());
         // r_n = r_1 n^(-1/8) for alpha_r = 0.75.
-        assert!((free.at(256) - 0.03 * 0.5).abs() < 1e-8);
+        assert!((free.at(256) - free.r1 * 0.5).abs() < 1e-8);
         assert_eq!(free.at(0), free.at(1));
     }
 }

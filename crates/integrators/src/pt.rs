@@ -6,31 +6,21 @@
 use glam::Vec3;
 use microfacet::TransportMode;
 use mis::power_heuristic;
+use rayon::prelude::*;
 use regularization::{PathRegularization, Subpath};
 
 use crate::config::Strategies;
-use crate::render::Renderer;
-use crate::sampler::Sampler;
+use crate::context::SceneContext;
+use crate::integrator::Integrator;
+use crate::sampler::{CameraVertexSamples, Sampler};
 use crate::vertex::PathVertex;
+use crate::{nee, roulette};
 
-/// Depth (in vertices) from which Russian roulette may end paths.
-pub const ROULETTE_DEPTH: u32 = 3;
-
-/// Sampler dimensions used per vertex: light choice (1), light point (2),
-/// BSDF lobe choice (1), BSDF direction (2), roulette (1).
-pub(crate) const DIMENSIONS_PER_VERTEX: u32 = 7;
-
-/// Russian roulette on a camera subpath's throughput: survives with
-/// probability min(1, max component), reweighted; an unbiased termination
-/// that MIS weights need not know about (they stay a partition of unity).
-pub(crate) fn survives_roulette(throughput: &mut Vec3, u: f32) -> bool {
-    let survive = throughput.max_element().min(1.0);
-    if u >= survive {
-        return false;
-    }
-    *throughput /= survive;
-    true
-}
+/// Pixels per image side, and paths per pixel, of the preview that
+/// estimates the mean pixel value (4096 paths whatever the resolution:
+/// 8-12 ms on `cornell-box`, in `cargo xtask bench`'s build time).
+const PREVIEW_GRID: u32 = 32;
+const PREVIEW_PATHS: u64 = 4;
 
 /// Power-heuristic weight of a technique with density `pdf` against
 /// `other`, in f64 (the pdfs of near-specular lobes overflow when squared in f32).
@@ -38,110 +28,174 @@ fn mis_weight(pdf: f32, other: f32) -> f32 {
     power_heuristic(f64::from(pdf), f64::from(other)) as f32
 }
 
-impl Renderer {
-    /// One path-traced radiance estimate for the camera ray (`origin`, `direction`).
-    pub(crate) fn trace_path(
-        &self,
-        mut origin: Vec3,
-        mut direction: Vec3,
-        sampler: &mut Sampler,
-        tau_n: f64,
-    ) -> Vec3 {
-        let scene = &self.scene;
-        let strategies = self.config.strategies;
+/// The path tracer: one camera path per pixel and iteration.
+#[derive(Clone, Copy, Debug)]
+pub struct PathTracer {
+    /// Lights are reached by next-event estimation.
+    use_nee: bool,
+    /// Lights are reached by BSDF-sampled rays.
+    use_bsdf: bool,
+}
+
+/// How a path left its previous vertex: what an emitter it hits needs for
+/// its MIS weight against next-event estimation from there.
+#[derive(Clone, Copy, Debug)]
+struct Bounce {
+    /// The previous vertex's lobe was a delta (or there was none: the camera).
+    specular: bool,
+    /// The MIS density of the sampled direction (p-hat where regularized).
+    mis_pdf: f32,
+    /// The previous vertex's position.
+    from: Vec3,
+}
+
+impl Integrator for PathTracer {
+    fn render_iteration(&self, ctx: &SceneContext, n: u64, estimates: &mut [Vec3]) {
+        let width = ctx.resolution().0 as usize;
+        let tau_n = ctx.tau_at(n);
+        estimates
+            .par_chunks_mut(width)
+            .enumerate()
+            .for_each(|(y, row)| {
+                for (x, out) in row.iter_mut().enumerate() {
+                    let (mut sampler, o, d) = ctx.camera_path(n, x as u32, y as u32);
+                    *out = self.trace_path(ctx, o, d, &mut sampler, tau_n);
+                }
+                ctx.flush_ray_count();
+            });
+    }
+}
+
+impl PathTracer {
+    /// The path tracer with the given techniques for reaching lights.
+    pub fn new(strategies: Strategies) -> Self {
         let (use_nee, use_bsdf) = match strategies {
             Strategies::Mis => (true, true),
             Strategies::NeeOnly => (true, false),
             Strategies::BsdfOnly => (false, true),
         };
+        Self { use_nee, use_bsdf }
+    }
+
+    /// The mean over a grid of pixels of path-traced estimates (largest RGB
+    /// component), from random streams of iteration 0, which renders never
+    /// use, at tau_1. Its rays are not counted. Returns 0 when the mean is
+    /// not a positive finite number.
+    pub fn preview_pixel_mean(&self, ctx: &SceneContext) -> f32 {
+        let res = ctx.scene.camera.resolution;
+        let tau_1 = ctx.tau_at(1);
+        let mut sum = 0.0f64;
+        ctx.uncounted(|| {
+            for i in 0..PREVIEW_GRID * PREVIEW_GRID {
+                let (gx, gy) = (i % PREVIEW_GRID, i / PREVIEW_GRID);
+                let x = ((2 * gx + 1) * res.x) / (2 * PREVIEW_GRID);
+                let y = ((2 * gy + 1) * res.y) / (2 * PREVIEW_GRID);
+                for k in 0..PREVIEW_PATHS {
+                    let pixel = u64::from(y) * u64::from(res.x) + u64::from(x);
+                    let mut sampler = Sampler::new(ctx.config.seed, 0, pixel * PREVIEW_PATHS + k);
+                    let (o, d) = ctx.camera.ray(x, y, sampler.pixel_position());
+                    let l = self.trace_path(ctx, o, d, &mut sampler, tau_1);
+                    sum += f64::from(l.max_element());
+                }
+            }
+        });
+        let mean = (sum / f64::from(PREVIEW_GRID * PREVIEW_GRID) / PREVIEW_PATHS as f64) as f32;
+        if mean.is_finite() && mean > 0.0 {
+            mean
+        } else {
+            0.0
+        }
+    }
+
+    /// One path-traced radiance estimate for the camera ray (`origin`, `direction`).
+    fn trace_path(
+        &self,
+        ctx: &SceneContext,
+        mut origin: Vec3,
+        mut direction: Vec3,
+        sampler: &mut Sampler,
+        tau_n: f64,
+    ) -> Vec3 {
         let mut radiance = Vec3::ZERO;
         let mut throughput = Vec3::ONE;
         let mut regularization =
-            PathRegularization::new(self.effective_mode(tau_n), Subpath::Camera, tau_n);
-        // State of the previous bounce for MIS on emitter hits.
-        let mut specular_bounce = true;
-        let mut prev_mis_pdf = 0.0f32;
-        let mut prev_point = origin;
+            PathRegularization::new(ctx.effective_mode(tau_n), Subpath::Camera, tau_n);
+        let mut bounce = Bounce {
+            specular: true,
+            mis_pdf: 0.0,
+            from: origin,
+        };
 
-        for depth in 1..=self.config.max_depth {
-            let Some(hit) = self.intersect(origin, direction, f32::INFINITY) else {
-                if let Some(le) = self.lights.environment() {
-                    let weight = if specular_bounce || !use_nee {
-                        1.0
-                    } else if !use_bsdf {
-                        0.0
-                    } else {
-                        mis_weight(prev_mis_pdf, self.lights.environment_pdf())
-                    };
+        for depth in 1..=ctx.config.max_depth {
+            let Some(hit) = ctx.intersect(origin, direction, f32::INFINITY) else {
+                if let Some(le) = ctx.lights.environment() {
+                    let weight = self.emitter_hit_weight(&bounce, || ctx.lights.environment_pdf());
                     radiance += throughput * le * weight;
                 }
                 break;
             };
-            let point = self.surface_point(&hit);
+            let point = ctx.surface_point(&hit);
             let wi = -direction;
-
-            // Emission found by the previous bounce.
-            let emission = scene.materials[point.material as usize].emission;
-            if emission.max_element() > 0.0 && point.n_winding.dot(wi) > 0.0 {
-                let weight = if specular_bounce || !use_nee {
-                    1.0
-                } else if !use_bsdf {
-                    0.0
-                } else {
-                    let light_pdf =
-                        self.lights
-                            .area_pdf(point.triangle, prev_point, point.p, point.n_winding);
-                    mis_weight(prev_mis_pdf, light_pdf)
-                };
+            if let Some(emission) = ctx.emitted(&point, wi) {
+                let weight = self.emitter_hit_weight(&bounce, || {
+                    ctx.lights
+                        .area_pdf_w(point.triangle, bounce.from, point.p, point.n_winding)
+                });
                 radiance += throughput * emission * weight;
             }
-            if depth == self.config.max_depth {
+            if depth == ctx.config.max_depth {
                 break;
             }
 
-            let vertex =
-                PathVertex::new(scene, point, wi, throughput, prev_mis_pdf, regularization);
+            let vertex = PathVertex::new(&ctx.scene, point, wi, throughput, regularization);
             regularization = vertex.regularization;
-            sampler.set_dimension(2 + (depth - 1) * DIMENSIONS_PER_VERTEX);
-            let (u_light, uv_light) = (sampler.next_1d(), sampler.next_2d());
-            let (u_lobe, uv_bsdf) = (sampler.next_1d(), sampler.next_2d());
-            let u_roulette = sampler.next_1d();
-
-            if use_nee && !vertex.is_specular() {
-                radiance += throughput * self.next_event(&vertex, u_light, uv_light, use_bsdf);
+            let u = sampler.camera_vertex(depth);
+            if self.use_nee && !vertex.is_specular() {
+                radiance += throughput * self.next_event(ctx, &vertex, &u);
             }
 
-            let Some(s) = vertex.sample(u_lobe, uv_bsdf, TransportMode::Radiance) else {
+            let Some(s) = vertex.sample(u.u_lobe, u.uv_bsdf, TransportMode::Radiance) else {
                 break;
             };
             throughput *= s.weight;
-            specular_bounce = s.is_specular;
-            prev_mis_pdf = s.mis_pdf;
-            prev_point = point.p;
+            bounce = Bounce {
+                specular: s.is_specular,
+                mis_pdf: s.mis_pdf,
+                from: point.p,
+            };
             origin = point.spawn_origin(s.wo);
             direction = s.wo;
-
-            if depth >= ROULETTE_DEPTH && !survives_roulette(&mut throughput, u_roulette) {
+            if !roulette::survives(depth, &mut throughput, 1.0, u.u_roulette) {
                 break;
             }
         }
         radiance
     }
 
+    /// The MIS weight of emission found after `bounce` against next-event
+    /// estimation, whose density for the emitter point is `light_pdf`
+    /// (solid angle at the previous vertex): 1 after a delta bounce (NEE
+    /// cannot follow it) or without NEE, 0 without BSDF sampling.
+    fn emitter_hit_weight(&self, bounce: &Bounce, light_pdf: impl FnOnce() -> f32) -> f32 {
+        if bounce.specular || !self.use_nee {
+            1.0
+        } else if !self.use_bsdf {
+            0.0
+        } else {
+            mis_weight(bounce.mis_pdf, light_pdf())
+        }
+    }
+
     /// Next-event estimation at `vertex`: a light sample, its visibility and
     /// its MIS weight against BSDF sampling (1 without BSDF sampling or for
     /// delta lights).
-    fn next_event(
-        &self,
-        vertex: &PathVertex,
-        u_light: f32,
-        uv: glam::Vec2,
-        use_bsdf: bool,
-    ) -> Vec3 {
-        let Some((ls, f)) = self.visible_light_sample(vertex, u_light, uv) else {
+    fn next_event(&self, ctx: &SceneContext, vertex: &PathVertex, u: &CameraVertexSamples) -> Vec3 {
+        let Some((ls, f)) = nee::light_sample(ctx, vertex, u.u_light, u.uv_light)
+            .filter(|(ls, _)| nee::visible(ctx, vertex, ls))
+        else {
             return Vec3::ZERO;
         };
-        let weight = if ls.is_delta || !use_bsdf {
+        let weight = if ls.is_delta || !self.use_bsdf {
             1.0
         } else {
             mis_weight(ls.pdf, vertex.mis_pdf(ls.wi))

@@ -1,8 +1,7 @@
 //! Deterministic random numbers: every value is a pure function of
 //! (seed, iteration, stream, dimension), with the stream a pixel index for
 //! camera subpaths (or a light-subpath index), so images do not depend on
-//! the thread count or the order in which work is scheduled (DESIGN.md,
-//! "Determinism").
+//! the thread count or the order in which work is scheduled.
 //!
 //! Values come from Owen-scrambled Sobol points (Burley 2020, the
 //! `sobol_burley` crate): the iteration is the point index, each stream has
@@ -10,6 +9,10 @@
 //! longer than about 35 bounces) and for iterations past 2^16 the values come
 //! from a hash of all four inputs, or from a reseeded sequence, so that no
 //! input repeats a value.
+//!
+//! Subpaths use a fixed dimension layout per vertex (so that a change at
+//! one vertex does not shift the others): [`Sampler::camera_vertex`] and
+//! [`Sampler::light_vertex`] are the only places that know it.
 
 use glam::Vec2;
 use sobol_burley::parts;
@@ -20,6 +23,54 @@ const POINTS_PER_SEED: u64 = 1 << 16;
 
 /// `sobol_burley::sample_4d`'s salt of the stream seed for the point shuffle.
 const SHUFFLE_SALT: u32 = 0x79c6_8e4a;
+
+/// Sampler streams of light subpaths start here (camera subpaths use the
+/// pixel index), so the two never share random numbers.
+pub const LIGHT_STREAM: u64 = 1 << 48;
+
+/// Dimensions of a camera subpath's start: the position in the pixel.
+const PIXEL_DIMENSIONS: u32 = 2;
+
+/// Dimensions per camera subpath vertex: light choice (1), light point
+/// (2), BSDF lobe choice (1), BSDF direction (2), roulette (1).
+const CAMERA_VERTEX_DIMENSIONS: u32 = 7;
+
+/// Dimensions of a light subpath's start: light choice (1), position (2),
+/// direction (2).
+const EMISSION_DIMENSIONS: u32 = 5;
+
+/// Dimensions per light subpath vertex: BSDF lobe (1), direction (2),
+/// roulette (1). Packed back to back, so that a vertex mostly needs one new
+/// 4-dimension Sobol set (with a camera vertex's stride of 7, two).
+const LIGHT_VERTEX_DIMENSIONS: u32 = 4;
+
+/// The random numbers of one camera subpath vertex: next-event estimation,
+/// BSDF sampling, Russian roulette.
+#[derive(Clone, Copy, Debug)]
+pub struct CameraVertexSamples {
+    /// Light choice.
+    pub u_light: f32,
+    /// Point on the light.
+    pub uv_light: Vec2,
+    /// BSDF lobe choice.
+    pub u_lobe: f32,
+    /// BSDF direction.
+    pub uv_bsdf: Vec2,
+    /// Russian roulette.
+    pub u_roulette: f32,
+}
+
+/// The random numbers of one light subpath vertex: BSDF sampling and
+/// Russian roulette.
+#[derive(Clone, Copy, Debug)]
+pub struct LightVertexSamples {
+    /// BSDF lobe choice.
+    pub u_lobe: f32,
+    /// BSDF direction.
+    pub uv_bsdf: Vec2,
+    /// Russian roulette.
+    pub u_roulette: f32,
+}
 
 /// splitmix64's finaliser (Steele et al. 2014): a bijective 64-bit mix.
 fn mix(mut z: u64) -> u64 {
@@ -71,10 +122,46 @@ impl Sampler {
         }
     }
 
-    /// Skips to dimension `dimension`: subpaths use a fixed dimension layout
-    /// per vertex so that a change at one vertex does not shift the others.
+    /// Skips to dimension `dimension`.
     pub fn set_dimension(&mut self, dimension: u32) {
         self.dimension = dimension;
+    }
+
+    /// The position in the pixel of a camera subpath (its first dimensions).
+    pub fn pixel_position(&mut self) -> Vec2 {
+        self.set_dimension(0);
+        self.next_2d()
+    }
+
+    /// The numbers of camera subpath vertex `depth` (1: the first hit).
+    pub fn camera_vertex(&mut self, depth: u32) -> CameraVertexSamples {
+        self.set_dimension(PIXEL_DIMENSIONS + (depth - 1) * CAMERA_VERTEX_DIMENSIONS);
+        let (u_light, uv_light) = (self.next_1d(), self.next_2d());
+        let (u_lobe, uv_bsdf) = (self.next_1d(), self.next_2d());
+        CameraVertexSamples {
+            u_light,
+            uv_light,
+            u_lobe,
+            uv_bsdf,
+            u_roulette: self.next_1d(),
+        }
+    }
+
+    /// The light choice, position and direction of a light subpath's start.
+    pub fn emission(&mut self) -> (f32, Vec2, Vec2) {
+        self.set_dimension(0);
+        (self.next_1d(), self.next_2d(), self.next_2d())
+    }
+
+    /// The numbers of light subpath vertex `length` (1: the first hit).
+    pub fn light_vertex(&mut self, length: u32) -> LightVertexSamples {
+        self.set_dimension(EMISSION_DIMENSIONS + (length - 1) * LIGHT_VERTEX_DIMENSIONS);
+        let (u_lobe, uv_bsdf) = (self.next_1d(), self.next_2d());
+        LightVertexSamples {
+            u_lobe,
+            uv_bsdf,
+            u_roulette: self.next_1d(),
+        }
     }
 
     /// The next value in [0, 1).

@@ -1,9 +1,10 @@
 //! The path vertex every integrator builds: where a subpath touched a
 //! surface, the (regularized) BSDF there and the quantities MIS needs.
 //!
-//! DESIGN.md: one path-vertex representation and one BSDF entry point that
-//! applies regularization. A vertex fixes its alpha-hat when it is created
-//! (SPEC §5); every later evaluation, sample and pdf at it uses that value.
+//! One path-vertex representation for every integrator, and the one BSDF
+//! entry point, which applies regularization: a vertex fixes its alpha-hat
+//! when it is created (SPEC §5); every later evaluation, sample and pdf at
+//! it uses that value.
 
 use glam::{Vec2, Vec3};
 use microfacet::{Bsdf, TransportMode};
@@ -34,8 +35,6 @@ pub struct PathVertex {
     pub alpha_hat: Option<AlphaHat>,
     /// Product of f |cos| / pdf along the subpath up to (excluding) this vertex.
     pub throughput: Vec3,
-    /// Density (solid angle at the previous vertex) with which this vertex was sampled.
-    pub pdf_fwd: f32,
     /// Regularization state for the next vertex of the subpath.
     pub regularization: PathRegularization,
     /// The bound tau this vertex was regularized with, when regularization
@@ -71,7 +70,6 @@ impl PathVertex {
         point: SurfacePoint,
         wi: Vec3,
         throughput: Vec3,
-        pdf_fwd: f32,
         regularization: PathRegularization,
     ) -> Self {
         let material = &scene.materials[point.material as usize];
@@ -98,10 +96,16 @@ impl PathVertex {
             bsdf,
             alpha_hat,
             throughput,
-            pdf_fwd,
             regularization: regularization.after_vertex(&bsdf_original),
             tau,
         }
+    }
+
+    /// This vertex regularized by another subpath's rule: where a
+    /// technique makes a vertex of one subpath the next vertex of the
+    /// other, it is regularized as that subpath would (SPEC §5).
+    pub fn regularized_as(&self, scene: &Scene, regularization: PathRegularization) -> Self {
+        Self::new(scene, self.point, self.wi, self.throughput, regularization)
     }
 
     /// True when the (regularized) lobe is a delta.
@@ -247,5 +251,21 @@ impl PathVertex {
             mis_pdf_rev,
             is_specular: s.is_specular,
         })
+    }
+
+    /// The `mis` crate's record of the scattering event `s` sampled here.
+    pub fn scatter_event(&self, s: &VertexSample) -> mis::Scatter {
+        let pdfs = if s.is_specular {
+            // The tech. rep.'s specular rule: the lobe's discrete
+            // probability as both pdfs.
+            mis::VertexPdfs::new(f64::from(s.pdf), f64::from(s.pdf))
+        } else {
+            mis::VertexPdfs::regularized(f64::from(s.mis_pdf), f64::from(s.mis_pdf_rev), self.tau)
+        };
+        mis::Scatter {
+            pdfs,
+            cos_out: f64::from(self.cos(s.wo)),
+            specular: s.is_specular,
+        }
     }
 }

@@ -32,7 +32,7 @@ pub fn integrator(renderer: &Renderer) -> String {
             scale
         );
     }
-    if renderer.techniques().merging && c.algorithm != Algorithm::Pt {
+    if renderer.techniques().is_some_and(|t| t.merging) {
         let radius = renderer.merge_radius_rule();
         let rule = if radius.is_capped() {
             format!(
@@ -109,28 +109,26 @@ pub fn integrator(renderer: &Renderer) -> String {
 /// The techniques that reach the lights.
 fn strategies(renderer: &Renderer) -> String {
     let c = renderer.config();
-    match (c.algorithm, c.strategies) {
-        (Algorithm::Pt, Strategies::Mis) => {
-            "next-event estimation + BSDF sampling, power-heuristic MIS".to_owned()
+    let Some(t) = renderer.techniques() else {
+        return match c.strategies {
+            Strategies::Mis => "next-event estimation + BSDF sampling, power-heuristic MIS",
+            Strategies::NeeOnly => "next-event estimation only",
+            Strategies::BsdfOnly => "BSDF sampling only",
         }
-        (Algorithm::Pt, Strategies::NeeOnly) => "next-event estimation only".to_owned(),
-        (Algorithm::Pt, Strategies::BsdfOnly) => "BSDF sampling only".to_owned(),
-        _ => {
-            let t = renderer.techniques();
-            let mut list = Vec::new();
-            if t.connections {
-                list.push("emitter hits, next-event estimation, vertex connections, light tracing");
-            }
-            if t.merging {
-                list.push("vertex merging");
-            }
-            if t.virtual_merges && renderer.regularization_matters(c.regularization.tau_at(1)) {
-                list.push("virtual merges (supp. §6)");
-            }
-            format!(
-                "one light subpath per pixel; {}; balance-heuristic VCM MIS",
-                list.join(", ")
-            )
-        }
+        .to_owned();
+    };
+    let mut list = Vec::new();
+    if t.connections {
+        list.push("emitter hits, next-event estimation, vertex connections, light tracing");
     }
+    if t.merging {
+        list.push("vertex merging");
+    }
+    if t.virtual_merges && renderer.regularization_matters(c.regularization.tau_at(1)) {
+        list.push("virtual merges (supp. §6)");
+    }
+    format!(
+        "one light subpath per pixel; {}; balance-heuristic VCM MIS",
+        list.join(", ")
+    )
 }

@@ -1,0 +1,221 @@
+//! Camera subpaths of the bidirectional core with all their techniques:
+//! emitter hits, next-event estimation, vertex connections and merges.
+
+use glam::{UVec2, Vec3};
+use microfacet::TransportMode;
+use mis::{SubpathRay, SubpathState};
+use regularization::{PathRegularization, Subpath};
+
+use super::light_path::LightVertex;
+use super::{Iteration, PhotonMap};
+use crate::sampler::CameraVertexSamples;
+use crate::vertex::PathVertex;
+use crate::{nee, roulette};
+
+impl Iteration<'_> {
+    /// The camera subpath of pixel `index` (row-major) with all its
+    /// techniques: connections to `light_path` (the light subpath with the
+    /// same index), and merges with the photon map when merging. Returns
+    /// the pixel estimate without light-tracing splats.
+    pub(super) fn trace_camera_path(
+        &self,
+        index: usize,
+        light_path: &[LightVertex],
+        photon_map: Option<&PhotonMap<'_>>,
+    ) -> Vec3 {
+        let ctx = self.ctx;
+        let max_depth = ctx.config.max_depth;
+        let width = ctx.scene.camera.resolution.x as usize;
+        let pixel = UVec2::new((index % width) as u32, (index / width) as u32);
+        let (mut sampler, mut origin, mut direction) = ctx.camera_path(self.n, pixel.x, pixel.y);
+        let mut ray = SubpathRay::from_camera(&self.mis, f64::from(ctx.camera.pdf_w(direction)));
+        let mut regularization = PathRegularization::new(self.mode, Subpath::Camera, self.tau_n);
+        let mut throughput = Vec3::ONE;
+        let mut radiance = Vec3::ZERO;
+        for length in 1..=max_depth {
+            let Some(hit) = ctx.intersect(origin, direction, f32::INFINITY) else {
+                if let Some(le) = ctx.lights.environment() {
+                    let hit = ctx.lights.environment_pdfs().hit();
+                    let w = self.mis.environment_hit_weight(&ray, &hit);
+                    radiance += throughput * le * w as f32;
+                }
+                break;
+            };
+            let point = ctx.surface_point(&hit);
+            let wi = -direction;
+            let vertex = PathVertex::new(&ctx.scene, point, wi, throughput, regularization);
+            regularization = vertex.regularization;
+            let state = ray.arrive(
+                &self.mis,
+                f64::from(hit.t),
+                f64::from(vertex.cos(direction)),
+            );
+            if let Some(emission) = ctx.emitted(&point, wi) {
+                let pdfs = ctx
+                    .lights
+                    .area_pdfs(point.triangle, point.n_winding.dot(wi));
+                let w = self.mis.emitter_hit_weight(&state, &pdfs.hit());
+                radiance += throughput * emission * w as f32;
+            }
+            if length >= max_depth {
+                break;
+            }
+            let u = sampler.camera_vertex(length);
+            if !vertex.is_specular() {
+                if self.mis.techniques().connections {
+                    // The emitter point of next-event estimation is light vertex 0.
+                    let u_nee = sampler.keyed_1d(u64::from(length) << 32);
+                    radiance += self.next_event(&vertex, &state, &u, u_nee);
+                    for light in light_path {
+                        if light.length + length < max_depth {
+                            let key = u64::from(length) << 32 | u64::from(light.length);
+                            let u = || sampler.keyed_1d(key);
+                            radiance += self.connect(&vertex, &state, light, u);
+                        }
+                    }
+                }
+                if let Some(photon_map) = photon_map {
+                    radiance += throughput * self.merge(&vertex, &state, length, photon_map);
+                }
+            }
+
+            let Some(s) = vertex.sample(u.u_lobe, u.uv_bsdf, TransportMode::Radiance) else {
+                break;
+            };
+            ray = state.scatter(&self.mis, &vertex.scatter_event(&s));
+            throughput *= s.weight;
+            origin = point.spawn_origin(s.wo);
+            direction = s.wo;
+            if !roulette::survives(length, &mut throughput, 1.0, u.u_roulette) {
+                break;
+            }
+        }
+        radiance
+    }
+
+    /// Next-event estimation (s = 1) at a camera vertex, weighted against
+    /// every other technique: the contribution to the pixel (camera
+    /// throughput included). Its shadow ray goes through the same roulette
+    /// as those of connections: its MIS weight shares the path with them.
+    fn next_event(
+        &self,
+        vertex: &PathVertex,
+        state: &SubpathState,
+        u: &CameraVertexSamples,
+        u_roulette: f32,
+    ) -> Vec3 {
+        let Some((ls, f)) = nee::light_sample(self.ctx, vertex, u.u_light, u.uv_light) else {
+            return Vec3::ZERO;
+        };
+        let unweighted = vertex.throughput * f * ls.li / ls.pdf;
+        let contribution = self.roulette.weighted(unweighted, u_roulette, || {
+            self.mis
+                .next_event_weight(state, &vertex.connection_end(ls.wi), &ls.mis_sample())
+                as f32
+        });
+        match contribution {
+            Some(contribution) if nee::visible(self.ctx, vertex, &ls) => contribution,
+            _ => Vec3::ZERO,
+        }
+    }
+
+    /// A vertex connection between a camera vertex and a light vertex: the
+    /// contribution to the pixel (camera throughput included). The light
+    /// vertex is regularized as the camera subpath would regularize its next
+    /// vertex (see `connect_to_camera`). `u_roulette` draws the roulette's
+    /// random number, a hash: a third of the pairs are rejected on geometry
+    /// alone and need none.
+    fn connect(
+        &self,
+        camera: &PathVertex,
+        camera_state: &SubpathState,
+        light: &LightVertex,
+        u_roulette: impl FnOnce() -> f32,
+    ) -> Vec3 {
+        let d = light.point.p - camera.point.p;
+        // What is zero whichever the distance, first: a light vertex behind
+        // the camera vertex's surface, or seen from behind its own.
+        let light_bound = light.bound_towards(-d);
+        if !camera.is_consistent_towards(d) || light_bound <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let distance2 = d.length_squared();
+        let distance = distance2.sqrt();
+        if !(distance > 0.0) {
+            return Vec3::ZERO;
+        }
+        let dir = d / distance;
+        // The camera side next: it needs no vertex to be rebuilt.
+        let f_camera = camera.eval(dir, TransportMode::Radiance);
+        if f_camera.max_element() <= 0.0 {
+            return Vec3::ZERO;
+        }
+        // With a bound of the light side, the roulette often decides before
+        // the light vertex is rebuilt (the same decisions as from the
+        // contribution itself).
+        let u_roulette = u_roulette();
+        let bound =
+            (camera.throughput * f_camera).max_element() * (light_bound / distance) / distance2;
+        if self.roulette.skips(bound, u_roulette) {
+            return Vec3::ZERO;
+        }
+        let light_vertex = light.vertex(&self.ctx.scene, camera.regularization);
+        if light_vertex.is_specular() {
+            return Vec3::ZERO;
+        }
+        let f = f_camera * light_vertex.eval(-dir, TransportMode::Importance);
+        if f.max_element() <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let unweighted = camera.throughput * f * light.throughput / distance2;
+        let Some(contribution) = self.roulette.weighted(unweighted, u_roulette, || {
+            self.mis.connection_weight(
+                &light.state,
+                &light_vertex.connection_end(-dir),
+                camera_state,
+                &camera.connection_end(dir),
+                f64::from(distance),
+            ) as f32
+        }) else {
+            return Vec3::ZERO;
+        };
+        let origin = camera.point.spawn_origin(dir);
+        let end = light.point.spawn_origin(-dir);
+        if self.ctx.occluded(origin, end - origin, 1.0) {
+            return Vec3::ZERO;
+        }
+        contribution
+    }
+
+    /// Vertex merging at a camera vertex: density estimation over the light
+    /// vertices within the merge radius (SmallVCM's range query), with the
+    /// camera vertex's BSDF towards each photon's incoming direction.
+    fn merge(
+        &self,
+        camera: &PathVertex,
+        camera_state: &SubpathState,
+        length: u32,
+        photon_map: &PhotonMap<'_>,
+    ) -> Vec3 {
+        let mut sum = Vec3::ZERO;
+        photon_map
+            .grid
+            .for_each_within(camera.point.p, self.radius, |i| {
+                let light = photon_map.photons[i];
+                if light.length + length > self.ctx.config.max_depth {
+                    return;
+                }
+                let f = camera.f(light.wi, TransportMode::Radiance);
+                if f.max_element() <= 0.0 {
+                    return;
+                }
+                let weight = self.mis.merge_weight(
+                    &light.state,
+                    camera_state,
+                    &camera.connection_pdfs(light.wi),
+                ) as f32;
+                sum += f * light.throughput * weight;
+            });
+        sum * self.merge_normalisation
+    }
+}

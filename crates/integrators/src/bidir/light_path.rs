@@ -1,0 +1,196 @@
+//! Light subpaths: traced from an emitter, stored as light vertices for
+//! connections and merges, and connected to the camera (light tracing).
+
+use glam::Vec3;
+use microfacet::TransportMode;
+use mis::{SubpathRay, SubpathState};
+use regularization::{Mode, PathRegularization, Subpath};
+use scene::Scene;
+
+use super::Iteration;
+use crate::film::Splats;
+use crate::geometry::SurfacePoint;
+use crate::roulette;
+use crate::sampler::{LIGHT_STREAM, Sampler};
+use crate::vertex::PathVertex;
+
+/// What a light subpath leaves at a non-specular vertex: enough to rebuild
+/// its [`PathVertex`] with the regularization a technique needs, and its MIS
+/// state. Kept small: with merging there are pixels x path length of them.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct LightVertex {
+    pub point: SurfacePoint,
+    /// Unit direction towards the previous vertex (towards the light).
+    pub wi: Vec3,
+    /// Light subpath throughput up to (excluding) this vertex.
+    pub throughput: Vec3,
+    pub state: SubpathState,
+    /// Segments from the light to this vertex.
+    pub length: u32,
+    /// The largest component of `throughput` times the vertex's
+    /// [`PathVertex::importance_bound`]: throughput times f |cos| towards
+    /// `wo` is at most `bound` |wo.n_g|.
+    pub bound: f32,
+}
+
+impl LightVertex {
+    /// The light vertex that `vertex`, reached with `state` after `length`
+    /// segments, leaves.
+    pub fn new(vertex: &PathVertex, state: SubpathState, length: u32) -> Self {
+        Self {
+            point: vertex.point,
+            wi: vertex.wi,
+            throughput: vertex.throughput,
+            state,
+            length,
+            bound: vertex.throughput.max_element() * vertex.importance_bound(),
+        }
+    }
+
+    /// The vertex rebuilt with `regularization`, the rule of the subpath
+    /// that a technique makes it part of (SPEC §5).
+    pub fn vertex(&self, scene: &Scene, regularization: PathRegularization) -> PathVertex {
+        PathVertex::new(scene, self.point, self.wi, self.throughput, regularization)
+    }
+
+    /// An upper bound of the largest component of `throughput` times the
+    /// vertex's f |cos| towards unit `wo` (infinity when the lobe has no
+    /// cheap bound). Proportional to |wo|: a direction of any length gives
+    /// the bound times its length.
+    pub fn bound_towards(&self, wo: Vec3) -> f32 {
+        let (cos_in, cos_out) = (self.wi.dot(self.point.ng), wo.dot(self.point.ng));
+        // A lobe with a finite bound only reflects: nothing leaves through
+        // the other side of the geometric surface (`PathVertex::eval`).
+        if self.bound.is_finite() && cos_in * cos_out <= 0.0 {
+            0.0
+        } else {
+            self.bound * cos_out.abs()
+        }
+    }
+}
+
+impl Iteration<'_> {
+    /// The light subpath with index `index`: its non-specular vertices are
+    /// appended to `vertices`, its light-tracing contributions to `splats`.
+    pub(super) fn trace_light_path(
+        &self,
+        index: u64,
+        vertices: &mut Vec<LightVertex>,
+        splats: &mut Splats,
+    ) {
+        let ctx = self.ctx;
+        let max_depth = ctx.config.max_depth;
+        let mut sampler = Sampler::new(ctx.config.seed, self.n, LIGHT_STREAM + index);
+        let (u_select, u_position, u_direction) = sampler.emission();
+        let Some(emission) =
+            ctx.lights
+                .sample_emission(&ctx.scene, u_select, u_position, u_direction)
+        else {
+            return;
+        };
+        let mut ray = SubpathRay::from_light(&self.mis, &emission.mis.emission());
+        let regularization = PathRegularization::new(self.mode, Subpath::Light, self.tau_n);
+        let (mut origin, mut direction) = (emission.origin, emission.direction);
+        let mut throughput = emission.throughput;
+        let emitted = throughput.max_element();
+        for length in 1..=max_depth {
+            let Some(hit) = ctx.intersect(origin, direction, f32::INFINITY) else {
+                break;
+            };
+            let point = ctx.surface_point(&hit);
+            let vertex = PathVertex::new(&ctx.scene, point, -direction, throughput, regularization);
+            let state = ray.arrive(
+                &self.mis,
+                f64::from(hit.t),
+                f64::from(vertex.cos(direction)),
+            );
+            if !vertex.is_specular() {
+                vertices.push(LightVertex::new(&vertex, state, length));
+            }
+            if self.mis.techniques().connections && length < max_depth {
+                let u = sampler.keyed_1d(u64::from(length));
+                self.connect_to_camera(&vertex, &state, u, splats);
+            }
+            // Every further vertex makes paths of at least length + 2 segments.
+            if length + 2 > max_depth {
+                break;
+            }
+            let u = sampler.light_vertex(length);
+            let Some(s) = vertex.sample(u.u_lobe, u.uv_bsdf, TransportMode::Importance) else {
+                break;
+            };
+            ray = state.scatter(&self.mis, &vertex.scatter_event(&s));
+            throughput *= s.weight;
+            origin = point.spawn_origin(s.wo);
+            direction = s.wo;
+            if !roulette::survives(length, &mut throughput, emitted, u.u_roulette) {
+                break;
+            }
+        }
+    }
+
+    /// Light tracing (t = 1): connects a light vertex to the camera and
+    /// records the contribution for the pixel it projects to.
+    ///
+    /// Seen from the camera, the vertex is the first of a camera subpath, so
+    /// it is regularized by the camera-side rule (SPEC §5: nothing before
+    /// it, rho = 0): in selective mode what the camera sees directly stays
+    /// sharp in light tracing too, and a mirror that the light subpath blurred
+    /// does not show a blurred highlight that no camera technique would
+    /// produce (the techniques would then estimate different integrands).
+    fn connect_to_camera(
+        &self,
+        light_vertex: &PathVertex,
+        state: &SubpathState,
+        u_roulette: f32,
+        splats: &mut Splats,
+    ) {
+        let ctx = self.ctx;
+        let camera = ctx.camera.camera();
+        let Some((x, y)) = ctx.camera.project(light_vertex.point.p) else {
+            return;
+        };
+        // Without regularization, or for a lobe without roughness, both
+        // rules leave the vertex as it is.
+        let rebuilt;
+        let vertex = if self.mode == Mode::Off || light_vertex.is_regularization_invariant() {
+            light_vertex
+        } else {
+            let seen_from_camera = PathRegularization::new(self.mode, Subpath::Camera, self.tau_n);
+            rebuilt = light_vertex.regularized_as(&ctx.scene, seen_from_camera);
+            &rebuilt
+        };
+        if vertex.is_specular() {
+            return;
+        }
+        let to_camera = camera.position - vertex.point.p;
+        let distance = to_camera.length();
+        let dir = to_camera / distance;
+        let f = vertex.eval(dir, TransportMode::Importance);
+        if f.max_element() <= 0.0 {
+            return;
+        }
+        let camera_pdf_w = ctx.camera.pdf_w(-dir);
+        // The pixel integral is over the image plane in pixel units: the
+        // surface-to-image factor is camera_pdf_w / d^2 (SmallVCM's
+        // ConnectToCamera); each of the N light paths is one sample.
+        let light_paths = (camera.resolution.x * camera.resolution.y) as f32;
+        let unweighted =
+            vertex.throughput * f * (camera_pdf_w / (distance * distance * light_paths));
+        let Some(contribution) = self.roulette.weighted(unweighted, u_roulette, || {
+            self.mis.light_tracing_weight(
+                state,
+                &vertex.connection_end(dir),
+                f64::from(camera_pdf_w),
+                f64::from(distance),
+            ) as f32
+        }) else {
+            return;
+        };
+        let origin = vertex.point.spawn_origin(dir);
+        if ctx.occluded(origin, camera.position - origin, 1.0) {
+            return;
+        }
+        splats.push(y * camera.resolution.x + x, contribution);
+    }
+}

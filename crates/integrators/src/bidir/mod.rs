@@ -1,0 +1,264 @@
+//! The bidirectional core: vertex connection and merging (Georgiev et al.
+//! 2012; the structure of SmallVCM and of the "Implementing VCM" technical
+//! report). BPT is this core with merging off, PPM with connections off, VCM
+//! with both (SPEC §7): one copy of the subpath code, techniques switched by
+//! the `mis` crate's [`Techniques`].
+//!
+//! One iteration traces one light subpath per pixel (stored, and connected to
+//! the camera: light tracing, [`light_path`]), then one camera subpath per
+//! pixel ([`camera_path`]), which at every non-specular vertex does next-event
+//! estimation, connects to the vertices of the light subpath with its own
+//! index, and merges with the light vertices within the merge radius. Every
+//! contribution is weighted with the recursive MIS quantities of `mis`, with
+//! p-hat at regularized vertices and, optionally, virtual merges (SPEC §6).
+
+mod camera_path;
+mod light_path;
+#[cfg(test)]
+mod tests;
+
+use accel::HashGrid;
+use glam::Vec3;
+use mis::{Heuristic, MisConfig, Techniques};
+use rayon::prelude::*;
+use regularization::Mode;
+
+use crate::config::Algorithm;
+use crate::context::SceneContext;
+use crate::film::Splats;
+use crate::integrator::Integrator;
+use crate::pt::PathTracer;
+use crate::roulette::ShadowRoulette;
+use light_path::LightVertex;
+
+/// Light subpaths traced together by one task: a fixed partition, so that
+/// splats are added in the same order whatever the thread count.
+const LIGHT_BLOCK: usize = 256;
+
+/// BPT, PPM or VCM: the techniques of the configured algorithm on this
+/// scene, and the scale of the shadow-ray roulette.
+#[derive(Clone, Copy, Debug)]
+pub struct Bidirectional {
+    techniques: Techniques,
+    /// The mean pixel value (largest RGB component) of a small path-traced
+    /// preview: the scale of the shadow-ray roulette threshold (0 when the
+    /// roulette is off).
+    pixel_scale: f32,
+}
+
+impl Bidirectional {
+    /// The core for `ctx.config.algorithm` (BPT, PPM or VCM). VCM leaves
+    /// merging out when no used surface is near-specular (alpha < 0.1) or
+    /// refractive: merging helps only with paths that connections cannot
+    /// sample well (specular-diffuse-specular chains), so there it would
+    /// build a photon map for nothing; the result is BPT, unbiased.
+    pub fn new(ctx: &SceneContext) -> Self {
+        let merging_can_help =
+            ctx.features.near_specular_materials > 0 || ctx.features.transmission;
+        let techniques = match ctx.config.algorithm {
+            Algorithm::Bpt | Algorithm::Pt => Techniques::BPT,
+            Algorithm::Ppm => Techniques::MERGING,
+            Algorithm::Vcm if merging_can_help => Techniques::VCM,
+            Algorithm::Vcm => Techniques::BPT,
+        }
+        .with_virtual_merges(ctx.config.uses_virtual_merges());
+        let pixel_scale = if techniques.connections && ctx.config.shadow_roulette > 0.0 {
+            PathTracer::new(ctx.config.strategies).preview_pixel_mean(ctx)
+        } else {
+            0.0
+        };
+        Self {
+            techniques,
+            pixel_scale,
+        }
+    }
+
+    /// The MIS techniques switched on.
+    pub fn techniques(&self) -> Techniques {
+        self.techniques
+    }
+
+    /// The scale of the shadow-ray roulette threshold (see
+    /// [`crate::RenderConfig::shadow_roulette`]); 0 when it is off.
+    pub fn pixel_scale(&self) -> f32 {
+        self.pixel_scale
+    }
+
+    /// The settings of iteration `n`.
+    fn iteration<'a>(&self, ctx: &'a SceneContext, n: u64) -> Iteration<'a> {
+        let (w, h) = ctx.resolution();
+        let light_paths = u64::from(w) * u64::from(h);
+        let radius = if self.techniques.merging {
+            ctx.merge_radius.at(n)
+        } else {
+            0.0
+        };
+        let mis = MisConfig::new(
+            self.techniques,
+            light_paths,
+            f64::from(radius),
+            Heuristic::BALANCE,
+        )
+        .expect("pixel count and radius are positive");
+        let tau_n = ctx.tau_at(n);
+        Iteration {
+            ctx,
+            n,
+            mis,
+            mode: ctx.effective_mode(tau_n),
+            tau_n,
+            radius,
+            merge_normalisation: 1.0
+                / (std::f32::consts::PI * radius * radius * light_paths as f32),
+            roulette: ShadowRoulette {
+                threshold: ctx.config.shadow_roulette * self.pixel_scale,
+            },
+        }
+    }
+}
+
+impl Integrator for Bidirectional {
+    fn render_iteration(&self, ctx: &SceneContext, n: u64, estimates: &mut [Vec3]) {
+        let it = self.iteration(ctx, n);
+        if self.techniques.merging {
+            it.render_with_photon_map(estimates);
+        } else {
+            it.render_paired(estimates);
+        }
+    }
+}
+
+/// One iteration of the core: the scene and the settings that depend on
+/// the iteration number. The subpath code is its methods.
+struct Iteration<'a> {
+    ctx: &'a SceneContext,
+    n: u64,
+    mis: MisConfig,
+    mode: Mode,
+    tau_n: f64,
+    radius: f32,
+    /// 1 / (pi r^2 light_paths): the merge kernel's normalisation.
+    merge_normalisation: f32,
+    /// Next-event estimation, connections and light tracing skip shadow
+    /// rays of small contributions with it.
+    roulette: ShadowRoulette,
+}
+
+/// The photon map of one iteration: every light vertex and a grid over them.
+struct PhotonMap<'a> {
+    grid: HashGrid,
+    photons: Vec<&'a LightVertex>,
+}
+
+/// One iteration's light subpaths, as the blocks of [`LIGHT_BLOCK`] paths
+/// traced them: not copied into one array, a copy that held the light
+/// vertices twice (PPM on `cornell-box` at 512x512: 93 MB of them per
+/// iteration; peak memory 220 MB with the copy, 150 MB without).
+struct LightPaths {
+    /// The light vertices of each block, in light-path order.
+    blocks: Vec<Vec<LightVertex>>,
+    /// Where light path i's vertices end in its block; they start where
+    /// path i - 1's end, or at 0 for a block's first path.
+    ends: Vec<usize>,
+}
+
+impl LightPaths {
+    fn path(&self, i: usize) -> &[LightVertex] {
+        let start = if i.is_multiple_of(LIGHT_BLOCK) {
+            0
+        } else {
+            self.ends[i - 1]
+        };
+        &self.blocks[i / LIGHT_BLOCK][start..self.ends[i]]
+    }
+
+    /// Every light vertex, in light-path order.
+    fn vertices(&self) -> impl Iterator<Item = &LightVertex> {
+        self.blocks.iter().flatten()
+    }
+}
+
+impl Iteration<'_> {
+    /// Without merging, light subpath i is used only by camera subpath i
+    /// (and the camera): each block of pixels traces both in turn, so light
+    /// vertices need no storage beyond one path per thread.
+    fn render_paired(&self, estimates: &mut [Vec3]) {
+        let splats: Vec<Splats> = estimates
+            .par_chunks_mut(LIGHT_BLOCK)
+            .enumerate()
+            .map(|(block, chunk)| {
+                let mut vertices = Vec::new();
+                let mut splats = Splats::default();
+                for (k, out) in chunk.iter_mut().enumerate() {
+                    let index = block * LIGHT_BLOCK + k;
+                    vertices.clear();
+                    self.trace_light_path(index as u64, &mut vertices, &mut splats);
+                    *out = self.trace_camera_path(index, &vertices, None);
+                }
+                self.ctx.flush_ray_count();
+                splats
+            })
+            .collect();
+        for s in &splats {
+            s.add_to(estimates);
+        }
+    }
+
+    /// With merging, every camera subpath may merge with any light vertex:
+    /// all light subpaths are traced first and their vertices indexed by a
+    /// hash grid (the photon map, freed at the end of the iteration).
+    fn render_with_photon_map(&self, estimates: &mut [Vec3]) {
+        let (paths, splats) = self.trace_light_paths(estimates.len());
+        let photons: Vec<&LightVertex> = paths.vertices().collect();
+        let mut grid = HashGrid::new();
+        grid.build_with(photons.len(), self.radius, |i| photons[i].point.p);
+        let photon_map = PhotonMap { grid, photons };
+
+        estimates
+            .par_chunks_mut(LIGHT_BLOCK)
+            .enumerate()
+            .for_each(|(block, chunk)| {
+                for (k, out) in chunk.iter_mut().enumerate() {
+                    let index = block * LIGHT_BLOCK + k;
+                    *out = self.trace_camera_path(index, paths.path(index), Some(&photon_map));
+                }
+                self.ctx.flush_ray_count();
+            });
+        for s in &splats {
+            s.add_to(estimates);
+        }
+    }
+
+    /// Every light subpath of the iteration, traced in fixed blocks, with
+    /// each block's light-tracing splats.
+    fn trace_light_paths(&self, light_paths: usize) -> (LightPaths, Vec<Splats>) {
+        let blocks: Vec<(Vec<LightVertex>, Vec<usize>, Splats)> = (0..light_paths)
+            .into_par_iter()
+            .step_by(LIGHT_BLOCK)
+            .map(|first| {
+                let mut vertices = Vec::new();
+                let mut ends = Vec::with_capacity(LIGHT_BLOCK);
+                let mut splats = Splats::default();
+                for i in first..(first + LIGHT_BLOCK).min(light_paths) {
+                    self.trace_light_path(i as u64, &mut vertices, &mut splats);
+                    ends.push(vertices.len());
+                }
+                self.ctx.flush_ray_count();
+                // Kept to the end of the iteration: without the growth slack.
+                vertices.shrink_to_fit();
+                (vertices, ends, splats)
+            })
+            .collect();
+        let mut paths = LightPaths {
+            blocks: Vec::with_capacity(blocks.len()),
+            ends: Vec::with_capacity(light_paths),
+        };
+        let mut all_splats = Vec::with_capacity(blocks.len());
+        for (vertices, ends, splats) in blocks {
+            paths.blocks.push(vertices);
+            paths.ends.extend(ends);
+            all_splats.push(splats);
+        }
+        (paths, all_splats)
+    }
+}
