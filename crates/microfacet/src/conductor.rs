@@ -3,10 +3,10 @@
 
 use glam::{Vec2, Vec3};
 
-use crate::bsdf::BsdfSample;
 use crate::frame::{reflect, same_hemisphere};
 use crate::fresnel::Fresnel;
 use crate::model::MicrofacetModel;
+use crate::sample::BsdfSample;
 
 /// A conductor lobe.
 #[derive(Clone, Copy, Debug, PartialEq)]

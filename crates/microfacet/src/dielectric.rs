@@ -9,10 +9,10 @@
 
 use glam::{Vec2, Vec3};
 
-use crate::bsdf::{BsdfSample, TransportMode};
 use crate::frame::{reflect, refract};
 use crate::fresnel;
 use crate::model::MicrofacetModel;
+use crate::sample::{BsdfSample, TransportMode};
 
 /// A dielectric interface lobe.
 #[derive(Clone, Copy, Debug, PartialEq)]

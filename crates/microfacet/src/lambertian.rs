@@ -4,8 +4,8 @@ use std::f32::consts::{FRAC_1_PI, PI};
 
 use glam::{Vec2, Vec3};
 
-use crate::bsdf::BsdfSample;
 use crate::frame::same_hemisphere;
+use crate::sample::BsdfSample;
 
 /// Lambertian reflector with albedo `reflectance` (each channel in [0, 1]).
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -19,8 +19,9 @@
 //! - [`vndf`]: visible-normal samplers (GGX, Beckmann, V-cavity).
 //! - [`model`]: an NDF with its shadowing model and sampler.
 //! - [`fresnel`], [`bounds`], [`frame`], [`special`]: building blocks.
-//! - [`bsdf`]: the lobe interface; [`lambertian`], [`conductor`],
-//!   [`dielectric`]: the lobes.
+//! - [`sample`]: what lobes return (a sampled direction) and the transport
+//!   mode; [`lambertian`], [`conductor`], [`dielectric`]: the lobes;
+//!   [`bsdf`]: the enum that dispatches to them.
 //!
 //! Equation numbers refer to `SPEC.md` (§) and the paper's supplemental
 //! document ("supp. eq."), as the doc comment of each function says.
@@ -34,15 +35,17 @@ pub mod fresnel;
 pub mod lambertian;
 pub mod model;
 pub mod ndf;
+pub mod sample;
 pub mod shadowing;
 pub mod special;
 pub mod vndf;
 
-pub use bsdf::{Bsdf, BsdfSample, TransportMode};
+pub use bsdf::Bsdf;
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use fresnel::Fresnel;
 pub use lambertian::Lambertian;
 pub use model::{HalfVectorSample, MicrofacetModel, SMOOTH_ALPHA};
 pub use ndf::{Ndf, NdfKind};
+pub use sample::{BsdfSample, TransportMode};
 pub use shadowing::Shadowing;
