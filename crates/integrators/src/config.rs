@@ -15,18 +15,25 @@ pub enum Algorithm {
     Pt,
     /// Bidirectional path tracing: the VCM core with merging off.
     Bpt,
-    /// Progressive photon mapping: the VCM core with merging only.
+    /// Progressive photon mapping (Hachisuka et al. 2008; SmallVCM's
+    /// `ppm`): camera paths stop at their first non-specular vertex and
+    /// merge there with the photons, no MIS.
     Ppm,
+    /// Bidirectional photon mapping: the VCM core with merging only (a
+    /// merge at every non-specular camera vertex, MIS between them;
+    /// SmallVCM's `bpm`).
+    Bpm,
     /// Vertex connection and merging (Georgiev et al. 2012).
     Vcm,
 }
 
 impl Algorithm {
     /// Every algorithm with its command-line name.
-    pub const ALL: [(Self, &'static str); 4] = [
+    pub const ALL: [(Self, &'static str); 5] = [
         (Self::Pt, "pt"),
         (Self::Bpt, "bpt"),
         (Self::Ppm, "ppm"),
+        (Self::Bpm, "bpm"),
         (Self::Vcm, "vcm"),
     ];
 
@@ -49,7 +56,7 @@ impl FromStr for Algorithm {
             .ok_or_else(|| ConfigError::UnknownName {
                 what: "integrator",
                 given: s.to_owned(),
-                expected: "pt, bpt, ppm, vcm",
+                expected: "pt, bpt, ppm, bpm, vcm",
             })
     }
 }
@@ -148,7 +155,7 @@ pub struct RenderConfig {
     /// regularization, off otherwise.
     pub virtual_merges: Option<bool>,
     /// Merge radius of the first iteration, as a fraction of the radius of
-    /// the scene's bounding sphere (PPM, VCM).
+    /// the scene's bounding sphere (PPM, BPM, VCM).
     pub radius_factor: f32,
     /// The progressive radius exponent alpha_r of SPEC §7:
     /// r_i = r_1 i^((alpha_r - 1) / 2).
@@ -190,7 +197,7 @@ impl RenderConfig {
                         .virtual_merges
                         .unwrap_or(self.algorithm == Algorithm::Vcm)
             }
-            Algorithm::Pt | Algorithm::Ppm => false,
+            Algorithm::Pt | Algorithm::Ppm | Algorithm::Bpm => false,
         }
     }
 }

@@ -11,7 +11,7 @@ use glam::Vec3;
 use mis::Techniques;
 use scene::{Scene, SceneFeatures};
 
-use crate::bidir::Bidirectional;
+use crate::bidir::{Bidirectional, ProgressivePhotonMapper};
 use crate::config::{Algorithm, RenderConfig};
 use crate::context::SceneContext;
 use crate::film::Film;
@@ -25,8 +25,10 @@ use crate::pt::PathTracer;
 pub enum AnyIntegrator {
     /// Path tracing (`pt`).
     PathTracer(PathTracer),
-    /// The bidirectional core (`bpt`, `ppm`, `vcm`).
+    /// The bidirectional core (`bpt`, `bpm`, `vcm`).
     Bidirectional(Bidirectional),
+    /// Progressive photon mapping (`ppm`).
+    ProgressivePhotonMapper(ProgressivePhotonMapper),
 }
 
 impl AnyIntegrator {
@@ -34,9 +36,10 @@ impl AnyIntegrator {
     pub fn new(ctx: &SceneContext) -> Self {
         match ctx.config.algorithm {
             Algorithm::Pt => Self::PathTracer(PathTracer::new(ctx.config.strategies)),
-            Algorithm::Bpt | Algorithm::Ppm | Algorithm::Vcm => {
+            Algorithm::Bpt | Algorithm::Bpm | Algorithm::Vcm => {
                 Self::Bidirectional(Bidirectional::new(ctx))
             }
+            Algorithm::Ppm => Self::ProgressivePhotonMapper(ProgressivePhotonMapper::new(ctx)),
         }
     }
 }
@@ -46,6 +49,7 @@ impl Integrator for AnyIntegrator {
         match self {
             Self::PathTracer(pt) => pt.render_iteration(ctx, n, estimates),
             Self::Bidirectional(bidir) => bidir.render_iteration(ctx, n, estimates),
+            Self::ProgressivePhotonMapper(ppm) => ppm.render_iteration(ctx, n, estimates),
         }
     }
 }
@@ -133,13 +137,13 @@ impl Renderer {
         Film::new(w, h)
     }
 
-    /// The MIS techniques of the bidirectional core (BPT, PPM, VCM: VCM
+    /// The MIS techniques of the bidirectional core (BPT, BPM, VCM: VCM
     /// without merging on a scene where merging cannot help); `None` for
-    /// the path tracer.
+    /// the path tracer and the photon mapper, which weight nothing.
     pub fn techniques(&self) -> Option<Techniques> {
         match &self.integrator {
-            AnyIntegrator::PathTracer(_) => None,
             AnyIntegrator::Bidirectional(core) => Some(core.techniques()),
+            AnyIntegrator::PathTracer(_) | AnyIntegrator::ProgressivePhotonMapper(_) => None,
         }
     }
 
@@ -147,8 +151,8 @@ impl Renderer {
     /// the shadow-ray roulette threshold; 0 when the roulette is off.
     pub fn shadow_roulette_scale(&self) -> f32 {
         match &self.integrator {
-            AnyIntegrator::PathTracer(_) => 0.0,
             AnyIntegrator::Bidirectional(core) => core.pixel_scale(),
+            AnyIntegrator::PathTracer(_) | AnyIntegrator::ProgressivePhotonMapper(_) => 0.0,
         }
     }
 

@@ -181,6 +181,7 @@ fn rays_traced_counts_every_ray() {
         integrators::Algorithm::Pt,
         integrators::Algorithm::Bpt,
         integrators::Algorithm::Ppm,
+        integrators::Algorithm::Bpm,
     ] {
         let one = count(algorithm, 1);
         assert!(one > 2 * 16 * 12, "{algorithm}: {one}");

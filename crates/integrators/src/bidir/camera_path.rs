@@ -187,9 +187,8 @@ impl Iteration<'_> {
         contribution
     }
 
-    /// Vertex merging at a camera vertex: density estimation over the light
-    /// vertices within the merge radius (SmallVCM's range query), with the
-    /// camera vertex's BSDF towards each photon's incoming direction.
+    /// Vertex merging at a camera vertex `length` segments from the
+    /// camera, each merge weighted against every other technique.
     fn merge(
         &self,
         camera: &PathVertex,
@@ -197,25 +196,12 @@ impl Iteration<'_> {
         length: u32,
         photon_map: &PhotonMap<'_>,
     ) -> Vec3 {
-        let mut sum = Vec3::ZERO;
-        photon_map
-            .grid
-            .for_each_within(camera.point.p, self.radius, |i| {
-                let light = photon_map.photons[i];
-                if light.length + length > self.ctx.config.max_depth {
-                    return;
-                }
-                let f = camera.f(light.wi, TransportMode::Radiance);
-                if f.max_element() <= 0.0 {
-                    return;
-                }
-                let weight = self.mis.merge_weight(
-                    &light.state,
-                    camera_state,
-                    &camera.connection_pdfs(light.wi),
-                ) as f32;
-                sum += f * light.throughput * weight;
-            });
-        sum * self.merge_normalisation
+        photon_map.gather(camera, length, self.ctx.config.max_depth, |light| {
+            self.mis.merge_weight(
+                &light.state,
+                camera_state,
+                &camera.connection_pdfs(light.wi),
+            ) as f32
+        })
     }
 }

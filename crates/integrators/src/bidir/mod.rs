@@ -1,8 +1,9 @@
 //! The bidirectional core: vertex connection and merging (Georgiev et al.
 //! 2012; the structure of SmallVCM and of the "Implementing VCM" technical
-//! report). BPT is this core with merging off, PPM with connections off, VCM
-//! with both (SPEC §7): one copy of the subpath code, techniques switched by
-//! the `mis` crate's [`Techniques`].
+//! report). BPT is this core with merging off, BPM (bidirectional photon
+//! mapping) with connections off, VCM with both (SPEC §7): one copy of the
+//! subpath code, techniques switched by the `mis` crate's [`Techniques`].
+//! Progressive photon mapping ([`ppm`]) shares its light pass and photon map.
 //!
 //! One iteration traces one light subpath per pixel (stored, and connected to
 //! the camera: light tracing, [`light_path`]), then one camera subpath per
@@ -14,11 +15,13 @@
 
 mod camera_path;
 mod light_path;
+mod ppm;
 #[cfg(test)]
 mod tests;
 
 use accel::HashGrid;
 use glam::Vec3;
+use microfacet::TransportMode;
 use mis::{Heuristic, MisConfig, Techniques};
 use rayon::prelude::*;
 use regularization::Mode;
@@ -29,13 +32,15 @@ use crate::film::Splats;
 use crate::integrator::Integrator;
 use crate::pt::PathTracer;
 use crate::roulette::ShadowRoulette;
+use crate::vertex::PathVertex;
 use light_path::LightVertex;
+pub use ppm::ProgressivePhotonMapper;
 
 /// Light subpaths traced together by one task: a fixed partition, so that
 /// splats are added in the same order whatever the thread count.
 const LIGHT_BLOCK: usize = 256;
 
-/// BPT, PPM or VCM: the techniques of the configured algorithm on this
+/// BPT, BPM or VCM: the techniques of the configured algorithm on this
 /// scene, and the scale of the shadow-ray roulette.
 #[derive(Clone, Copy, Debug)]
 pub struct Bidirectional {
@@ -47,7 +52,7 @@ pub struct Bidirectional {
 }
 
 impl Bidirectional {
-    /// The core for `ctx.config.algorithm` (BPT, PPM or VCM). VCM leaves
+    /// The core for `ctx.config.algorithm` (BPT, BPM or VCM). VCM leaves
     /// merging out when no used surface is near-specular (alpha < 0.1) or
     /// refractive: merging helps only with paths that connections cannot
     /// sample well (specular-diffuse-specular chains), so there it would
@@ -57,7 +62,7 @@ impl Bidirectional {
             ctx.features.near_specular_materials > 0 || ctx.features.transmission;
         let techniques = match ctx.config.algorithm {
             Algorithm::Bpt | Algorithm::Pt => Techniques::BPT,
-            Algorithm::Ppm => Techniques::MERGING,
+            Algorithm::Bpm | Algorithm::Ppm => Techniques::MERGING,
             Algorithm::Vcm if merging_can_help => Techniques::VCM,
             Algorithm::Vcm => Techniques::BPT,
         }
@@ -108,8 +113,6 @@ impl Bidirectional {
             mode: ctx.effective_mode(tau_n),
             tau_n,
             radius,
-            merge_normalisation: 1.0
-                / (std::f32::consts::PI * radius * radius * light_paths as f32),
             roulette: ShadowRoulette {
                 threshold: ctx.config.shadow_roulette * self.pixel_scale,
             },
@@ -137,8 +140,6 @@ struct Iteration<'a> {
     mode: Mode,
     tau_n: f64,
     radius: f32,
-    /// 1 / (pi r^2 light_paths): the merge kernel's normalisation.
-    merge_normalisation: f32,
     /// Next-event estimation, connections and light tracing skip shadow
     /// rays of small contributions with it.
     roulette: ShadowRoulette,
@@ -148,6 +149,52 @@ struct Iteration<'a> {
 struct PhotonMap<'a> {
     grid: HashGrid,
     photons: Vec<&'a LightVertex>,
+    radius: f32,
+    /// 1 / (pi r^2 light_paths): the merge kernel's normalisation.
+    normalisation: f32,
+}
+
+impl<'a> PhotonMap<'a> {
+    /// The photon map over every vertex of `paths`, for merges of radius
+    /// `radius` by `light_paths` light subpaths.
+    fn new(paths: &'a LightPaths, radius: f32, light_paths: usize) -> Self {
+        let photons: Vec<&LightVertex> = paths.vertices().collect();
+        let mut grid = HashGrid::new();
+        grid.build_with(photons.len(), radius, |i| photons[i].point.p);
+        Self {
+            grid,
+            photons,
+            radius,
+            normalisation: 1.0 / (std::f32::consts::PI * radius * radius * light_paths as f32),
+        }
+    }
+
+    /// The density estimate at camera vertex `camera`, `length` segments
+    /// from the camera: the sum over the photons within the radius whose
+    /// paths stay within `max_depth` segments of f (camera BSDF towards the
+    /// photon's incoming direction) x photon throughput x `weight(photon)`,
+    /// times the kernel's normalisation (SmallVCM's range query).
+    fn gather(
+        &self,
+        camera: &PathVertex,
+        length: u32,
+        max_depth: u32,
+        weight: impl Fn(&LightVertex) -> f32,
+    ) -> Vec3 {
+        let mut sum = Vec3::ZERO;
+        self.grid.for_each_within(camera.point.p, self.radius, |i| {
+            let light = self.photons[i];
+            if light.length + length > max_depth {
+                return;
+            }
+            let f = camera.f(light.wi, TransportMode::Radiance);
+            if f.max_element() <= 0.0 {
+                return;
+            }
+            sum += f * light.throughput * weight(light);
+        });
+        sum * self.normalisation
+    }
 }
 
 /// One iteration's light subpaths, as the blocks of [`LIGHT_BLOCK`] paths
@@ -209,10 +256,7 @@ impl Iteration<'_> {
     /// hash grid (the photon map, freed at the end of the iteration).
     fn render_with_photon_map(&self, estimates: &mut [Vec3]) {
         let (paths, splats) = self.trace_light_paths(estimates.len());
-        let photons: Vec<&LightVertex> = paths.vertices().collect();
-        let mut grid = HashGrid::new();
-        grid.build_with(photons.len(), self.radius, |i| photons[i].point.p);
-        let photon_map = PhotonMap { grid, photons };
+        let photon_map = PhotonMap::new(&paths, self.radius, estimates.len());
 
         estimates
             .par_chunks_mut(LIGHT_BLOCK)

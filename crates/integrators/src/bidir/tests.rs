@@ -395,7 +395,7 @@ const PARTITION_TOLERANCE: f64 = 1e-5;
 #[test]
 fn weights_partition_unity_on_integrator_paths() {
     for scene in ["caustic-glass", "glossy-caustic", "cornell-box"] {
-        for algorithm in [Algorithm::Bpt, Algorithm::Vcm, Algorithm::Ppm] {
+        for algorithm in [Algorithm::Bpt, Algorithm::Vcm, Algorithm::Bpm] {
             for (mode, virtual_merges) in [
                 (Mode::Off, false),
                 (Mode::Uniform, false),
