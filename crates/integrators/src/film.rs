@@ -76,6 +76,32 @@ impl Film {
         self.iterations += other.iterations;
     }
 
+    /// The per-pixel sums and sums of squares of the estimates, row-major:
+    /// the film's whole state besides its size and iteration count (saved
+    /// by partial renders).
+    pub fn sums(&self) -> (&[DVec3], &[DVec3]) {
+        (&self.sum, &self.sum_sq)
+    }
+
+    /// A film with the given state (see [`Film::sums`]); `None` unless both
+    /// buffers have one entry per pixel.
+    pub fn from_sums(
+        width: u32,
+        height: u32,
+        iterations: u64,
+        sum: Vec<DVec3>,
+        sum_sq: Vec<DVec3>,
+    ) -> Option<Self> {
+        let n = width as usize * height as usize;
+        (sum.len() == n && sum_sq.len() == n).then_some(Self {
+            width,
+            height,
+            iterations,
+            sum,
+            sum_sq,
+        })
+    }
+
     /// The mean of the iterations, row-major (black before the first iteration).
     pub fn mean(&self) -> Vec<Vec3> {
         let inv = if self.iterations == 0 {
