@@ -88,6 +88,19 @@ fn git(root: &Path, args: &[&str]) -> Option<Vec<u8>> {
         .map(|o| o.stdout)
 }
 
+/// Logical cores (1 where the system does not tell).
+fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+/// The first three fields of /proc/loadavg ("?" where unavailable).
+fn load_average() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()
+        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+        .unwrap_or_else(|| "?".into())
+}
+
 /// Runs `cargo` with `args` in `root`, inheriting the terminal.
 fn cargo(root: &Path, args: &[&str]) -> Result<(), String> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());

@@ -220,7 +220,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
     let json = json!({
         "form": if quick { "quick" } else { "full" },
         "seconds": seconds,
-        "cores": std::thread::available_parallelism().map_or(1, |n| n.get()),
+        "cores": crate::cores(),
         "problems": rows.iter().map(|r| r.tally.problems()).sum::<u64>(),
         "rows": rows.iter().map(|r| {
             let mut v = r.tally.json();
@@ -293,7 +293,7 @@ fn report(rows: &[Row], quick: bool, seconds: f64) -> String {
         if quick { " --quick" } else { "" },
         if quick { "quick" } else { "full" },
         seconds,
-        std::thread::available_parallelism().map_or(1, |n| n.get())
+        crate::cores()
     );
     let _ = writeln!(
         s,

@@ -94,7 +94,7 @@ fn read_json(path: &Path) -> Result<Value, String> {
 
 fn write_reports(out_dir: &Path, rows: &[Row]) -> Result<(), String> {
     fs::create_dir_all(out_dir).map_err(|e| format!("cannot create {}: {e}", out_dir.display()))?;
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let cores = crate::cores();
     let mut md = format!(
         "# Micro-benchmarks\n\nMachine: {cores} logical cores. Criterion mean per call, 95 % interval.\n\n"
     );

@@ -3,54 +3,35 @@
 
 use glam::Vec3;
 
+use crate::study::metrics::{MeanSquared, mean_squared, squared_differences};
+
 use super::reference::Reference;
 use super::render::Run;
-
-/// Constant in the denominator of the relative MSE (per channel).
-const REL_MSE_EPSILON: f64 = 1e-2;
 
 /// Blocks per image side of the block-mean agreement test.
 pub(super) const BLOCKS: u32 = 16;
 
-/// Errors of an image against the reference, over pixels and channels.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Errors {
-    pub(super) mse: f64,
-    pub(super) rel_mse: f64,
+/// Errors of an image against the reference: the study's MSE and relMSE
+/// (SPEC §8), taken here over pixels *and channels* rather than on
+/// luminance, because the reference's own error ([`reference_floor`]) is
+/// known per channel only (the film keeps per-channel variances; the
+/// luminance's variance would need their covariances).
+pub(super) type Errors = MeanSquared;
+
+/// Every channel of every pixel, in order (R, G, B of pixel 0, ...).
+fn channels(image: &[Vec3]) -> impl Iterator<Item = f64> + '_ {
+    image.iter().flat_map(|p| p.to_array()).map(f64::from)
 }
 
+/// MSE and relMSE of `image` against `reference`, over pixels and channels.
 pub(super) fn errors(image: &[Vec3], reference: &[Vec3]) -> Errors {
-    let (mut se, mut rel) = (0.0, 0.0);
-    for (x, r) in image.iter().zip(reference) {
-        for c in 0..3 {
-            let (x, r) = (f64::from(x[c]), f64::from(r[c]));
-            let d2 = (x - r) * (x - r);
-            se += d2;
-            rel += d2 / (r * r + REL_MSE_EPSILON);
-        }
-    }
-    let n = 3.0 * image.len() as f64;
-    Errors {
-        mse: se / n,
-        rel_mse: rel / n,
-    }
+    mean_squared(squared_differences(channels(image), channels(reference)))
 }
 
-/// The reference's own expected contribution to both error measures.
+/// The reference's own expected contribution to both error measures: its
+/// variance of the mean in place of a squared error.
 pub(super) fn reference_floor(reference: &Reference) -> Errors {
-    let (mut se, mut rel) = (0.0, 0.0);
-    for (v, r) in reference.variance_of_mean.iter().zip(&reference.mean) {
-        for c in 0..3 {
-            let (v, r) = (f64::from(v[c]), f64::from(r[c]));
-            se += v;
-            rel += v / (r * r + REL_MSE_EPSILON);
-        }
-    }
-    let n = 3.0 * reference.mean.len() as f64;
-    Errors {
-        mse: se / n,
-        rel_mse: rel / n,
-    }
+    mean_squared(channels(&reference.variance_of_mean).zip(channels(&reference.mean)))
 }
 
 fn channel_means(image: &[Vec3]) -> [f64; 3] {
@@ -177,5 +158,21 @@ mod tests {
         assert!((a.mean_rel_diff[0] - 0.1).abs() < 1e-6);
         // A constant offset is maximally "beyond noise": z = sqrt(n).
         assert!((a.z_image[0] - 8.0).abs() < 1e-4);
+    }
+
+    #[test]
+    fn reference_floor_is_the_mean_variance_over_channels() {
+        let reference = Reference {
+            spp: 4,
+            mean: vec![Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 2.0)],
+            variance_of_mean: vec![Vec3::new(0.5, 0.0, 0.0), Vec3::new(0.0, 0.25, 0.0)],
+            path: std::path::PathBuf::new(),
+            render_s: 0.0,
+            cached: true,
+        };
+        let f = reference_floor(&reference);
+        assert!((f.mse - 0.75 / 6.0).abs() < 1e-12);
+        // relMSE: 0.5 / (1 + 0.01) + 0.25 / (0 + 0.01), over six channels.
+        assert!((f.rel_mse - (0.5 / 1.01 + 25.0) / 6.0).abs() < 1e-12);
     }
 }

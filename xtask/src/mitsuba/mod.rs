@@ -56,7 +56,7 @@ use export::export;
 use install::ensure_mitsuba;
 use reference::reference;
 use render::{Job, Run, merge, render_mitsuba, render_ours};
-use report::{Report, load_average};
+use report::Report;
 
 pub const USAGE: &str =
     "  mitsuba [options] compare our path tracer with Mitsuba 3 (scalar_rgb `path`)
@@ -182,10 +182,10 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
         return rerun_in_release(root, args);
     }
     let started = Instant::now();
-    let load_before = load_average();
+    let load_before = crate::load_average();
     fs::create_dir_all(&options.out)
         .map_err(|e| format!("cannot create {}: {e}", options.out.display()))?;
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let cores = crate::cores();
     if cfg!(debug_assertions) {
         println!("warning: this is a debug build; timings are not release numbers");
     }

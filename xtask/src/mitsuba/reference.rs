@@ -2,7 +2,7 @@
 //! pixel means, cached in `<out>/cache/`.
 
 use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use glam::Vec3;
 use image_io::{read_exr, write_exr};
@@ -11,7 +11,9 @@ use serde_json::{Value, json};
 
 use super::render::{Job, fastest, render_film};
 use super::{Options, SEED_REFERENCE};
+use crate::study::cache::{self, Fnv64};
 
+/// Our reference: the mean image and how it was made.
 pub(super) struct Reference {
     pub(super) spp: u32,
     pub(super) mean: Vec<Vec3>,
@@ -26,58 +28,88 @@ pub(super) struct Reference {
 
 /// Our reference image, from the cache or rendered now on all cores.
 pub(super) fn reference(scene: &Scene, options: &Options) -> Result<Reference, String> {
-    let mut key = Fnv::new();
-    key.write(
+    let files = CacheFiles::of(options)?;
+    match load_cached(&files, options) {
+        Some(reference) => Ok(reference),
+        None => render_and_store(scene, options, files),
+    }
+}
+
+/// A cache entry: the mean image, its variance of the mean, and a JSON
+/// sidecar with the render time.
+struct CacheFiles {
+    mean: PathBuf,
+    variance: PathBuf,
+    info: PathBuf,
+}
+
+impl CacheFiles {
+    /// The entry of `options`' reference: `<out>/cache/reference-<key>*`.
+    fn of(options: &Options) -> Result<Self, String> {
+        let stem = format!("reference-{:016x}", cache_key(options)?);
+        let cache = options.out.join("cache");
+        Ok(Self {
+            mean: cache.join(format!("{stem}.exr")),
+            variance: cache.join(format!("{stem}-variance-of-mean.exr")),
+            info: cache.join(format!("{stem}.json")),
+        })
+    }
+}
+
+/// The cache key: the settings and the scene's files, hashed as the
+/// study's reference cache hashes them (`study::cache`: FNV-1a over
+/// length-prefixed fields, files by relative path). Not the renderer's
+/// sources (they change all the time): after a change to the renderer,
+/// delete <out>/cache. A stale reference shows as our own image
+/// disagreeing with it in the report's agreement table.
+fn cache_key(options: &Options) -> Result<u64, String> {
+    let mut key = Fnv64::default();
+    key.field(
         format!(
             "reference v1|{}x{}|depth {}|spp {}|seed {SEED_REFERENCE}",
             options.width, options.height, options.max_depth, options.reference_spp
         )
         .as_bytes(),
     );
-    // The settings and the scene's files; not the renderer's sources (they
-    // change all the time): after a change to the renderer, delete
-    // <out>/cache. A stale reference shows as our own image disagreeing
-    // with it in the report's agreement table.
-    let mut files = Vec::new();
-    if let Some(dir) = options.scene.parent() {
-        collect_files(dir, &mut files);
+    key.field(&cache::scene_hash_of(&options.scene)?.to_le_bytes());
+    Ok(key.finish())
+}
+
+/// The cached reference, if all three files are there and the images
+/// have the options' size.
+fn load_cached(files: &CacheFiles, options: &Options) -> Option<Reference> {
+    let mean = read_exr(&files.mean).ok()?;
+    let variance = read_exr(&files.variance).ok()?;
+    let info = fs::read_to_string(&files.info).ok()?;
+    if mean.pixels.len() != options.pixels() || variance.pixels.len() != options.pixels() {
+        return None;
     }
-    files.sort();
-    for f in &files {
-        key.write(f.to_string_lossy().as_bytes());
-        key.write(&fs::read(f).unwrap_or_default());
-    }
-    let stem = format!("reference-{:016x}", key.finish());
-    let cache = options.out.join("cache");
-    let mean_path = cache.join(format!("{stem}.exr"));
-    let var_path = cache.join(format!("{stem}-variance-of-mean.exr"));
-    let info_path = cache.join(format!("{stem}.json"));
-    if let (Ok(mean), Ok(var), Ok(info)) = (
-        read_exr(&mean_path),
-        read_exr(&var_path),
-        fs::read_to_string(&info_path),
-    ) && mean.pixels.len() == options.pixels()
-        && var.pixels.len() == options.pixels()
-    {
-        let render_s = serde_json::from_str::<Value>(&info)
-            .ok()
-            .and_then(|v| v["render_s"].as_f64())
-            .unwrap_or(f64::NAN);
-        println!(
-            "reference: ours at {} spp, cached ({}; rendered in {render_s:.1} s)",
-            options.reference_spp,
-            mean_path.display()
-        );
-        return Ok(Reference {
-            spp: options.reference_spp,
-            mean: mean.pixels,
-            variance_of_mean: var.pixels,
-            path: mean_path,
-            render_s,
-            cached: true,
-        });
-    }
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let render_s = serde_json::from_str::<Value>(&info)
+        .ok()
+        .and_then(|v| v["render_s"].as_f64())
+        .unwrap_or(f64::NAN);
+    println!(
+        "reference: ours at {} spp, cached ({}; rendered in {render_s:.1} s)",
+        options.reference_spp,
+        files.mean.display()
+    );
+    Some(Reference {
+        spp: options.reference_spp,
+        mean: mean.pixels,
+        variance_of_mean: variance.pixels,
+        path: files.mean.clone(),
+        render_s,
+        cached: true,
+    })
+}
+
+/// Renders the reference on all cores and stores it in the cache.
+fn render_and_store(
+    scene: &Scene,
+    options: &Options,
+    files: CacheFiles,
+) -> Result<Reference, String> {
+    let cores = crate::cores();
     println!(
         "reference: rendering ours at {} spp on {cores} thread(s) ...",
         options.reference_spp
@@ -98,56 +130,83 @@ pub(super) fn reference(scene: &Scene, options: &Options) -> Result<Reference, S
         .into_iter()
         .map(|s| (s * s).as_vec3())
         .collect();
-    fs::create_dir_all(&cache).map_err(|e| format!("cannot create {}: {e}", cache.display()))?;
-    let (w, h) = (options.width, options.height);
-    write_exr(&mean_path, w, h, &mean).map_err(|e| e.to_string())?;
-    write_exr(&var_path, w, h, &variance_of_mean).map_err(|e| e.to_string())?;
     let info = json!({ "spp": options.reference_spp, "render_s": render_s, "threads": cores });
-    fs::write(&info_path, info.to_string())
-        .map_err(|e| format!("cannot write {}: {e}", info_path.display()))?;
+    store(&files, options, (&mean, &variance_of_mean), &info)?;
     println!(
         "reference: rendered in {render_s:.1} s -> {}",
-        mean_path.display()
+        files.mean.display()
     );
     Ok(Reference {
         spp: options.reference_spp,
         mean,
         variance_of_mean,
-        path: mean_path,
+        path: files.mean,
         render_s,
         cached: false,
     })
 }
 
-fn collect_files(dir: &Path, out: &mut Vec<PathBuf>) {
-    let Ok(entries) = fs::read_dir(dir) else {
-        return;
-    };
-    for entry in entries.flatten() {
-        let path = entry.path();
-        if path.is_dir() {
-            collect_files(&path, out);
-        } else {
-            out.push(path);
-        }
+/// Writes a cache entry: both images, then the sidecar.
+fn store(
+    files: &CacheFiles,
+    options: &Options,
+    (mean, variance): (&[Vec3], &[Vec3]),
+    info: &Value,
+) -> Result<(), String> {
+    if let Some(cache) = files.mean.parent() {
+        fs::create_dir_all(cache).map_err(|e| format!("cannot create {}: {e}", cache.display()))?;
     }
+    let (w, h) = (options.width, options.height);
+    write_exr(&files.mean, w, h, mean).map_err(|e| e.to_string())?;
+    write_exr(&files.variance, w, h, variance).map_err(|e| e.to_string())?;
+    fs::write(&files.info, info.to_string())
+        .map_err(|e| format!("cannot write {}: {e}", files.info.display()))
 }
 
-/// FNV-1a, 64 bit: a stable hash for cache keys.
-struct Fnv(u64);
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
 
-impl Fnv {
-    fn new() -> Self {
-        Self(0xcbf2_9ce4_8422_2325)
+    use super::*;
+
+    fn options(args: &[&str]) -> Options {
+        let args: Vec<String> = args.iter().map(|s| s.to_string()).collect();
+        Options::parse(
+            Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap(),
+            &args,
+        )
+        .unwrap()
     }
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.0 = (self.0 ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+
+    #[test]
+    fn cache_files_follow_the_settings_and_the_scene() {
+        let base = CacheFiles::of(&options(&[])).unwrap();
+        let name = base
+            .mean
+            .file_name()
+            .unwrap()
+            .to_string_lossy()
+            .into_owned();
+        assert!(
+            name.starts_with("reference-") && name.ends_with(".exr"),
+            "{name}"
+        );
+        assert_eq!(base.mean, CacheFiles::of(&options(&[])).unwrap().mean);
+        for changed in [
+            &["--reference-spp", "512"][..],
+            &["--resolution", "64x64"],
+            &["--max-depth", "8"],
+            &["--scene", "scenes/diffuse-only/scene.toml"],
+        ] {
+            assert_ne!(base.mean, CacheFiles::of(&options(changed)).unwrap().mean);
         }
-        // Separates consecutive writes ("ab","c" vs "a","bc").
-        self.0 = (self.0 ^ 0xff).wrapping_mul(0x0100_0000_01b3);
-    }
-    fn finish(&self) -> u64 {
-        self.0
+        // Where the timed renders go does not matter to the reference.
+        assert_eq!(
+            base.mean.file_name(),
+            CacheFiles::of(&options(&["--spp", "16"]))
+                .unwrap()
+                .mean
+                .file_name()
+        );
     }
 }

@@ -66,12 +66,6 @@ pub(super) struct Report<'a> {
     load_average: (String, String),
 }
 
-pub(super) fn load_average() -> String {
-    fs::read_to_string("/proc/loadavg")
-        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
-        .unwrap_or_else(|_| "unknown".into())
-}
-
 impl<'a> Report<'a> {
     pub(super) fn new(
         context: (&'a Options, usize, &Mitsuba, f64, String),
@@ -176,7 +170,7 @@ impl<'a> Report<'a> {
             agreements,
             convergence,
             scene_load_s,
-            load_average: (load_before, load_average()),
+            load_average: (load_before, crate::load_average()),
         }
     }
 

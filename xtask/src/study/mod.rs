@@ -16,9 +16,9 @@
 //! - `plot`, `raster`: charts as SVG and PNG
 //! - `sheet`: the contact sheet
 
-mod cache;
+pub(crate) mod cache;
 mod cli;
-mod metrics;
+pub(crate) mod metrics;
 mod plot;
 mod progress;
 mod raster;
@@ -177,7 +177,7 @@ fn run_with_cache(root: &Path, args: &[String], cache_dir: &Path) -> Result<(), 
         Parsed::Run(options) => *options,
     };
     let started = Instant::now();
-    let load_before = load_average();
+    let load_before = crate::load_average();
     fs::create_dir_all(options.out.join("images"))
         .map_err(|e| format!("--out: cannot create {}: {e}", options.out.display()))?;
 
@@ -198,15 +198,8 @@ fn run_with_cache(root: &Path, args: &[String], cache_dir: &Path) -> Result<(), 
     let tau0 = options.tau0.or(scene.render.tau0).unwrap_or(DEFAULT_TAU_0);
     // A bad tau_0 from the manifest is reported before any rendering.
     Config::REFERENCE.render_config(0, max_depth, tau0)?;
-    // A manifest's folder is the scene (with subfolders); a model file
-    // given directly is hashed with the files next to it.
-    let manifest = options
-        .scene_file
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
-    let files =
-        cache::scene_files(&options.scene_dir, manifest).map_err(|e| format!("--scene: {e}"))?;
-    let scene_hash = cache::scene_hash(&files);
+    let scene_hash =
+        cache::scene_hash_of(&options.scene_file).map_err(|e| format!("--scene: {e}"))?;
     let renderer_version = cache::renderer_version(root);
 
     let mut jobs = vec![("reference", Config::REFERENCE, REFERENCE_SEED_OFFSET)];
@@ -227,7 +220,7 @@ fn run_with_cache(root: &Path, args: &[String], cache_dir: &Path) -> Result<(), 
         Config::REFERENCE,
         options.reference_iterations,
         options.budget.name(),
-        cores(),
+        crate::cores(),
     );
 
     // The references: from the cache, or rendered (their iterations count
@@ -385,8 +378,8 @@ fn run_with_cache(root: &Path, args: &[String], cache_dir: &Path) -> Result<(), 
         renderer_version,
         references,
         runs,
-        cores: cores(),
-        load: (load_before, load_average()),
+        cores: crate::cores(),
+        load: (load_before, crate::load_average()),
         total_seconds: started.elapsed().as_secs_f64(),
         command: std::iter::once("cargo xtask study".to_string())
             .chain(args.iter().cloned())
@@ -497,7 +490,7 @@ fn render_reference(
         "render_seconds": rendered.seconds,
         "cpu_seconds": rendered.cpu_seconds,
         "setup_seconds": setup_seconds,
-        "cores": cores(),
+        "cores": crate::cores(),
         "noise_std_error": noise.map(|n| n.std_error),
         "noise_variance": noise.map(|n| n.variance),
         "invalid_samples": invalid_samples,
@@ -533,18 +526,6 @@ fn render_reference(
 
 fn write_exr(path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Result<(), String> {
     image_io::write_exr(path, width, height, pixels).map_err(|e| e.to_string())
-}
-
-fn cores() -> usize {
-    std::thread::available_parallelism().map_or(1, |n| n.get())
-}
-
-/// The first three fields of /proc/loadavg ("?" where unavailable).
-pub(crate) fn load_average() -> String {
-    fs::read_to_string("/proc/loadavg")
-        .ok()
-        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
-        .unwrap_or_else(|| "?".into())
 }
 
 /// CPU time of this process so far, in seconds: the sum over its threads
