@@ -103,9 +103,15 @@ fn load_average() -> String {
 
 /// Runs `cargo` with `args` in `root`, inheriting the terminal.
 fn cargo(root: &Path, args: &[&str]) -> Result<(), String> {
+    cargo_with_env(root, args, &[])
+}
+
+/// [`cargo`] with environment variables `env` set for the child.
+fn cargo_with_env(root: &Path, args: &[&str], env: &[(&str, &str)]) -> Result<(), String> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());
     let status = Command::new(&cargo)
         .args(args)
+        .envs(env.iter().copied())
         .current_dir(root)
         .status()
         .map_err(|e| format!("could not run {cargo}: {e}"))?;

@@ -46,16 +46,15 @@ mod report;
 
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::time::Instant;
 
 use glam::UVec2;
-use scene::LoadOptions;
+use scene::{LoadOptions, Scene};
 
-use export::export;
+use export::{Exported, export};
 use install::ensure_mitsuba;
 use reference::reference;
-use render::{Job, Run, merge, render_mitsuba, render_ours};
+use render::render_all;
 use report::Report;
 
 pub const USAGE: &str =
@@ -79,10 +78,7 @@ pub const USAGE: &str =
       --out DIR             output folder (default target/mitsuba)
                             (relative paths are from the workspace root)";
 
-/// Sampler seeds: every image uses its own random numbers, so that no test
-/// image shares samples with the reference.
-const SEED_TEST: u64 = 1;
-const SEED_CHECK: u64 = 2;
+/// The reference's sampler seed (see `render::SEED_TEST`).
 const SEED_REFERENCE: u64 = 0x5EED_0000_0000_0001;
 
 /// Set on the release child so that a release profile with debug
@@ -176,6 +172,7 @@ impl Options {
     }
 }
 
+/// Runs `cargo xtask mitsuba ARGS` (in a release build: see the module docs).
 pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
     let options = Options::parse(root, args)?;
     if cfg!(debug_assertions) && std::env::var_os(CHILD_ENV).is_none() {
@@ -185,12 +182,27 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
     let load_before = crate::load_average();
     fs::create_dir_all(&options.out)
         .map_err(|e| format!("cannot create {}: {e}", options.out.display()))?;
-    let cores = crate::cores();
     if cfg!(debug_assertions) {
         println!("warning: this is a debug build; timings are not release numbers");
     }
+    let (scene, scene_load_s) = load_scene(&options)?;
+    let exported = export_scene(&scene, &options, scene_load_s)?;
+    let mitsuba = ensure_mitsuba(&options.out)?;
+    println!("mitsuba: {} ({})", mitsuba.version, mitsuba.how);
+    let reference = reference(&scene, &options)?;
+    let runs = render_all(root, &scene, &options, &mitsuba, &exported)?;
+    let context = (
+        &options,
+        crate::cores(),
+        &mitsuba,
+        scene_load_s,
+        load_before,
+    );
+    Report::new(context, &reference, &runs).write(&options.out, started.elapsed().as_secs_f64())
+}
 
-    // 1. The scene, ours and exported.
+/// Our scene at the options' resolution, and the seconds loading took.
+fn load_scene(options: &Options) -> Result<(Scene, f64), String> {
     let t = Instant::now();
     let scene = scene::load(
         &options.scene,
@@ -200,9 +212,12 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
         },
     )
     .map_err(|e| format!("cannot load the scene: {e}"))?;
-    let scene_load_s = t.elapsed().as_secs_f64();
-    let scene_dir = options.out.join("mitsuba-scene");
-    let exported = export(&scene, &options, &scene_dir)?;
+    Ok((scene, t.elapsed().as_secs_f64()))
+}
+
+/// Exports `scene` to `<out>/mitsuba-scene/` and says so.
+fn export_scene(scene: &Scene, options: &Options, scene_load_s: f64) -> Result<Exported, String> {
+    let exported = export(scene, options, &options.out.join("mitsuba-scene"))?;
     println!(
         "scene: {} ({} triangles, loaded in {scene_load_s:.3} s); Mitsuba export: {} ({})",
         options.scene.display(),
@@ -210,60 +225,12 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
         exported.xml.display(),
         exported.summary
     );
-
-    // 2. Mitsuba.
-    let mitsuba = ensure_mitsuba(&options.out)?;
-    println!("mitsuba: {} ({})", mitsuba.version, mitsuba.how);
-
-    // 3. The reference.
-    let reference = reference(&scene, &options)?;
-
-    // 4. The renders.
-    let mut runs: Vec<Run> = Vec::new();
-    let mut thread_counts = vec![cores];
-    if options.single_thread && cores > 1 {
-        thread_counts.push(1);
-    }
-    let mut jobs: Vec<(u32, u64)> = vec![(options.spp, SEED_TEST)];
-    if options.check_spp > 0 {
-        jobs.push((options.check_spp, SEED_CHECK));
-    }
-    for &(spp, seed) in &jobs {
-        let threads_here: &[usize] = if spp == options.spp {
-            &thread_counts
-        } else {
-            &thread_counts[..1]
-        };
-        for &threads in threads_here {
-            // Repeats only where the table's ratio is read: all cores, --spp.
-            // Alternating, so that other work on the machine hits both alike.
-            let repeat = if spp == options.spp && threads == cores {
-                options.repeat
-            } else {
-                1
-            };
-            let job = Job { spp, seed, threads };
-            let (mut ours, mut theirs) = (None, None);
-            for _ in 0..repeat {
-                merge(&mut ours, render_ours(&scene, &options, job)?);
-                merge(
-                    &mut theirs,
-                    render_mitsuba(root, &mitsuba, &exported, &options, job)?,
-                );
-            }
-            runs.extend(ours);
-            runs.extend(theirs);
-        }
-    }
-
-    // 5. Errors, agreement, report.
-    let context = (&options, cores, &mitsuba, scene_load_s, load_before);
-    Report::new(context, &reference, &runs).write(&options.out, started.elapsed().as_secs_f64())
+    Ok(exported)
 }
 
-/// Runs this task again from a release build of xtask.
+/// Runs this task again from a release build of xtask (the child prints
+/// its own one-line error).
 fn rerun_in_release(root: &Path, args: &[String]) -> Result<(), String> {
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());
     let mut cargo_args = vec![
         "run",
         "--release",
@@ -278,18 +245,7 @@ fn rerun_in_release(root: &Path, args: &[String]) -> Result<(), String> {
         "timings need a release build: running `cargo {}`",
         cargo_args.join(" ")
     );
-    let status = Command::new(&cargo)
-        .args(&cargo_args)
-        .env(CHILD_ENV, "1")
-        .current_dir(root)
-        .status()
-        .map_err(|e| format!("could not run {cargo}: {e}"))?;
-    if status.success() {
-        Ok(())
-    } else {
-        // The child printed its own one-line error.
-        Err(format!("the release run failed ({status})"))
-    }
+    crate::cargo_with_env(root, &cargo_args, &[(CHILD_ENV, "1")])
 }
 
 #[cfg(test)]

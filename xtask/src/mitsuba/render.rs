@@ -16,6 +16,66 @@ use super::export::Exported;
 use super::install::Mitsuba;
 use super::process::run_with_timeout;
 
+/// Sampler seeds: every image uses its own random numbers, so that no test
+/// image shares samples with the reference (`SEED_REFERENCE`).
+const SEED_TEST: u64 = 1;
+const SEED_CHECK: u64 = 2;
+
+/// Every timed render, ours and Mitsuba's: `--spp` on all cores and (unless
+/// `--no-single-thread`) on one, then `--check-spp` on all cores.
+pub(super) fn render_all(
+    root: &Path,
+    scene: &Scene,
+    options: &Options,
+    mitsuba: &Mitsuba,
+    exported: &Exported,
+) -> Result<Vec<Run>, String> {
+    let mut runs = Vec::new();
+    for (job, repeat) in plan(options, crate::cores()) {
+        // Alternating, so that other work on the machine hits both alike.
+        let (mut ours, mut theirs) = (None, None);
+        for _ in 0..repeat {
+            merge(&mut ours, render_ours(scene, options, job)?);
+            merge(
+                &mut theirs,
+                render_mitsuba(root, mitsuba, exported, options, job)?,
+            );
+        }
+        runs.extend(ours);
+        runs.extend(theirs);
+    }
+    Ok(runs)
+}
+
+/// The renders of [`render_all`] in order, with how often each is timed:
+/// `--repeat` times only where the table's ratio is read (all cores,
+/// `--spp`), once elsewhere.
+fn plan(options: &Options, cores: usize) -> Vec<(Job, u32)> {
+    let mut thread_counts = vec![cores];
+    if options.single_thread && cores > 1 {
+        thread_counts.push(1);
+    }
+    let mut plan = Vec::new();
+    for &threads in &thread_counts {
+        let repeat = if threads == cores { options.repeat } else { 1 };
+        let job = Job {
+            spp: options.spp,
+            seed: SEED_TEST,
+            threads,
+        };
+        plan.push((job, repeat));
+    }
+    if options.check_spp > 0 {
+        let job = Job {
+            spp: options.check_spp,
+            seed: SEED_CHECK,
+            threads: cores,
+        };
+        plan.push((job, 1));
+    }
+    plan
+}
+
 /// What to render: spp, seed, threads.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Job {
@@ -25,7 +85,7 @@ pub(super) struct Job {
 }
 
 /// Adds `run`'s time to `acc` (a repeat of the same render), or starts it.
-pub(super) fn merge(acc: &mut Option<Run>, run: Run) {
+fn merge(acc: &mut Option<Run>, run: Run) {
     match acc {
         None => *acc = Some(run),
         Some(a) => {
@@ -98,7 +158,7 @@ fn seconds(times: &[f64]) -> String {
     list.join(", ")
 }
 
-pub(super) fn render_ours(scene: &Scene, options: &Options, job: Job) -> Result<Run, String> {
+fn render_ours(scene: &Scene, options: &Options, job: Job) -> Result<Run, String> {
     let Job { spp, threads, .. } = job;
     let (film, setup_s, render_times, invalid) = render_film(scene, options, job)?;
     let render_s = fastest(&render_times);
@@ -127,7 +187,7 @@ pub(super) fn render_ours(scene: &Scene, options: &Options, job: Job) -> Result<
     })
 }
 
-pub(super) fn render_mitsuba(
+fn render_mitsuba(
     root: &Path,
     mitsuba: &Mitsuba,
     exported: &Exported,
@@ -197,4 +257,31 @@ fn times_of(info: &Value) -> Vec<f64> {
         .as_array()
         .map(|a| a.iter().filter_map(Value::as_f64).collect())
         .unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn plan_repeats_only_the_all_core_renders_at_spp() {
+        let args: Vec<String> = ["--spp", "64", "--repeat", "3"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        let options = Options::parse(Path::new("/r"), &args).unwrap();
+        let planned: Vec<(u32, u64, usize, u32)> = plan(&options, 4)
+            .into_iter()
+            .map(|(j, r)| (j.spp, j.seed, j.threads, r))
+            .collect();
+        assert_eq!(
+            planned,
+            [
+                (64, SEED_TEST, 4, 3),
+                (64, SEED_TEST, 1, 1),
+                (16, SEED_CHECK, 4, 1)
+            ]
+        );
+        assert_eq!(plan(&options, 1).len(), 2, "one core: no one-thread runs");
+    }
 }
