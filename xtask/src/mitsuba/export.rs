@@ -7,7 +7,7 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
-use scene::{Light, Scene, Surface};
+use scene::{Light, Material, Scene, Surface};
 
 use super::Options;
 
@@ -40,44 +40,111 @@ pub(super) struct Exported {
 ///   survival is capped at 0.95 (ours at 1) and its light choice is uniform
 ///   over emitting shapes; both are unbiased, so only the noise differs.
 pub(super) fn export(scene: &Scene, options: &Options, dir: &Path) -> Result<Exported, String> {
-    if let Some(light) = scene
+    check_lights(scene)?;
+    let mesh_dir = dir.join("meshes");
+    fs::create_dir_all(&mesh_dir)
+        .map_err(|e| format!("cannot create {}: {e}", mesh_dir.display()))?;
+    let by_material = triangles_by_material(scene);
+    let mut shapes = String::new();
+    let (mut emitters, mut smooth_meshes) = (0, 0);
+    for (&m, triangles) in &by_material {
+        let mesh = write_mesh(scene, m, triangles, dir)?;
+        shapes.push_str(&shape_xml(&mesh));
+        emitters += usize::from(mesh.material.is_emissive());
+        smooth_meshes += usize::from(mesh.smooth);
+    }
+    let xml_path = dir.join("scene.xml");
+    fs::write(&xml_path, scene_xml(scene, options, &shapes))
+        .map_err(|e| format!("cannot write {}: {e}", xml_path.display()))?;
+    Ok(Exported {
+        xml: xml_path,
+        summary: format!(
+            "{} meshes, {emitters} emitting, {}",
+            by_material.len(),
+            if smooth_meshes == 0 {
+                "face normals".to_string()
+            } else {
+                format!("{smooth_meshes} with shading normals")
+            }
+        ),
+    })
+}
+
+/// A shading normal whose cosine with the face normal is below this
+/// differs from it (beyond the rounding of normals stored as f32), so the
+/// mesh is written with per-vertex normals.
+const FLAT_COSINE: f32 = 1.0 - 1e-5;
+
+/// An error unless every light is an emissive triangle (Mitsuba's `area`).
+fn check_lights(scene: &Scene) -> Result<(), String> {
+    match scene
         .lights
         .iter()
         .find(|l| !matches!(l, Light::Area { .. }))
     {
-        return Err(format!(
+        Some(light) => Err(format!(
             "the Mitsuba export handles emissive triangles only; the scene has {light:?}"
-        ));
+        )),
+        None => Ok(()),
     }
-    let mesh_dir = dir.join("meshes");
-    fs::create_dir_all(&mesh_dir)
-        .map_err(|e| format!("cannot create {}: {e}", mesh_dir.display()))?;
+}
+
+/// Triangle indices per material index, in material order.
+fn triangles_by_material(scene: &Scene) -> BTreeMap<u32, Vec<usize>> {
     let mut by_material: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
     for (i, &m) in scene.triangle_materials.iter().enumerate() {
         by_material.entry(m).or_default().push(i);
     }
-    let mut shapes = String::new();
-    let (mut emitters, mut smooth_meshes) = (0, 0);
-    for (&m, triangles) in &by_material {
-        let material = &scene.materials[m as usize];
-        let Surface::Diffuse { reflectance } = material.surface else {
-            return Err(format!(
-                "the Mitsuba export handles diffuse materials only; `{}` is {:?}",
-                material.name, material.surface
-            ));
-        };
-        let file = format!("meshes/{m:03}-{}.ply", sanitize(&material.name));
-        let smooth = triangles.iter().any(|&t| {
-            let n = scene.geometric_normal(t);
-            scene.normals[t].iter().any(|s| s.dot(n) < 1.0 - 1e-5)
-        });
-        smooth_meshes += usize::from(smooth);
-        let ply = ply(scene, triangles, smooth);
-        let path = dir.join(&file);
-        fs::write(&path, &ply).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-        let _ = writeln!(
-            shapes,
-            r#"    <shape type="ply" id="{id}">
+    by_material
+}
+
+/// One material's triangles, written as a PLY file.
+struct Mesh<'a> {
+    material: &'a Material,
+    reflectance: Vec3,
+    /// The PLY's path relative to the scene folder.
+    file: String,
+    /// Whether the PLY has per-vertex (shading) normals.
+    smooth: bool,
+}
+
+/// Writes the triangles of material `m` to `<dir>/meshes/`.
+fn write_mesh<'a>(
+    scene: &'a Scene,
+    m: u32,
+    triangles: &[usize],
+    dir: &Path,
+) -> Result<Mesh<'a>, String> {
+    let material = &scene.materials[m as usize];
+    let Surface::Diffuse { reflectance } = material.surface else {
+        return Err(format!(
+            "the Mitsuba export handles diffuse materials only; `{}` is {:?}",
+            material.name, material.surface
+        ));
+    };
+    let file = format!("meshes/{m:03}-{}.ply", sanitize(&material.name));
+    let smooth = triangles.iter().any(|&t| {
+        let n = scene.geometric_normal(t);
+        scene.normals[t].iter().any(|s| s.dot(n) < FLAT_COSINE)
+    });
+    let path = dir.join(&file);
+    fs::write(&path, ply(scene, triangles, smooth))
+        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    Ok(Mesh {
+        material,
+        reflectance,
+        file,
+        smooth,
+    })
+}
+
+/// The `<shape>` of a mesh: its PLY file, `twosided(diffuse)`, and an
+/// `area` emitter when the material emits.
+fn shape_xml(mesh: &Mesh) -> String {
+    let mut shape = String::new();
+    let _ = writeln!(
+        shape,
+        r#"    <shape type="ply" id="{id}">
         <string name="filename" value="{file}"/>
         <boolean name="face_normals" value="{face}"/>
         <bsdf type="twosided">
@@ -85,25 +152,29 @@ pub(super) fn export(scene: &Scene, options: &Options, dir: &Path) -> Result<Exp
                 <rgb name="reflectance" value="{r}"/>
             </bsdf>
         </bsdf>"#,
-            id = sanitize(&material.name),
-            face = !smooth,
-            r = rgb(reflectance),
-        );
-        if material.is_emissive() {
-            emitters += 1;
-            let _ = writeln!(
-                shapes,
-                r#"        <emitter type="area">
+        id = sanitize(&mesh.material.name),
+        file = mesh.file,
+        face = !mesh.smooth,
+        r = rgb(mesh.reflectance),
+    );
+    if mesh.material.is_emissive() {
+        let _ = writeln!(
+            shape,
+            r#"        <emitter type="area">
             <rgb name="radiance" value="{}"/>
         </emitter>"#,
-                rgb(material.emission)
-            );
-        }
-        shapes.push_str("    </shape>\n");
+            rgb(mesh.material.emission)
+        );
     }
+    shape.push_str("    </shape>\n");
+    shape
+}
+
+/// The whole `scene.xml`: integrator, camera and film, then `shapes`.
+fn scene_xml(scene: &Scene, options: &Options, shapes: &str) -> String {
     let c = &scene.camera;
     let target = c.position + c.forward;
-    let xml = format!(
+    format!(
         r#"<?xml version="1.0" encoding="utf-8"?>
 <!-- Written by `cargo xtask mitsuba` from {source}; mapping in xtask/src/mitsuba/export.rs. -->
 <scene version="3.0.0">
@@ -141,21 +212,7 @@ pub(super) fn export(scene: &Scene, options: &Options, dir: &Path) -> Result<Exp
         spp = options.spp,
         width = c.resolution.x,
         height = c.resolution.y,
-    );
-    let xml_path = dir.join("scene.xml");
-    fs::write(&xml_path, &xml).map_err(|e| format!("cannot write {}: {e}", xml_path.display()))?;
-    Ok(Exported {
-        xml: xml_path,
-        summary: format!(
-            "{} meshes, {emitters} emitting, {}",
-            by_material.len(),
-            if smooth_meshes == 0 {
-                "face normals".to_string()
-            } else {
-                format!("{smooth_meshes} with shading normals")
-            }
-        ),
-    })
+    )
 }
 
 /// A binary little-endian PLY of `triangles` (three vertices each).
@@ -229,5 +286,37 @@ mod tests {
             + 11;
         // 6 vertices x 3 floats, then 2 faces x (1 + 3 x 4) bytes.
         assert_eq!(bytes.len() - header_end, 6 * 12 + 2 * 13);
+    }
+
+    #[test]
+    fn export_writes_one_ply_per_material_and_the_scene_xml() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
+        let args: Vec<String> = ["--resolution", "8x8", "--spp", "4"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        let options = Options::parse(root, &args).unwrap();
+        let scene = scene::load(
+            &options.scene,
+            &LoadOptions {
+                camera_name: None,
+                resolution: Some(UVec2::new(8, 8)),
+            },
+        )
+        .unwrap();
+        let dir = std::env::temp_dir().join(format!("xtask-mitsuba-export-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        let exported = export(&scene, &options, &dir).unwrap();
+        let xml = fs::read_to_string(&exported.xml).unwrap();
+        let meshes = triangles_by_material(&scene).len();
+        assert_eq!(fs::read_dir(dir.join("meshes")).unwrap().count(), meshes);
+        assert_eq!(xml.matches("<shape type=\"ply\"").count(), meshes);
+        assert!(xml.contains(r#"<integer name="sample_count" value="4"/>"#));
+        assert!(xml.contains(r#"<integer name="width" value="8"/>"#));
+        assert!(xml.contains("<emitter type=\"area\">"));
+        assert!(exported.summary.starts_with(&format!("{meshes} meshes, ")));
+        if std::env::var_os("XTASK_KEEP_EXPORT").is_none() {
+            fs::remove_dir_all(dir).unwrap();
+        }
     }
 }
