@@ -40,6 +40,140 @@ struct RowMetrics<'a> {
     ratio_rel_raw: Option<f64>,
 }
 
+/// Finds the all-core runs of a renderer at `--spp` and `--check-spp`.
+struct Levels<'a> {
+    options: &'a Options,
+    runs: &'a [Run],
+    cores: usize,
+}
+
+impl Levels<'_> {
+    /// The index of `name`'s all-core run at `spp`.
+    fn level(&self, name: &str, spp: u32) -> Option<usize> {
+        self.runs
+            .iter()
+            .position(|r| r.renderer == name && r.spp == spp && r.threads == self.cores)
+    }
+
+    /// The indices of `name`'s all-core runs at `--spp` and `--check-spp`.
+    fn two_levels(&self, name: &str) -> Option<(usize, usize)> {
+        if self.options.check_spp == 0 {
+            return None;
+        }
+        Some((
+            self.level(name, self.options.spp)?,
+            self.level(name, self.options.check_spp)?,
+        ))
+    }
+}
+
+/// The reference's own error (see [`ReferenceError`]) from its variances,
+/// our all-core error at `--spp` (`raw`, one per run) and Mitsuba's two
+/// spp levels.
+fn reference_error(levels: &Levels, reference: &Reference, raw: &[Errors]) -> ReferenceError {
+    let options = levels.options;
+    let from_variance = reference_floor(reference);
+    let extrapolated = levels.level(OURS, options.spp).map_or(from_variance, |i| {
+        let f = f64::from(options.spp) / f64::from(options.reference_spp);
+        Errors {
+            mse: (raw[i].mse * f).min(from_variance.mse),
+            rel_mse: (raw[i].rel_mse * f).min(from_variance.rel_mse),
+        }
+    });
+    ReferenceError {
+        from_variance,
+        used: extrapolated,
+        mitsuba_floor: levels
+            .two_levels(MITSUBA)
+            .map(|(a, b)| floor_fit(&levels.runs[a], &levels.runs[b], &reference.mean)),
+    }
+}
+
+/// One row per run: its errors, raw and less the reference's own.
+fn rows<'a>(
+    runs: &'a [Run],
+    raw: &[Errors],
+    reference_error: &ReferenceError,
+) -> Vec<RowMetrics<'a>> {
+    runs.iter()
+        .zip(raw)
+        .map(|(run, &raw)| RowMetrics {
+            run,
+            raw,
+            corrected: Errors {
+                mse: (raw.mse - reference_error.used.mse).max(0.0),
+                rel_mse: (raw.rel_mse - reference_error.used.rel_mse).max(0.0),
+            },
+            ratio_raw: None,
+            ratio_corrected: None,
+            ratio_rel_raw: None,
+        })
+        .collect()
+}
+
+/// Time to equal error relative to Mitsuba at the same spp and threads:
+/// (t MSE)_row / (t MSE)_Mitsuba, raw, reference-corrected and by relMSE.
+fn set_ratios_to_mitsuba(rows: &mut [RowMetrics]) {
+    let work = |r: &RowMetrics, e: Errors| (r.run.render_s * e.mse, r.run.render_s * e.rel_mse);
+    let baselines: Vec<_> = rows
+        .iter()
+        .filter(|r| r.run.renderer == MITSUBA)
+        .map(|r| {
+            (
+                r.run.spp,
+                r.run.threads,
+                work(r, r.raw),
+                work(r, r.corrected),
+            )
+        })
+        .collect();
+    for r in rows {
+        if let Some(&(_, _, (m_raw, m_rel), (m_cor, _))) = baselines
+            .iter()
+            .find(|b| b.0 == r.run.spp && b.1 == r.run.threads)
+        {
+            let (raw, rel) = work(r, r.raw);
+            let (cor, _) = work(r, r.corrected);
+            r.ratio_raw = Some(raw / m_raw);
+            r.ratio_rel_raw = Some(rel / m_rel);
+            r.ratio_corrected = (m_cor > 0.0).then(|| cor / m_cor);
+        }
+    }
+}
+
+/// (renderer, spp, agreement with the reference) of every all-core run.
+fn agreements(
+    rows: &[RowMetrics],
+    reference: &Reference,
+    options: &Options,
+    cores: usize,
+) -> Vec<(&'static str, u32, Agreement)> {
+    rows.iter()
+        .filter(|r| r.run.threads == cores)
+        .map(|r| {
+            let a = agreement(&r.run.image, &reference.mean, options.width, options.height);
+            (r.run.renderer, r.run.spp, a)
+        })
+        .collect()
+}
+
+/// Per renderer, the rate of MSE ~ spp^-rate between its two spp levels:
+/// rate = ln(MSE_1 / MSE_2) / ln(spp_2 / spp_1), on reference-corrected MSEs.
+fn convergence(rows: &[RowMetrics], levels: &Levels) -> Vec<(&'static str, f64)> {
+    let (n1, n2) = (
+        f64::from(levels.options.spp),
+        f64::from(levels.options.check_spp),
+    );
+    [OURS, MITSUBA]
+        .into_iter()
+        .filter_map(|name| {
+            let (a, b) = levels.two_levels(name)?;
+            let (ea, eb) = (rows[a].corrected.mse, rows[b].corrected.mse);
+            (ea > 0.0 && eb > 0.0).then(|| (name, (ea / eb).ln() / (n2 / n1).ln()))
+        })
+        .collect()
+}
+
 impl RowMetrics<'_> {
     fn samples_per_s(&self, pixels: usize) -> f64 {
         pixels as f64 * f64::from(self.run.spp) / self.run.render_s
@@ -67,98 +201,28 @@ pub(super) struct Report<'a> {
 }
 
 impl<'a> Report<'a> {
+    /// Errors, ratios, agreement and convergence of every run; `context` is
+    /// (options, cores, Mitsuba, scene load seconds, load average before).
     pub(super) fn new(
         context: (&'a Options, usize, &Mitsuba, f64, String),
         reference: &'a Reference,
         runs: &'a [Run],
     ) -> Self {
         let (options, cores, mitsuba, scene_load_s, load_before) = context;
+        let levels = Levels {
+            options,
+            runs,
+            cores,
+        };
         let raw: Vec<Errors> = runs
             .iter()
             .map(|run| errors(&run.image, &reference.mean))
             .collect();
-        let level = |name: &str, spp: u32| {
-            runs.iter()
-                .position(|r| r.renderer == name && r.spp == spp && r.threads == cores)
-        };
-        let (n1, n2) = (f64::from(options.spp), f64::from(options.check_spp));
-        let two_levels = |name: &str| {
-            if options.check_spp == 0 {
-                return None;
-            }
-            Some((level(name, options.spp)?, level(name, options.check_spp)?))
-        };
-        let from_variance = reference_floor(reference);
-        let extrapolated = level(OURS, options.spp).map_or(from_variance, |i| {
-            let f = n1 / f64::from(options.reference_spp);
-            Errors {
-                mse: (raw[i].mse * f).min(from_variance.mse),
-                rel_mse: (raw[i].rel_mse * f).min(from_variance.rel_mse),
-            }
-        });
-        let reference_error = ReferenceError {
-            from_variance,
-            used: extrapolated,
-            mitsuba_floor: two_levels(MITSUBA)
-                .map(|(a, b)| floor_fit(&runs[a], &runs[b], &reference.mean)),
-        };
-        let mut rows: Vec<RowMetrics> = runs
-            .iter()
-            .zip(&raw)
-            .map(|(run, &raw)| RowMetrics {
-                run,
-                raw,
-                corrected: Errors {
-                    mse: (raw.mse - reference_error.used.mse).max(0.0),
-                    rel_mse: (raw.rel_mse - reference_error.used.rel_mse).max(0.0),
-                },
-                ratio_raw: None,
-                ratio_corrected: None,
-                ratio_rel_raw: None,
-            })
-            .collect();
-        // Time to equal error relative to Mitsuba at the same spp and threads.
-        let work = |r: &RowMetrics, e: Errors| (r.run.render_s * e.mse, r.run.render_s * e.rel_mse);
-        let baselines: Vec<_> = rows
-            .iter()
-            .filter(|r| r.run.renderer == MITSUBA)
-            .map(|r| {
-                (
-                    r.run.spp,
-                    r.run.threads,
-                    work(r, r.raw),
-                    work(r, r.corrected),
-                )
-            })
-            .collect();
-        for r in &mut rows {
-            if let Some(&(_, _, (m_raw, m_rel), (m_cor, _))) = baselines
-                .iter()
-                .find(|b| b.0 == r.run.spp && b.1 == r.run.threads)
-            {
-                let (raw, rel) = work(r, r.raw);
-                let (cor, _) = work(r, r.corrected);
-                r.ratio_raw = Some(raw / m_raw);
-                r.ratio_rel_raw = Some(rel / m_rel);
-                r.ratio_corrected = (m_cor > 0.0).then(|| cor / m_cor);
-            }
-        }
-        let agreements = rows
-            .iter()
-            .filter(|r| r.run.threads == cores)
-            .map(|r| {
-                let a = agreement(&r.run.image, &reference.mean, options.width, options.height);
-                (r.run.renderer, r.run.spp, a)
-            })
-            .collect();
-        let convergence = [OURS, MITSUBA]
-            .into_iter()
-            .filter_map(|name| {
-                let (a, b) = two_levels(name)?;
-                let (ea, eb) = (rows[a].corrected.mse, rows[b].corrected.mse);
-                (ea > 0.0 && eb > 0.0).then(|| (name, (ea / eb).ln() / (n2 / n1).ln()))
-            })
-            .collect();
+        let reference_error = reference_error(&levels, reference, &raw);
+        let mut rows = rows(runs, &raw, &reference_error);
+        set_ratios_to_mitsuba(&mut rows);
+        let agreements = agreements(&rows, reference, options, cores);
+        let convergence = convergence(&rows, &levels);
         Self {
             options,
             cores,
@@ -206,9 +270,24 @@ impl<'a> Report<'a> {
     }
 
     fn markdown(&self, total_s: f64, alarms: &[String]) -> String {
-        let o = self.options;
-        let pixels = o.pixels();
         let mut md = String::new();
+        self.md_settings(&mut md);
+        self.md_reference(&mut md);
+        self.md_times_and_errors(&mut md);
+        self.md_convergence(&mut md);
+        self.md_agreement(&mut md);
+        self.md_bias_and_warnings(&mut md, alarms);
+        let _ = writeln!(
+            md,
+            "\nScene load (ours) {:.3} s; whole command {total_s:.1} s.",
+            self.scene_load_s
+        );
+        md
+    }
+
+    /// The title and the settings: scene, Mitsuba, machine, how times are taken.
+    fn md_settings(&self, md: &mut String) {
+        let o = self.options;
         let _ = writeln!(md, "# Our path tracer vs Mitsuba 3\n");
         let _ = writeln!(
             md,
@@ -228,6 +307,11 @@ impl<'a> Report<'a> {
             self.load_average.1,
             o.repeat,
         );
+    }
+
+    /// The reference and its own error.
+    fn md_reference(&self, md: &mut String) {
+        let o = self.options;
         let re = &self.reference_error;
         let _ = writeln!(
             md,
@@ -252,6 +336,12 @@ impl<'a> Report<'a> {
             re.from_variance.mse,
             re.from_variance.rel_mse,
         );
+    }
+
+    /// The table: a row per run, times, errors and ratios to Mitsuba.
+    fn md_times_and_errors(&self, md: &mut String) {
+        let o = self.options;
+        let pixels = o.pixels();
         md.push_str(
             "| renderer | threads | spp | time (s) | samples/s | RMSE | relMSE | efficiency 1/(t MSE) | time to equal MSE vs Mitsuba | same, reference error removed | time to equal relMSE vs Mitsuba | BVH build / scene load (s) |\n\
              |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
@@ -281,6 +371,10 @@ impl<'a> Report<'a> {
              samples give MSE ~ 1/time exactly); below 1, ours is faster. Ours is Owen-scrambled Sobol, \
              whose MSE falls faster than 1/spp (rate below), so the ratio depends on the spp.\n",
         );
+    }
+
+    /// The rate of MSE ~ spp^-rate per renderer.
+    fn md_convergence(&self, md: &mut String) {
         if !self.convergence.is_empty() {
             md.push_str("\nMSE ~ spp^-rate between the two spp levels (reference error removed; 1 = plain Monte Carlo):");
             for (name, rate) in &self.convergence {
@@ -288,6 +382,10 @@ impl<'a> Report<'a> {
             }
             md.push('\n');
         }
+    }
+
+    /// The agreement table: image means and z-scores against the reference.
+    fn md_agreement(&self, md: &mut String) {
         let _ = writeln!(md, "\n## Agreement: do both render the same image?\n");
         let _ = writeln!(
             md,
@@ -316,6 +414,11 @@ impl<'a> Report<'a> {
                 ["R", "G", "B"][a.z_block_max.3],
             );
         }
+    }
+
+    /// The bias test of Mitsuba's error floor, and the warnings.
+    fn md_bias_and_warnings(&self, md: &mut String, alarms: &[String]) {
+        let re = &self.reference_error;
         if let Some((c, se)) = re.mitsuba_floor {
             let _ = writeln!(
                 md,
@@ -333,12 +436,6 @@ impl<'a> Report<'a> {
                 let _ = writeln!(md, "- {a}");
             }
         }
-        let _ = writeln!(
-            md,
-            "\nScene load (ours) {:.3} s; whole command {total_s:.1} s.",
-            self.scene_load_s
-        );
-        md
     }
 
     fn json(&self, total_s: f64, alarms: &[String]) -> Value {
@@ -418,5 +515,104 @@ impl<'a> Report<'a> {
         println!("\n{md}");
         println!("written: {} and {}", md_path.display(), json_path.display());
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::{Path, PathBuf};
+
+    use glam::Vec3;
+
+    use super::*;
+
+    /// A deterministic stand-in for noise: x in [-1, 1) per pixel, channel
+    /// and seed.
+    fn noise(i: usize, c: usize, seed: u64) -> f32 {
+        let mut h = (i as u64 * 3 + c as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ seed;
+        h ^= h >> 29;
+        h = h.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        h ^= h >> 32;
+        (h % 2000) as f32 / 1000.0 - 1.0
+    }
+
+    fn image(reference: &[Vec3], spp: u32, seed: u64, bias: f32) -> Vec<Vec3> {
+        let scale = 0.2 / (spp as f32).sqrt();
+        reference
+            .iter()
+            .enumerate()
+            .map(|(i, r)| {
+                *r + Vec3::new(noise(i, 0, seed), noise(i, 1, seed), noise(i, 2, seed)) * scale
+                    + Vec3::splat(bias)
+            })
+            .collect()
+    }
+
+    fn run(renderer: &'static str, spp: u32, threads: usize, image: Vec<Vec3>) -> Run {
+        Run {
+            renderer,
+            threads,
+            spp,
+            setup_s: 0.01,
+            render_s: 0.001 * f64::from(spp) * (if threads == 1 { 2.0 } else { 1.0 }),
+            render_times: vec![0.001 * f64::from(spp)],
+            image,
+            path: PathBuf::from(format!("/out/{spp}.exr")),
+            note: String::new(),
+        }
+    }
+
+    /// The whole report from made-up renders (no Mitsuba needed): the
+    /// numbers, the agreement table, and a warning for a biased renderer.
+    #[test]
+    fn report_of_synthetic_runs() {
+        let args: Vec<String> = ["--resolution", "32x32", "--spp", "8"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        let options = Options::parse(Path::new("/r"), &args).unwrap();
+        let mean: Vec<Vec3> = (0..options.pixels())
+            .map(|i| Vec3::new(0.5, 0.25, 1.0) * (1.0 + (i % 7) as f32 / 7.0))
+            .collect();
+        let reference = Reference {
+            spp: options.reference_spp,
+            variance_of_mean: vec![Vec3::splat(1e-4); mean.len()],
+            mean,
+            path: PathBuf::from("/out/cache/reference.exr"),
+            render_s: 12.5,
+            cached: true,
+        };
+        let mitsuba = Mitsuba {
+            python: PathBuf::from("python3"),
+            version: "3.0.0".into(),
+            how: "made up".into(),
+        };
+        let r = &reference.mean;
+        let runs = vec![
+            run(OURS, 8, 2, image(r, 8, 1, 0.0)),
+            run(MITSUBA, 8, 2, image(r, 8, 2, 0.05)),
+            run(OURS, 8, 1, image(r, 8, 3, 0.0)),
+            run(MITSUBA, 8, 1, image(r, 8, 4, 0.05)),
+            run(OURS, 2, 2, image(r, 2, 5, 0.0)),
+            run(MITSUBA, 2, 2, image(r, 2, 6, 0.05)),
+        ];
+        let context = (&options, 2, &mitsuba, 0.25, "1.00 0.50 0.25".to_string());
+        let mut report = Report::new(context, &reference, &runs);
+        report.load_average.1 = "2.00 1.00 0.50".into();
+        let alarms = report.alarms();
+        let md = report.markdown(3.0, &alarms);
+        let json = serde_json::to_string_pretty(&report.json(3.0, &alarms)).unwrap();
+        if let Some(dir) = std::env::var_os("XTASK_KEEP_REPORT") {
+            fs::write(Path::new(&dir).join("report.md"), &md).unwrap();
+            fs::write(Path::new(&dir).join("report.json"), &json).unwrap();
+        }
+        assert_eq!(md.matches("| ours (pt) |").count(), 3, "{md}");
+        assert!(md.contains("| ours (pt) @ 8 spp |"), "{md}");
+        assert!(
+            alarms.iter().any(|a| a.starts_with(MITSUBA)),
+            "a bias of 0.05 is beyond noise: {alarms:?}"
+        );
+        assert!(!alarms.iter().any(|a| a.starts_with(OURS)), "{alarms:?}");
+        assert_eq!(report.convergence.len(), 2);
     }
 }
