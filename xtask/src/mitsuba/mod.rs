@@ -136,12 +136,8 @@ impl Options {
                 "--repeat" => o.repeat = number("--repeat")?.max(1),
                 "--out" => o.out = root.join(value),
                 "--resolution" => {
-                    let parsed = value
-                        .split_once(['x', 'X'])
-                        .and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)));
-                    (o.width, o.height) = parsed.ok_or_else(|| {
-                        format!("--resolution: expected WxH (e.g. 512x512), got `{value}`")
-                    })?;
+                    let size = crate::study::parse_resolution(value)?;
+                    (o.width, o.height) = (size.x, size.y);
                 }
                 other => return Err(format!("unknown option `{other}`\n\nusage:\n{USAGE}")),
             }
