@@ -8,9 +8,17 @@
 //!   `target/bench/`, for comparing commits side by side; `--quick` runs in
 //!   CI. `bench --micro [--quick]` runs the criterion micro-benchmarks of the
 //!   math crates instead.
+//! - `study --scene PATH [options]`: convergence studies, every config's
+//!   error against a cached reference over wall-clock time, with equal-time
+//!   comparisons, charts and a contact sheet (`target/study/<scene>/`).
+//! - `stability [--quick]`: numerical stability sweeps of the math crates
+//!   and the renderer over extreme inputs (`target/stability/`).
 //! - `mitsuba [options]`: renders one scene with our path tracer and with
 //!   Mitsuba 3's (installed on demand into `target/mitsuba/venv`), and
 //!   compares speed and error against one reference (`target/mitsuba/`).
+//!
+//! Helpers every task uses live here: the workspace root, the core count,
+//! the load average, `git` and `cargo`.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
