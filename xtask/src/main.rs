@@ -18,7 +18,7 @@
 //!   compares speed and error against one reference (`target/mitsuba/`).
 //!
 //! Helpers every task uses live here: the workspace root, the core count,
-//! the load average, `git` and `cargo`.
+//! the load average, writing reports, `git` and `cargo`.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
@@ -107,6 +107,27 @@ fn load_average() -> String {
         .ok()
         .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
         .unwrap_or_else(|| "?".into())
+}
+
+/// Writes `text` to `path`; the error names the file.
+fn write_file(path: &Path, text: impl AsRef<[u8]>) -> Result<(), String> {
+    std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
+
+/// Writes a report as `<dir>/<stem>.md` and `<dir>/<stem>.json` (pretty
+/// printed); returns their paths.
+fn write_report(
+    dir: &Path,
+    stem: &str,
+    md: &str,
+    json: &serde_json::Value,
+) -> Result<(PathBuf, PathBuf), String> {
+    let md_path = dir.join(format!("{stem}.md"));
+    let json_path = dir.join(format!("{stem}.json"));
+    write_file(&md_path, md)?;
+    let text = serde_json::to_string_pretty(json).map_err(|e| e.to_string())?;
+    write_file(&json_path, text)?;
+    Ok((md_path, json_path))
 }
 
 /// Runs `cargo` with `args` in `root`, inheriting the terminal.

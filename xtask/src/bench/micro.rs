@@ -112,12 +112,7 @@ fn write_reports(out_dir: &Path, rows: &[Row]) -> Result<(), String> {
             "id": r.id, "mean_ns": r.mean_ns, "lower_ns": r.lower_ns, "upper_ns": r.upper_ns,
         })).collect::<Vec<_>>(),
     });
-    let md_path = out_dir.join("micro.md");
-    fs::write(&md_path, &md).map_err(|e| format!("cannot write {}: {e}", md_path.display()))?;
-    let json_path = out_dir.join("micro.json");
-    let text = serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?;
-    fs::write(&json_path, text)
-        .map_err(|e| format!("cannot write {}: {e}", json_path.display()))?;
+    let (md_path, json_path) = crate::write_report(out_dir, "micro", &md, &json)?;
     print!("{md}");
     println!(
         "\nwritten: {} and {}",

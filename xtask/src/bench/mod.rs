@@ -280,12 +280,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
         "runs": runs,
     });
     let md = report::markdown(&doc, baseline.as_ref().map(|(p, v)| (p.as_str(), v)));
-    let json_path = out_dir.join("end-to-end.json");
-    let md_path = out_dir.join("end-to-end.md");
-    let text = serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())?;
-    fs::write(&json_path, text)
-        .map_err(|e| format!("cannot write {}: {e}", json_path.display()))?;
-    fs::write(&md_path, &md).map_err(|e| format!("cannot write {}: {e}", md_path.display()))?;
+    let (md_path, json_path) = crate::write_report(&out_dir, "end-to-end", &md, &doc)?;
     print!("{md}");
     println!(
         "\nwritten: {} and {}",

@@ -54,8 +54,7 @@ pub(super) fn export(scene: &Scene, options: &Options, dir: &Path) -> Result<Exp
         smooth_meshes += usize::from(mesh.smooth);
     }
     let xml_path = dir.join("scene.xml");
-    fs::write(&xml_path, scene_xml(scene, options, &shapes))
-        .map_err(|e| format!("cannot write {}: {e}", xml_path.display()))?;
+    crate::write_file(&xml_path, scene_xml(scene, options, &shapes))?;
     Ok(Exported {
         xml: xml_path,
         summary: format!(
@@ -128,8 +127,7 @@ fn write_mesh<'a>(
         scene.normals[t].iter().any(|s| s.dot(n) < FLAT_COSINE)
     });
     let path = dir.join(&file);
-    fs::write(&path, ply(scene, triangles, smooth))
-        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    crate::write_file(&path, ply(scene, triangles, smooth))?;
     Ok(Mesh {
         material,
         reflectance,

@@ -159,8 +159,7 @@ fn store(
     let (w, h) = (options.width, options.height);
     write_exr(&files.mean, w, h, mean).map_err(|e| e.to_string())?;
     write_exr(&files.variance, w, h, variance).map_err(|e| e.to_string())?;
-    fs::write(&files.info, info.to_string())
-        .map_err(|e| format!("cannot write {}: {e}", files.info.display()))
+    crate::write_file(&files.info, info.to_string())
 }
 
 #[cfg(test)]

@@ -2,7 +2,6 @@
 //! renderers with the reference, warnings; `report.md` and `report.json`.
 
 use std::fmt::Write as _;
-use std::fs;
 use std::path::Path;
 
 use serde_json::{Value, json};
@@ -502,16 +501,12 @@ impl<'a> Report<'a> {
         })
     }
 
+    /// Writes `<out>/report.md` and `report.json` and prints the markdown.
     pub(super) fn write(&self, out: &Path, total_s: f64) -> Result<(), String> {
         let alarms = self.alarms();
         let md = self.markdown(total_s, &alarms);
-        let md_path = out.join("report.md");
-        fs::write(&md_path, &md).map_err(|e| format!("cannot write {}: {e}", md_path.display()))?;
-        let json_path = out.join("report.json");
-        let text = serde_json::to_string_pretty(&self.json(total_s, &alarms))
-            .map_err(|e| e.to_string())?;
-        fs::write(&json_path, text)
-            .map_err(|e| format!("cannot write {}: {e}", json_path.display()))?;
+        let (md_path, json_path) =
+            crate::write_report(out, "report", &md, &self.json(total_s, &alarms))?;
         println!("\n{md}");
         println!("written: {} and {}", md_path.display(), json_path.display());
         Ok(())
@@ -520,6 +515,7 @@ impl<'a> Report<'a> {
 
 #[cfg(test)]
 mod tests {
+    use std::fs;
     use std::path::{Path, PathBuf};
 
     use glam::Vec3;
