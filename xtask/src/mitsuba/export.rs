@@ -288,12 +288,7 @@ mod tests {
 
     #[test]
     fn export_writes_one_ply_per_material_and_the_scene_xml() {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap();
-        let args: Vec<String> = ["--resolution", "8x8", "--spp", "4"]
-            .iter()
-            .map(|s| s.to_string())
-            .collect();
-        let options = Options::parse(root, &args).unwrap();
+        let options = crate::mitsuba::test_options(&["--resolution", "8x8", "--spp", "4"]);
         let scene = scene::load(
             &options.scene,
             &LoadOptions {

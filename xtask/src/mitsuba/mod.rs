@@ -244,6 +244,14 @@ fn rerun_in_release(root: &Path, args: &[String]) -> Result<(), String> {
     crate::cargo_with_env(root, &cargo_args, &[(CHILD_ENV, "1")])
 }
 
+/// The options of `args` (flags as string slices) with the workspace as
+/// the root, for tests.
+#[cfg(test)]
+fn test_options(args: &[&str]) -> Options {
+    let args: Vec<String> = args.iter().map(|s| s.to_string()).collect();
+    Options::parse(&crate::workspace_root(), &args).unwrap()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -164,22 +164,12 @@ fn store(
 
 #[cfg(test)]
 mod tests {
-    use std::path::Path;
-
     use super::*;
-
-    fn options(args: &[&str]) -> Options {
-        let args: Vec<String> = args.iter().map(|s| s.to_string()).collect();
-        Options::parse(
-            Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap(),
-            &args,
-        )
-        .unwrap()
-    }
+    use crate::mitsuba::test_options;
 
     #[test]
     fn cache_files_follow_the_settings_and_the_scene() {
-        let base = CacheFiles::of(&options(&[])).unwrap();
+        let base = CacheFiles::of(&test_options(&[])).unwrap();
         let name = base
             .mean
             .file_name()
@@ -190,19 +180,22 @@ mod tests {
             name.starts_with("reference-") && name.ends_with(".exr"),
             "{name}"
         );
-        assert_eq!(base.mean, CacheFiles::of(&options(&[])).unwrap().mean);
+        assert_eq!(base.mean, CacheFiles::of(&test_options(&[])).unwrap().mean);
         for changed in [
             &["--reference-spp", "512"][..],
             &["--resolution", "64x64"],
             &["--max-depth", "8"],
             &["--scene", "scenes/diffuse-only/scene.toml"],
         ] {
-            assert_ne!(base.mean, CacheFiles::of(&options(changed)).unwrap().mean);
+            assert_ne!(
+                base.mean,
+                CacheFiles::of(&test_options(changed)).unwrap().mean
+            );
         }
         // Where the timed renders go does not matter to the reference.
         assert_eq!(
             base.mean.file_name(),
-            CacheFiles::of(&options(&["--spp", "16"]))
+            CacheFiles::of(&test_options(&["--spp", "16"]))
                 .unwrap()
                 .mean
                 .file_name()

@@ -265,11 +265,7 @@ mod tests {
 
     #[test]
     fn plan_repeats_only_the_all_core_renders_at_spp() {
-        let args: Vec<String> = ["--spp", "64", "--repeat", "3"]
-            .iter()
-            .map(|s| s.to_string())
-            .collect();
-        let options = Options::parse(Path::new("/r"), &args).unwrap();
+        let options = crate::mitsuba::test_options(&["--spp", "64", "--repeat", "3"]);
         let planned: Vec<(u32, u64, usize, u32)> = plan(&options, 4)
             .into_iter()
             .map(|(j, r)| (j.spp, j.seed, j.threads, r))

@@ -562,11 +562,7 @@ mod tests {
     /// numbers, the agreement table, and a warning for a biased renderer.
     #[test]
     fn report_of_synthetic_runs() {
-        let args: Vec<String> = ["--resolution", "32x32", "--spp", "8"]
-            .iter()
-            .map(|s| s.to_string())
-            .collect();
-        let options = Options::parse(Path::new("/r"), &args).unwrap();
+        let options = crate::mitsuba::test_options(&["--resolution", "32x32", "--spp", "8"]);
         let mean: Vec<Vec3> = (0..options.pixels())
             .map(|i| Vec3::new(0.5, 0.25, 1.0) * (1.0 + (i % 7) as f32 / 7.0))
             .collect();
