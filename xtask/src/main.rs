@@ -114,6 +114,12 @@ fn write_file(path: &Path, text: impl AsRef<[u8]>) -> Result<(), String> {
     std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
 }
 
+/// Writes a linear RGB image as an OpenEXR file (`image_io`), with the
+/// error as text.
+fn write_exr(path: &Path, width: u32, height: u32, pixels: &[glam::Vec3]) -> Result<(), String> {
+    image_io::write_exr(path, width, height, pixels).map_err(|e| e.to_string())
+}
+
 /// Writes a report as `<dir>/<stem>.md` and `<dir>/<stem>.json` (pretty
 /// printed); returns their paths.
 fn write_report(

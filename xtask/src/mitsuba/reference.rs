@@ -5,7 +5,7 @@ use std::fs;
 use std::path::PathBuf;
 
 use glam::Vec3;
-use image_io::{read_exr, write_exr};
+use image_io::read_exr;
 use scene::Scene;
 use serde_json::{Value, json};
 
@@ -157,8 +157,8 @@ fn store(
         fs::create_dir_all(cache).map_err(|e| format!("cannot create {}: {e}", cache.display()))?;
     }
     let (w, h) = (options.width, options.height);
-    write_exr(&files.mean, w, h, mean).map_err(|e| e.to_string())?;
-    write_exr(&files.variance, w, h, variance).map_err(|e| e.to_string())?;
+    crate::write_exr(&files.mean, w, h, mean)?;
+    crate::write_exr(&files.variance, w, h, variance)?;
     crate::write_file(&files.info, info.to_string())
 }
 

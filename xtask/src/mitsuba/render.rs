@@ -6,7 +6,7 @@ use std::process::Command;
 use std::time::{Duration, Instant};
 
 use glam::Vec3;
-use image_io::{read_exr, write_exr};
+use image_io::read_exr;
 use integrators::{Regularization, RenderConfig, Renderer};
 use scene::Scene;
 use serde_json::Value;
@@ -164,7 +164,7 @@ fn render_ours(scene: &Scene, options: &Options, job: Job) -> Result<Run, String
     let render_s = fastest(&render_times);
     let image = film.mean();
     let path = options.out.join(format!("ours-{spp}spp-{threads}t.exr"));
-    write_exr(&path, options.width, options.height, &image).map_err(|e| e.to_string())?;
+    crate::write_exr(&path, options.width, options.height, &image)?;
     println!(
         "ours:    {spp:>5} spp, {threads} thread(s): render {} s (BVH {setup_s:.4} s) -> {}",
         seconds(&render_times),

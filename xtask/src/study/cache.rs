@@ -210,7 +210,7 @@ pub fn store(
 ) -> Result<(), String> {
     fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     let (exr, json) = paths(dir, key);
-    image_io::write_exr(&exr, width, height, pixels).map_err(|e| e.to_string())?;
+    crate::write_exr(&exr, width, height, pixels)?;
     let text = serde_json::to_string_pretty(meta).map_err(|e| e.to_string())?;
     let partial = json.with_extension("json.partial");
     fs::write(&partial, text + "\n").map_err(|e| format!("{}: {e}", partial.display()))?;

@@ -205,7 +205,7 @@ fn run_with_cache(root: &Path, args: &[String], cache_dir: &Path) -> Result<(), 
     let mut references = Vec::new();
     for (spec, cached) in specs.into_iter().zip(cached) {
         let reference = obtain_reference(spec, cached, &context, &mut progress)?;
-        write_exr(
+        crate::write_exr(
             &options.out.join("images").join(reference.image_name()),
             settings.width,
             settings.height,
@@ -223,7 +223,7 @@ fn run_with_cache(root: &Path, args: &[String], cache_dir: &Path) -> Result<(), 
             &references,
             &mut progress,
         )?;
-        write_exr(
+        crate::write_exr(
             &options.out.join("images").join(format!("{config}.exr")),
             settings.width,
             settings.height,
@@ -597,10 +597,6 @@ fn render_reference(
         image,
         spec,
     })
-}
-
-fn write_exr(path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Result<(), String> {
-    image_io::write_exr(path, width, height, pixels).map_err(|e| e.to_string())
 }
 
 /// CPU time of this process so far, in seconds: the sum over its threads

@@ -2,7 +2,6 @@
 //! report.md with the equal-time comparisons.
 
 use std::fmt::Write as _;
-use std::fs;
 use std::path::Path;
 
 use serde_json::{Value, json};
@@ -53,9 +52,9 @@ pub fn write(out: &Path, study: &Study) -> Result<Vec<String>, String> {
     Ok(written)
 }
 
+/// Writes `<out>/<name>` and adds `name` to `written`.
 fn write_file(out: &Path, name: &str, text: &str, written: &mut Vec<String>) -> Result<(), String> {
-    let path = out.join(name);
-    fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+    crate::write_file(&out.join(name), text)?;
     written.push(name.to_string());
     Ok(())
 }
