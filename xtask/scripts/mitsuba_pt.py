@@ -1,6 +1,6 @@
 """Renders a Mitsuba 3 scene with the scalar_rgb variant and reports timings.
 
-Run by `cargo xtask mitsuba` (xtask/src/mitsuba.rs), which writes the scene
+Run by `cargo xtask mitsuba` (xtask/src/mitsuba/), which writes the scene
 XML; usable alone too:
 
     python mitsuba_pt.py --scene scene.xml --out image.exr --spp 64 --seed 1 --threads 2

@@ -8,9 +8,17 @@
 //!   `target/bench/`, for comparing commits side by side; `--quick` runs in
 //!   CI. `bench --micro [--quick]` runs the criterion micro-benchmarks of the
 //!   math crates instead.
+//! - `study --scene PATH [options]`: convergence studies, every config's
+//!   error against a cached reference over wall-clock time, with equal-time
+//!   comparisons, charts and a contact sheet (`target/study/<scene>/`).
+//! - `stability [--quick]`: numerical stability sweeps of the math crates
+//!   and the renderer over extreme inputs (`target/stability/`).
 //! - `mitsuba [options]`: renders one scene with our path tracer and with
 //!   Mitsuba 3's (installed on demand into `target/mitsuba/venv`), and
 //!   compares speed and error against one reference (`target/mitsuba/`).
+//!
+//! Helpers every task uses live here: the workspace root, the core count,
+//! the load average, writing reports, `git` and `cargo`.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
@@ -88,11 +96,57 @@ fn git(root: &Path, args: &[&str]) -> Option<Vec<u8>> {
         .map(|o| o.stdout)
 }
 
+/// Logical cores (1 where the system does not tell).
+fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+/// The first three fields of /proc/loadavg ("?" where unavailable).
+fn load_average() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()
+        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+        .unwrap_or_else(|| "?".into())
+}
+
+/// Writes `text` to `path`; the error names the file.
+fn write_file(path: &Path, text: impl AsRef<[u8]>) -> Result<(), String> {
+    std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
+
+/// Writes a linear RGB image as an OpenEXR file (`image_io`), with the
+/// error as text.
+fn write_exr(path: &Path, width: u32, height: u32, pixels: &[glam::Vec3]) -> Result<(), String> {
+    image_io::write_exr(path, width, height, pixels).map_err(|e| e.to_string())
+}
+
+/// Writes a report as `<dir>/<stem>.md` and `<dir>/<stem>.json` (pretty
+/// printed); returns their paths.
+fn write_report(
+    dir: &Path,
+    stem: &str,
+    md: &str,
+    json: &serde_json::Value,
+) -> Result<(PathBuf, PathBuf), String> {
+    let md_path = dir.join(format!("{stem}.md"));
+    let json_path = dir.join(format!("{stem}.json"));
+    write_file(&md_path, md)?;
+    let text = serde_json::to_string_pretty(json).map_err(|e| e.to_string())?;
+    write_file(&json_path, text)?;
+    Ok((md_path, json_path))
+}
+
 /// Runs `cargo` with `args` in `root`, inheriting the terminal.
 fn cargo(root: &Path, args: &[&str]) -> Result<(), String> {
+    cargo_with_env(root, args, &[])
+}
+
+/// [`cargo`] with environment variables `env` set for the child.
+fn cargo_with_env(root: &Path, args: &[&str], env: &[(&str, &str)]) -> Result<(), String> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string());
     let status = Command::new(&cargo)
         .args(args)
+        .envs(env.iter().copied())
         .current_dir(root)
         .status()
         .map_err(|e| format!("could not run {cargo}: {e}"))?;

@@ -215,12 +215,10 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
         let _ = fs::remove_dir_all(&tmp);
     }
     let markdown = report(&rows, quick, seconds);
-    fs::write(out.join("report.md"), &markdown)
-        .map_err(|e| format!("cannot write {}: {e}", out.join("report.md").display()))?;
     let json = json!({
         "form": if quick { "quick" } else { "full" },
         "seconds": seconds,
-        "cores": std::thread::available_parallelism().map_or(1, |n| n.get()),
+        "cores": crate::cores(),
         "problems": rows.iter().map(|r| r.tally.problems()).sum::<u64>(),
         "rows": rows.iter().map(|r| {
             let mut v = r.tally.json();
@@ -232,9 +230,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
             v
         }).collect::<Vec<_>>(),
     });
-    let text = serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?;
-    fs::write(out.join("report.json"), text)
-        .map_err(|e| format!("cannot write {}: {e}", out.join("report.json").display()))?;
+    crate::write_report(&out, "report", &markdown, &json)?;
     println!("{}", table(&rows));
     println!(
         "wrote target/stability/report.md and report.json ({:.1} s)",
@@ -293,7 +289,7 @@ fn report(rows: &[Row], quick: bool, seconds: f64) -> String {
         if quick { " --quick" } else { "" },
         if quick { "quick" } else { "full" },
         seconds,
-        std::thread::available_parallelism().map_or(1, |n| n.get())
+        crate::cores()
     );
     let _ = writeln!(
         s,

@@ -94,7 +94,7 @@ fn read_json(path: &Path) -> Result<Value, String> {
 
 fn write_reports(out_dir: &Path, rows: &[Row]) -> Result<(), String> {
     fs::create_dir_all(out_dir).map_err(|e| format!("cannot create {}: {e}", out_dir.display()))?;
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let cores = crate::cores();
     let mut md = format!(
         "# Micro-benchmarks\n\nMachine: {cores} logical cores. Criterion mean per call, 95 % interval.\n\n"
     );
@@ -112,12 +112,7 @@ fn write_reports(out_dir: &Path, rows: &[Row]) -> Result<(), String> {
             "id": r.id, "mean_ns": r.mean_ns, "lower_ns": r.lower_ns, "upper_ns": r.upper_ns,
         })).collect::<Vec<_>>(),
     });
-    let md_path = out_dir.join("micro.md");
-    fs::write(&md_path, &md).map_err(|e| format!("cannot write {}: {e}", md_path.display()))?;
-    let json_path = out_dir.join("micro.json");
-    let text = serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?;
-    fs::write(&json_path, text)
-        .map_err(|e| format!("cannot write {}: {e}", json_path.display()))?;
+    let (md_path, json_path) = crate::write_report(out_dir, "micro", &md, &json)?;
     print!("{md}");
     println!(
         "\nwritten: {} and {}",

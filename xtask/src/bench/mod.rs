@@ -241,7 +241,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
         .map_err(|e| format!("--out: cannot create {}: {e}", out_dir.display()))?;
 
     let (exe, profile) = child_executable(root, options.quick)?;
-    let load_before = crate::study::load_average();
+    let load_before = crate::load_average();
     let started = Instant::now();
     let runs = run_all(root, &exe, &options);
     // Failed runs are in the table; they fail the task after it is written.
@@ -265,12 +265,12 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
         "git": git_state(root),
         "profile": profile,
         "machine": {
-            "cores": std::thread::available_parallelism().map_or(1, |n| n.get()),
+            "cores": crate::cores(),
             "rayon_threads": rayon::current_num_threads(),
             "cpu_model": cpu_model(),
             // Other processes skew wall-clock times: /proc/loadavg before
             // and after the runs.
-            "load_average": [load_before, crate::study::load_average()],
+            "load_average": [load_before, crate::load_average()],
         },
         "resolution": [options.resolution.0, options.resolution.1],
         "iterations": options.iterations,
@@ -280,12 +280,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
         "runs": runs,
     });
     let md = report::markdown(&doc, baseline.as_ref().map(|(p, v)| (p.as_str(), v)));
-    let json_path = out_dir.join("end-to-end.json");
-    let md_path = out_dir.join("end-to-end.md");
-    let text = serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())?;
-    fs::write(&json_path, text)
-        .map_err(|e| format!("cannot write {}: {e}", json_path.display()))?;
-    fs::write(&md_path, &md).map_err(|e| format!("cannot write {}: {e}", md_path.display()))?;
+    let (md_path, json_path) = crate::write_report(&out_dir, "end-to-end", &md, &doc)?;
     print!("{md}");
     println!(
         "\nwritten: {} and {}",

@@ -15,6 +15,21 @@ type Key = (String, String);
 pub fn markdown(doc: &Value, baseline: Option<(&str, &Value)>) -> String {
     let runs = doc["runs"].as_array().map_or(&[][..], Vec::as_slice);
     let mut md = String::from("# End-to-end benchmark\n\n");
+    facts(&mut md, doc);
+    let old = baseline.map(|(path, base)| {
+        baseline_facts(&mut md, doc, path, base);
+        times(base)
+    });
+    table(&mut md, runs, old.as_ref());
+    problems(&mut md, runs);
+    if let Some(old) = &old {
+        unpaired_rows(&mut md, &times(doc), old);
+    }
+    md
+}
+
+/// The run's facts: date, commit, profile, machine, settings.
+fn facts(md: &mut String, doc: &Value) {
     let _ = writeln!(md, "- date: {}, {}", text(doc, "date"), commit(doc));
     let _ = writeln!(
         md,
@@ -48,32 +63,38 @@ pub fn markdown(doc: &Value, baseline: Option<(&str, &Value)>) -> String {
              s/iteration with the range of the rounds"
         );
     }
-    let old = baseline.map(|(path, base)| {
+}
+
+/// The baseline's facts, and a warning where it differs from this run in
+/// what makes times comparable.
+fn baseline_facts(md: &mut String, doc: &Value, path: &str, base: &Value) {
+    let machine = &doc["machine"];
+    let _ = writeln!(
+        md,
+        "- baseline: {path} ({}, {}, profile {}, {}, {} iterations, {} cores)",
+        text(base, "date"),
+        commit(base),
+        text(base, "profile"),
+        resolution(base),
+        base["iterations"],
+        base["machine"]["cores"]
+    );
+    let differs: Vec<&str> = ["profile", "resolution", "iterations"]
+        .into_iter()
+        .filter(|k| base[*k] != doc[*k])
+        .chain((base["machine"]["cores"] != machine["cores"]).then_some("cores"))
+        .collect();
+    if !differs.is_empty() {
         let _ = writeln!(
             md,
-            "- baseline: {path} ({}, {}, profile {}, {}, {} iterations, {} cores)",
-            text(base, "date"),
-            commit(base),
-            text(base, "profile"),
-            resolution(base),
-            base["iterations"],
-            base["machine"]["cores"]
+            "- **warning**: the baseline differs in {}; its ratios compare unlike runs",
+            differs.join(", ")
         );
-        let differs: Vec<&str> = ["profile", "resolution", "iterations"]
-            .into_iter()
-            .filter(|k| base[*k] != doc[*k])
-            .chain((base["machine"]["cores"] != machine["cores"]).then_some("cores"))
-            .collect();
-        if !differs.is_empty() {
-            let _ = writeln!(
-                md,
-                "- **warning**: the baseline differs in {}; its ratios compare unlike runs",
-                differs.join(", ")
-            );
-        }
-        times(base)
-    });
+    }
+}
 
+/// The table: a row per run, with the ratio to the baseline's time.
+fn table(md: &mut String, runs: &[Value], old: Option<&BTreeMap<Key, f64>>) {
     md.push_str(
         "\n| scene | integrator | s/iteration | samples/s | rays/s | rays/sample | peak MiB | build s |",
     );
@@ -119,7 +140,10 @@ pub fn markdown(doc: &Value, baseline: Option<(&str, &Value)>) -> String {
          rendering and film accumulation); rays: closest-hit and shadow rays; peak MiB: \
          VmHWM of the run's own process; build s: scene load and `Renderer::new` (BVH, lights).\n",
     );
+}
 
+/// Failed runs and runs that dropped NaN/Inf samples.
+fn problems(md: &mut String, runs: &[Value]) {
     let failures: Vec<String> = runs
         .iter()
         .filter(|r| r["status"] != "ok")
@@ -150,29 +174,29 @@ pub fn markdown(doc: &Value, baseline: Option<(&str, &Value)>) -> String {
     if !invalid.is_empty() {
         let _ = writeln!(md, "\nNaN/Inf samples dropped: {}.", invalid.join(", "));
     }
-    if let Some(old) = &old {
-        let new = times(doc);
-        let missing = |a: &BTreeMap<Key, f64>, b: &BTreeMap<Key, f64>| {
-            let keys: Vec<String> = a
-                .keys()
-                .filter(|k| !b.contains_key(*k))
-                .map(|(s, i)| format!("{s} {i}"))
-                .collect();
-            if keys.is_empty() {
-                "none".to_string()
-            } else {
-                keys.join(", ")
-            }
-        };
-        let _ = write!(
-            md,
-            "\nRows without a ratio (failed or not run on that side): only in this run: {}; \
-             only in the baseline: {}.\n",
-            missing(&new, old),
-            missing(old, &new)
-        );
-    }
-    md
+}
+
+/// Rows that have no ratio because one side lacks them.
+fn unpaired_rows(md: &mut String, new: &BTreeMap<Key, f64>, old: &BTreeMap<Key, f64>) {
+    let missing = |a: &BTreeMap<Key, f64>, b: &BTreeMap<Key, f64>| {
+        let keys: Vec<String> = a
+            .keys()
+            .filter(|k| !b.contains_key(*k))
+            .map(|(s, i)| format!("{s} {i}"))
+            .collect();
+        if keys.is_empty() {
+            "none".to_string()
+        } else {
+            keys.join(", ")
+        }
+    };
+    let _ = write!(
+        md,
+        "\nRows without a ratio (failed or not run on that side): only in this run: {}; \
+         only in the baseline: {}.\n",
+        missing(new, old),
+        missing(old, new)
+    );
 }
 
 /// Seconds per iteration of the successful runs of a document, by row.

@@ -465,71 +465,24 @@ fn modes(bsdf: &Bsdf) -> &'static [TransportMode] {
 fn sweep_lobe(lobe: &Lobe, dirs: &[Vec3], uniforms: &[f32], ucs: &[f32]) -> [Tally; 3] {
     let [mut eval, mut pdf, mut sample] = [Tally::default(), Tally::default(), Tally::default()];
     let bsdf = lobe.bsdf;
-    let specular = bsdf.is_specular();
     let r = &lobe.repro;
     let case = lobe_case(&bsdf);
     for &mode in modes(&bsdf) {
-        let importance = mode == TransportMode::Importance;
         for &wi in dirs {
             for &wo in dirs {
                 let call =
                     |f: &str| format!("{r}.{f}({}, {}, TransportMode::{mode:?})", v(wi), v(wo));
-                let reference = match lobe.reference {
-                    LobeReference::None => None,
-                    LobeReference::Conductor { alpha, f0 } => Some(reference::conductor_ggx(
-                        alpha,
-                        f0,
-                        wi.as_dvec3(),
-                        wo.as_dvec3(),
-                    )),
-                    LobeReference::Dielectric { alpha, eta } => Some(reference::dielectric_ggx(
-                        alpha,
-                        eta,
-                        wi.as_dvec3(),
-                        wo.as_dvec3(),
-                        importance,
-                    )),
-                };
+                let reference = lobe_reference(lobe, wi, wo, mode);
                 eval.guard(
                     || call("eval"),
-                    |t| {
-                        t.evaluation();
-                        let f = bsdf.eval(wi, wo, mode);
-                        t.values(f.to_array(), || call("eval"));
-                        if specular {
-                            t.require(f == Vec3::ZERO, || {
-                                format!("{} = {f} for a delta lobe", call("eval"))
-                            });
-                        }
-                        if let Some((f_ref, _)) = reference
-                            && f_ref <= f64::from(f32::MAX)
-                        {
-                            t.compare_in(&case, f64::from(f.x), f_ref, || call("eval"));
-                        }
-                    },
+                    |t| check_eval(t, &bsdf, (wi, wo, mode), reference, &case, &call),
                 );
-                if importance {
+                if mode == TransportMode::Importance {
                     continue; // pdf does not depend on the mode
                 }
                 pdf.guard(
                     || call("pdf"),
-                    |t| {
-                        t.evaluations(2);
-                        let p = f64::from(bsdf.pdf(wi, wo));
-                        let q = f64::from(bsdf.pdf_reverse(wi, wo));
-                        t.value(p, || call("pdf"));
-                        t.value(q, || call("pdf_reverse"));
-                        if specular {
-                            t.require(p == 0.0, || {
-                                format!("{} = {p:e} for a delta lobe", call("pdf"))
-                            });
-                        }
-                        if let Some((_, p_ref)) = reference
-                            && p_ref <= f64::from(f32::MAX)
-                        {
-                            t.compare_in(&case, p, p_ref, || call("pdf"));
-                        }
-                    },
+                    |t| check_pdf(t, &bsdf, (wi, wo), reference, &case, &call),
                 );
             }
             for &u1 in uniforms {
@@ -543,58 +496,7 @@ fn sweep_lobe(lobe: &Lobe, dirs: &[Vec3], uniforms: &[f32], ucs: &[f32]) -> [Tal
                             )
                         };
                         sample.guard(call, |t| {
-                            t.evaluation();
-                            let Some(s) = bsdf.sample(wi, uc, u, mode) else {
-                                t.note("None");
-                                return;
-                            };
-                            t.note(if s.is_specular {
-                                "Some (delta)"
-                            } else {
-                                "Some"
-                            });
-                            let field = |name: &str| format!("{}.{name}", call());
-                            t.values(s.f.to_array(), || field("f"));
-                            let ok = t.value(f64::from(s.pdf), || field("pdf"));
-                            t.value(f64::from(s.pdf_reverse), || field("pdf_reverse"));
-                            t.value(f64::from(s.eta), || field("eta"));
-                            t.require(ok && s.pdf > 0.0, || {
-                                format!(
-                                    "{} = {:e}: a returned sample with pdf 0",
-                                    field("pdf"),
-                                    s.pdf
-                                )
-                            });
-                            t.require(s.eta > 0.0, || format!("{} = {}", field("eta"), s.eta));
-                            let len = s.wo.length();
-                            t.require((len - 1.0).abs() <= UNIT_TOLERANCE, || {
-                                format!("{} = {} has length {len}", field("wo"), v(s.wo))
-                            });
-                            if !s.is_specular {
-                                // Consistency: the same value and density from eval / pdf at wo.
-                                let f = bsdf.eval(wi, s.wo, mode);
-                                let p = bsdf.pdf(wi, s.wo);
-                                let grazing = if wi.z.abs().min(s.wo.z.abs()) < 1e-3 {
-                                    "grazing (min |cos| < 1e-3)"
-                                } else {
-                                    "min |cos| >= 1e-3"
-                                };
-                                let case = format!("{case}, {grazing}");
-                                if p == 0.0 {
-                                    t.note(format!(
-                                        "non-delta sample where pdf(wi, wo) = 0: {case}"
-                                    ));
-                                }
-                                t.compare_in(
-                                    &case,
-                                    f64::from(s.f.max_element()),
-                                    f64::from(f.max_element()),
-                                    || format!("{}.f vs eval at wo = {}: {f}", call(), v(s.wo)),
-                                );
-                                t.compare_in(&case, f64::from(s.pdf), f64::from(p), || {
-                                    format!("{}.pdf vs pdf at wo = {}", call(), v(s.wo))
-                                });
-                            }
+                            check_sample(t, &bsdf, (wi, uc, u, mode), &case, &call);
                         });
                     }
                 }
@@ -602,6 +504,145 @@ fn sweep_lobe(lobe: &Lobe, dirs: &[Vec3], uniforms: &[f32], ucs: &[f32]) -> [Tal
         }
     }
     [eval, pdf, sample]
+}
+
+/// The lobe's f64 reference (f, pdf) at (wi, wo), where it has one.
+fn lobe_reference(lobe: &Lobe, wi: Vec3, wo: Vec3, mode: TransportMode) -> Option<(f64, f64)> {
+    match lobe.reference {
+        LobeReference::None => None,
+        LobeReference::Conductor { alpha, f0 } => Some(reference::conductor_ggx(
+            alpha,
+            f0,
+            wi.as_dvec3(),
+            wo.as_dvec3(),
+        )),
+        LobeReference::Dielectric { alpha, eta } => Some(reference::dielectric_ggx(
+            alpha,
+            eta,
+            wi.as_dvec3(),
+            wo.as_dvec3(),
+            mode == TransportMode::Importance,
+        )),
+    }
+}
+
+/// `eval` at (wi, wo): finite, non-negative, zero for a delta lobe, and
+/// against the reference.
+fn check_eval(
+    t: &mut Tally,
+    bsdf: &Bsdf,
+    (wi, wo, mode): (Vec3, Vec3, TransportMode),
+    reference: Option<(f64, f64)>,
+    case: &str,
+    call: &dyn Fn(&str) -> String,
+) {
+    t.evaluation();
+    let f = bsdf.eval(wi, wo, mode);
+    t.values(f.to_array(), || call("eval"));
+    if bsdf.is_specular() {
+        t.require(f == Vec3::ZERO, || {
+            format!("{} = {f} for a delta lobe", call("eval"))
+        });
+    }
+    if let Some((f_ref, _)) = reference
+        && f_ref <= f64::from(f32::MAX)
+    {
+        t.compare_in(case, f64::from(f.x), f_ref, || call("eval"));
+    }
+}
+
+/// `pdf` and `pdf_reverse` at (wi, wo): finite, non-negative, zero for a
+/// delta lobe, and against the reference.
+fn check_pdf(
+    t: &mut Tally,
+    bsdf: &Bsdf,
+    (wi, wo): (Vec3, Vec3),
+    reference: Option<(f64, f64)>,
+    case: &str,
+    call: &dyn Fn(&str) -> String,
+) {
+    t.evaluations(2);
+    let p = f64::from(bsdf.pdf(wi, wo));
+    let q = f64::from(bsdf.pdf_reverse(wi, wo));
+    t.value(p, || call("pdf"));
+    t.value(q, || call("pdf_reverse"));
+    if bsdf.is_specular() {
+        t.require(p == 0.0, || {
+            format!("{} = {p:e} for a delta lobe", call("pdf"))
+        });
+    }
+    if let Some((_, p_ref)) = reference
+        && p_ref <= f64::from(f32::MAX)
+    {
+        t.compare_in(case, p, p_ref, || call("pdf"));
+    }
+}
+
+/// Below this min(|cos wi|, |cos wo|) a sample is grazing: its consistency
+/// with eval and pdf is tallied in a case of its own (f32 cosines lose
+/// digits there).
+const GRAZING_COS: f32 = 1e-3;
+
+/// One `sample`: finite fields, a positive pdf and eta, a unit direction,
+/// and (non-delta) the value and density eval and pdf give at its wo.
+fn check_sample(
+    t: &mut Tally,
+    bsdf: &Bsdf,
+    (wi, uc, u, mode): (Vec3, f32, Vec2, TransportMode),
+    case: &str,
+    call: &dyn Fn() -> String,
+) {
+    t.evaluation();
+    let Some(s) = bsdf.sample(wi, uc, u, mode) else {
+        t.note("None");
+        return;
+    };
+    t.note(if s.is_specular {
+        "Some (delta)"
+    } else {
+        "Some"
+    });
+    let field = |name: &str| format!("{}.{name}", call());
+    t.values(s.f.to_array(), || field("f"));
+    let ok = t.value(f64::from(s.pdf), || field("pdf"));
+    t.value(f64::from(s.pdf_reverse), || field("pdf_reverse"));
+    t.value(f64::from(s.eta), || field("eta"));
+    t.require(ok && s.pdf > 0.0, || {
+        format!(
+            "{} = {:e}: a returned sample with pdf 0",
+            field("pdf"),
+            s.pdf
+        )
+    });
+    t.require(s.eta > 0.0, || format!("{} = {}", field("eta"), s.eta));
+    let len = s.wo.length();
+    t.require((len - 1.0).abs() <= UNIT_TOLERANCE, || {
+        format!("{} = {} has length {len}", field("wo"), v(s.wo))
+    });
+    if s.is_specular {
+        return;
+    }
+    // Consistency: the same value and density from eval / pdf at wo.
+    let f = bsdf.eval(wi, s.wo, mode);
+    let p = bsdf.pdf(wi, s.wo);
+    let grazing = if wi.z.abs().min(s.wo.z.abs()) < GRAZING_COS {
+        format!("grazing (min |cos| < {GRAZING_COS:e})")
+    } else {
+        format!("min |cos| >= {GRAZING_COS:e}")
+    };
+    let case = format!("{case}, {grazing}");
+    if p == 0.0 {
+        t.note(format!("non-delta sample where pdf(wi, wo) = 0: {case}"));
+    }
+    t.compare_in(
+        &case,
+        f64::from(s.f.max_element()),
+        f64::from(f.max_element()),
+        || format!("{}.f vs eval at wo = {}: {f}", call(), v(s.wo)),
+    );
+    t.compare_in(&case, f64::from(s.pdf), f64::from(p), || {
+        format!("{}.pdf vs pdf at wo = {}", call(), v(s.wo))
+    });
 }
 
 /// `Bsdf::eval`, `Bsdf::pdf` (+ `pdf_reverse`) and `Bsdf::sample` for every

@@ -237,7 +237,38 @@ fn subpath_rows(budget: Budget) -> [Row; 2] {
             }
         };
         let context = |steps: &[Step]| format!("path {index}, {config:?}, steps {steps:?}");
-        // Light sub-path.
+        let mut path = SubpathCheck {
+            config: &config,
+            states: &mut states,
+            weights: &mut weights,
+            context: &context,
+        };
+        let (light, light_steps) = path.light_subpath(&mut d);
+        path.light_tracing(&mut d, &light, &light_steps);
+        path.camera_subpath(&mut d, &light, &light_steps);
+    }
+    subpath_report(paths, states, weights, start.elapsed().as_secs_f64())
+}
+
+/// A light sub-path vertex: its state, and the pdfs and |cos| of a
+/// connection to it.
+type LightVertex = (SubpathState, VertexPdfs, f64);
+
+/// One random configuration of the sub-path sweep and where it counts.
+struct SubpathCheck<'a> {
+    config: &'a MisConfig,
+    /// Counts of `SubpathRay::arrive` and `SubpathState::scatter`.
+    states: &'a mut Tally,
+    /// Counts of the weight functions.
+    weights: &'a mut Tally,
+    /// Describes the path so far from its steps.
+    context: &'a dyn Fn(&[Step]) -> String,
+}
+
+impl SubpathCheck<'_> {
+    /// A light sub-path of 0..6 random vertices, and its steps.
+    fn light_subpath(&mut self, d: &mut Draw) -> (Vec<LightVertex>, Vec<Step>) {
+        let (config, context) = (self.config, self.context);
         let mut light_steps = Vec::new();
         let emission = Emission {
             kind: d.kind(),
@@ -247,16 +278,16 @@ fn subpath_rows(budget: Budget) -> [Row; 2] {
         };
         light_steps.push(Step::FromLight(emission));
         let mut light = Vec::new();
-        let mut ray = Some(SubpathRay::from_light(&config, &emission));
+        let mut ray = Some(SubpathRay::from_light(config, &emission));
         for _ in 0..d.rng.below(7) {
             let Some(r) = ray else { break };
             let (distance, cos_in) = (d.distance(), d.cos());
             light_steps.push(Step::Arrive { distance, cos_in });
-            let state = states.guard(
+            let state = self.states.guard(
                 || context(&light_steps),
                 |t| {
                     t.evaluation();
-                    let s = r.arrive(&config, distance, cos_in);
+                    let s = r.arrive(config, distance, cos_in);
                     check_state(t, &s, &|| context(&light_steps));
                     s
                 },
@@ -269,15 +300,20 @@ fn subpath_rows(budget: Budget) -> [Row; 2] {
                 specular: d.rng.chance(0.2),
             };
             light_steps.push(Step::Scatter(scatter));
-            ray = states.guard(
+            ray = self.states.guard(
                 || context(&light_steps),
                 |t| {
                     t.evaluation();
-                    state.scatter(&config, &scatter)
+                    state.scatter(config, &scatter)
                 },
             );
         }
-        // Light tracing from every light vertex.
+        (light, light_steps)
+    }
+
+    /// Light tracing from every light vertex.
+    fn light_tracing(&mut self, d: &mut Draw, light: &[LightVertex], light_steps: &[Step]) {
+        let (config, context) = (self.config, self.context);
         for (i, (state, pdfs, cos)) in light.iter().enumerate() {
             let end = ConnectionEnd {
                 pdfs: *pdfs,
@@ -287,10 +323,10 @@ fn subpath_rows(budget: Budget) -> [Row; 2] {
             let call = || {
                 format!(
                     "light_tracing_weight(light vertex {i}, {end:?}, {camera_pdf_w:?}, {distance:?}) on {}",
-                    context(&light_steps)
+                    context(light_steps)
                 )
             };
-            weights.guard(call, |t| {
+            self.weights.guard(call, |t| {
                 check_weight(
                     t,
                     config.light_tracing_weight(state, &end, camera_pdf_w, distance),
@@ -298,10 +334,15 @@ fn subpath_rows(budget: Budget) -> [Row; 2] {
                 );
             });
         }
-        // Camera sub-path with every technique at every vertex.
+    }
+
+    /// A camera sub-path of 1..6 random vertices with every technique at
+    /// every vertex.
+    fn camera_subpath(&mut self, d: &mut Draw, light: &[LightVertex], light_steps: &[Step]) {
+        let (config, context) = (self.config, self.context);
         let camera_pdf = d.pdf();
         let mut camera_steps = vec![Step::FromCamera(camera_pdf)];
-        let mut ray = Some(SubpathRay::from_camera(&config, camera_pdf));
+        let mut ray = Some(SubpathRay::from_camera(config, camera_pdf));
         for _ in 0..1 + d.rng.below(6) {
             let Some(r) = ray else { break };
             let hit = EmitterHit {
@@ -314,83 +355,23 @@ fn subpath_rows(budget: Budget) -> [Row; 2] {
                     context(&camera_steps)
                 )
             };
-            weights.guard(call, |t| {
+            self.weights.guard(call, |t| {
                 check_weight(t, config.environment_hit_weight(&r, &hit), call)
             });
             let (distance, cos_in) = (d.distance(), d.cos());
             camera_steps.push(Step::Arrive { distance, cos_in });
             let describe = || format!("camera {}", context(&camera_steps));
-            let Some(state) = states.guard(describe, |t| {
+            let Some(state) = self.states.guard(describe, |t| {
                 t.evaluation();
-                let s = r.arrive(&config, distance, cos_in);
+                let s = r.arrive(config, distance, cos_in);
                 check_state(t, &s, &describe);
                 s
             }) else {
                 break;
             };
-            let hit = EmitterHit {
-                direct_pdf_a: d.pdf(),
-                emission_pdf_w: d.pdf(),
-            };
-            let call = || format!("emitter_hit_weight({hit:?}) on {}", describe());
-            weights.guard(call, |t| {
-                check_weight(t, config.emitter_hit_weight(&state, &hit), call)
-            });
-            let end = ConnectionEnd {
-                pdfs: d.pdfs(),
-                cos: d.cos(),
-            };
-            let sample = LightSample {
-                kind: d.kind(),
-                direct_pdf_w: d.pdf(),
-                emission_pdf_w: d.pdf(),
-                cos_light: d.cos(),
-            };
-            let call = || format!("next_event_weight({end:?}, {sample:?}) on {}", describe());
-            weights.guard(call, |t| {
-                check_weight(t, config.next_event_weight(&state, &end, &sample), call);
-            });
-            for (i, (light_state, light_pdfs, light_cos)) in light.iter().enumerate() {
-                let light_end = ConnectionEnd {
-                    pdfs: *light_pdfs,
-                    cos: *light_cos,
-                };
-                let (camera_end, distance) = (
-                    ConnectionEnd {
-                        pdfs: d.pdfs(),
-                        cos: d.cos(),
-                    },
-                    d.distance(),
-                );
-                let call = || {
-                    format!(
-                        "connection_weight(light vertex {i}, {light_end:?}, {camera_end:?}, {distance:?}) on {}; light {}",
-                        describe(),
-                        context(&light_steps)
-                    )
-                };
-                weights.guard(call, |t| {
-                    let w = config.connection_weight(
-                        light_state,
-                        &light_end,
-                        &state,
-                        &camera_end,
-                        distance,
-                    );
-                    check_weight(t, w, call);
-                });
-                let merge = d.pdfs();
-                let call = || {
-                    format!(
-                        "merge_weight(light vertex {i}, {merge:?}) on {}; light {}",
-                        describe(),
-                        context(&light_steps)
-                    )
-                };
-                weights.guard(call, |t| {
-                    check_weight(t, config.merge_weight(light_state, &state, &merge), call);
-                });
-            }
+            self.camera_vertex(d, &state, &describe);
+            let light_context = || context(light_steps);
+            self.connections(d, light, &state, &describe, &light_context);
             let scatter = Scatter {
                 pdfs: d.pdfs(),
                 cos_out: d.cos(),
@@ -398,13 +379,93 @@ fn subpath_rows(budget: Budget) -> [Row; 2] {
             };
             camera_steps.push(Step::Scatter(scatter));
             let describe = || format!("camera {}", context(&camera_steps));
-            ray = states.guard(describe, |t| {
+            ray = self.states.guard(describe, |t| {
                 t.evaluation();
-                state.scatter(&config, &scatter)
+                state.scatter(config, &scatter)
             });
         }
     }
-    let seconds = start.elapsed().as_secs_f64();
+
+    /// The weights of a camera vertex alone: hitting an emitter there, and
+    /// next event estimation from it.
+    fn camera_vertex(&mut self, d: &mut Draw, state: &SubpathState, describe: &dyn Fn() -> String) {
+        let config = self.config;
+        let hit = EmitterHit {
+            direct_pdf_a: d.pdf(),
+            emission_pdf_w: d.pdf(),
+        };
+        let call = || format!("emitter_hit_weight({hit:?}) on {}", describe());
+        self.weights.guard(call, |t| {
+            check_weight(t, config.emitter_hit_weight(state, &hit), call)
+        });
+        let end = ConnectionEnd {
+            pdfs: d.pdfs(),
+            cos: d.cos(),
+        };
+        let sample = LightSample {
+            kind: d.kind(),
+            direct_pdf_w: d.pdf(),
+            emission_pdf_w: d.pdf(),
+            cos_light: d.cos(),
+        };
+        let call = || format!("next_event_weight({end:?}, {sample:?}) on {}", describe());
+        self.weights.guard(call, |t| {
+            check_weight(t, config.next_event_weight(state, &end, &sample), call);
+        });
+    }
+
+    /// The weights of a camera vertex with every light vertex: connection
+    /// and merge.
+    fn connections(
+        &mut self,
+        d: &mut Draw,
+        light: &[LightVertex],
+        state: &SubpathState,
+        describe: &dyn Fn() -> String,
+        light_context: &dyn Fn() -> String,
+    ) {
+        let config = self.config;
+        for (i, (light_state, light_pdfs, light_cos)) in light.iter().enumerate() {
+            let light_end = ConnectionEnd {
+                pdfs: *light_pdfs,
+                cos: *light_cos,
+            };
+            let (camera_end, distance) = (
+                ConnectionEnd {
+                    pdfs: d.pdfs(),
+                    cos: d.cos(),
+                },
+                d.distance(),
+            );
+            let call = || {
+                format!(
+                    "connection_weight(light vertex {i}, {light_end:?}, {camera_end:?}, {distance:?}) on {}; light {}",
+                    describe(),
+                    light_context()
+                )
+            };
+            self.weights.guard(call, |t| {
+                let w =
+                    config.connection_weight(light_state, &light_end, state, &camera_end, distance);
+                check_weight(t, w, call);
+            });
+            let merge = d.pdfs();
+            let call = || {
+                format!(
+                    "merge_weight(light vertex {i}, {merge:?}) on {}; light {}",
+                    describe(),
+                    light_context()
+                )
+            };
+            self.weights.guard(call, |t| {
+                check_weight(t, config.merge_weight(light_state, state, &merge), call);
+            });
+        }
+    }
+}
+
+/// The two rows of [`subpath_rows`].
+fn subpath_report(paths: usize, states: Tally, weights: Tally, seconds: f64) -> [Row; 2] {
     let domain = format!(
         "{paths} random configurations (BPT, merging, VCM, +- virtual merges; balance, power; N 1..1e7; radius 1e-6..1e6) \
          with a light sub-path of 0..6 and a camera sub-path of 1..6 vertices; pdfs 0 (5 %) or 1e-30..1e30, \

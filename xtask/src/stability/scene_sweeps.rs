@@ -266,47 +266,15 @@ fn scaled_row(dir: &Path, scales: &[f64], tmp: &Path) -> Row {
     let mut ordered = vec![1.0];
     ordered.extend(scales.iter().copied().filter(|&s| s != 1.0));
     for &scale in &ordered {
-        let out = tmp.join(format!("{name}-x{scale:e}"));
-        let manifest = match write_scaled(dir, scale, &out) {
-            Ok(m) => m,
-            Err(e) => {
-                t.require(false, || format!("cannot write the scaled scene: {e}"));
-                continue;
-            }
+        let Some((scene, manifest)) = load_scaled(&mut t, dir, &name, scale, tmp, size) else {
+            continue;
         };
-        let scene = match load(&mut t, &manifest, size) {
-            Some(Ok(s)) => s,
-            Some(Err(e)) => {
-                t.require(false, || {
-                    format!("{name} scaled by {scale:e} does not load: {e}")
-                });
-                continue;
-            }
-            None => continue,
-        };
-        if scene.report.degenerate_triangles > 0 {
-            t.note(format!(
-                "scale {scale:e}: {} degenerate triangles skipped by the loader",
-                scene.report.degenerate_triangles
-            ));
-        }
-        // Scaling changes no triangle's shape: the loader must not find more
-        // of them degenerate than at scale 1. (The triangle count itself may
-        // differ: shapes::sphere drops pole triangles whose vertices round to
-        // one point, which depends on the scale.)
-        let degenerate = scene.report.degenerate_triangles;
-        match unit_degenerate {
-            None => unit_degenerate = Some(degenerate),
-            Some(unit) => {
-                t.require(degenerate <= unit, || {
-                    format!(
-                        "{name} scaled by {scale:e}: the loader drops {degenerate} triangles as degenerate \
-                         ({unit} at scale 1; manifest {})",
-                        manifest.display()
-                    )
-                });
-            }
-        }
+        check_degenerate(
+            &mut t,
+            &scene,
+            &mut unit_degenerate,
+            (&name, scale, &manifest),
+        );
         let describe = || {
             format!(
                 "{name} scaled by {scale:e} (manifest {})",
@@ -351,6 +319,67 @@ fn scaled_row(dir: &Path, scales: &[f64], tmp: &Path) -> Row {
         ),
         tally: t,
         seconds: start.elapsed().as_secs_f64(),
+    }
+}
+
+/// The bundled scene in `dir` scaled by `scale`, written under `tmp` and
+/// loaded at `size`, with its manifest; None (tallied) when either fails.
+fn load_scaled(
+    t: &mut Tally,
+    dir: &Path,
+    name: &str,
+    scale: f64,
+    tmp: &Path,
+    size: UVec2,
+) -> Option<(scene::Scene, PathBuf)> {
+    let out = tmp.join(format!("{name}-x{scale:e}"));
+    let manifest = match write_scaled(dir, scale, &out) {
+        Ok(m) => m,
+        Err(e) => {
+            t.require(false, || format!("cannot write the scaled scene: {e}"));
+            return None;
+        }
+    };
+    let scene = match load(t, &manifest, size)? {
+        Ok(s) => s,
+        Err(e) => {
+            t.require(false, || {
+                format!("{name} scaled by {scale:e} does not load: {e}")
+            });
+            return None;
+        }
+    };
+    if scene.report.degenerate_triangles > 0 {
+        t.note(format!(
+            "scale {scale:e}: {} degenerate triangles skipped by the loader",
+            scene.report.degenerate_triangles
+        ));
+    }
+    Some((scene, manifest))
+}
+
+/// Scaling changes no triangle's shape: the loader must not find more of
+/// them degenerate than at scale 1 (`unit`, set by the first call). (The
+/// triangle count itself may differ: shapes::sphere drops pole triangles
+/// whose vertices round to one point, which depends on the scale.)
+fn check_degenerate(
+    t: &mut Tally,
+    scene: &scene::Scene,
+    unit: &mut Option<usize>,
+    (name, scale, manifest): (&str, f64, &Path),
+) {
+    let degenerate = scene.report.degenerate_triangles;
+    match *unit {
+        None => *unit = Some(degenerate),
+        Some(unit) => {
+            t.require(degenerate <= unit, || {
+                format!(
+                    "{name} scaled by {scale:e}: the loader drops {degenerate} triangles as degenerate \
+                     ({unit} at scale 1; manifest {})",
+                    manifest.display()
+                )
+            });
+        }
     }
 }
 

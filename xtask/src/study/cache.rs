@@ -96,6 +96,21 @@ pub fn scene_hash(files: &[(String, Vec<u8>)]) -> u64 {
     h.finish()
 }
 
+/// Hash of the files of the scene `scene_file` names: a manifest's
+/// folder is the scene (with subfolders, so the model files it names
+/// count); a model file given directly is hashed with the files next to it
+/// (an OBJ's .mtl, a glTF's buffers).
+pub fn scene_hash_of(scene_file: &Path) -> Result<u64, String> {
+    let dir = scene_file
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let manifest = scene_file
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    Ok(scene_hash(&scene_files(dir, manifest)?))
+}
+
 /// The renderer's version: xtask's package version, the git commit when
 /// `git rev-parse HEAD` works, and a hash of `git diff HEAD` over the
 /// renderer's sources (`crates/`, `Cargo.lock`) when that is not empty, so
@@ -195,7 +210,7 @@ pub fn store(
 ) -> Result<(), String> {
     fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     let (exr, json) = paths(dir, key);
-    image_io::write_exr(&exr, width, height, pixels).map_err(|e| e.to_string())?;
+    crate::write_exr(&exr, width, height, pixels)?;
     let text = serde_json::to_string_pretty(meta).map_err(|e| e.to_string())?;
     let partial = json.with_extension("json.partial");
     fs::write(&partial, text + "\n").map_err(|e| format!("{}: {e}", partial.display()))?;

@@ -138,8 +138,6 @@ impl Budget {
 pub(super) struct Options {
     /// The file `scene::load` reads.
     pub(super) scene_file: PathBuf,
-    /// The folder whose files key the cache.
-    pub(super) scene_dir: PathBuf,
     /// Folder name of the scene (or file stem).
     pub(super) scene_name: String,
     pub(super) configs: Vec<Config>,
@@ -186,9 +184,9 @@ pub(crate) fn parse_resolution(value: &str) -> Result<UVec2, String> {
     ))
 }
 
-/// The scene file and its folder for `--scene PATH`: relative paths are
+/// The scene file and the scene's name for `--scene PATH`: relative paths are
 /// tried from the current folder, then from the workspace root.
-fn resolve_scene(root: &Path, given: &str) -> Result<(PathBuf, PathBuf, String), String> {
+fn resolve_scene(root: &Path, given: &str) -> Result<(PathBuf, String), String> {
     let candidates = [PathBuf::from(given), root.join(given)];
     let path = candidates
         .iter()
@@ -216,101 +214,32 @@ fn resolve_scene(root: &Path, given: &str) -> Result<(PathBuf, PathBuf, String),
         file.file_stem().map(|n| n.to_string_lossy().into_owned())
     }
     .unwrap_or_else(|| "scene".into());
-    Ok((file, dir, name))
+    Ok((file, name))
 }
 
 impl Options {
+    /// The options of `args`, or a request for the help text.
     pub(super) fn parse(root: &Path, args: &[String]) -> Result<Parsed, String> {
-        let mut scene = None;
-        let mut configs = None;
-        let mut iterations = None;
-        let mut reference_iterations = None;
-        let mut resolution = None;
-        let mut budget = Budget::Full;
-        let mut unbiased = None;
-        let mut seed = 1;
-        let mut tau0 = None;
-        let mut out = None;
-        let mut rerender = false;
+        let mut flags = Flags::default();
         let mut i = 0;
         while i < args.len() {
             let arg = args[i].as_str();
-            let (flag, inline) = match arg.split_once('=') {
-                Some((f, v)) if f.starts_with("--") => (f, Some(v.to_string())),
-                _ => (arg, None),
-            };
-            let takes_value = !matches!(flag, "-h" | "--help" | "--rerender-reference");
-            let value = if takes_value {
-                match inline {
-                    Some(v) => v,
-                    None => {
-                        i += 1;
-                        args.get(i)
-                            .cloned()
-                            .ok_or_else(|| format!("{flag}: missing value"))?
-                    }
-                }
-            } else if inline.is_some() {
-                return Err(format!("{flag}: takes no value"));
-            } else {
-                String::new()
-            };
+            let (flag, value) = flag_and_value(args, &mut i)?;
             match flag {
                 "-h" | "--help" => return Ok(Parsed::Help),
-                "--rerender-reference" => rerender = true,
-                "--scene" => scene = Some(value),
-                "--configs" => {
-                    let mut list: Vec<Config> = Vec::new();
-                    for name in value.split(',').filter(|s| !s.trim().is_empty()) {
-                        let c = Config::parse(name).map_err(|e| format!("--configs: {e}"))?;
-                        if list.contains(&c) {
-                            return Err(format!("--configs: '{c}' is listed twice"));
-                        }
-                        list.push(c);
-                    }
-                    if list.is_empty() {
-                        return Err("--configs: the list is empty".into());
-                    }
-                    configs = Some(list);
+                "--rerender-reference" => flags.rerender = true,
+                "--scene" => flags.scene = Some(value),
+                "--configs" => flags.configs = Some(parse_configs(&value)?),
+                "--iterations" => flags.iterations = Some(positive(flag, &value)?),
+                "--reference-iterations" => {
+                    flags.reference_iterations = Some(positive(flag, &value)?);
                 }
-                "--iterations" => iterations = Some(positive(flag, &value)?),
-                "--reference-iterations" => reference_iterations = Some(positive(flag, &value)?),
-                "--resolution" => resolution = Some(parse_resolution(&value)?),
-                "--budget" => {
-                    budget = match value.to_ascii_lowercase().as_str() {
-                        "quick" => Budget::Quick,
-                        "full" => Budget::Full,
-                        _ => {
-                            return Err(format!("--budget: expected quick or full, got '{value}'"));
-                        }
-                    }
-                }
-                "--unbiased-reference" => {
-                    let c =
-                        Config::parse(&value).map_err(|e| format!("--unbiased-reference: {e}"))?;
-                    if c.regularized {
-                        return Err(format!(
-                            "--unbiased-reference: '{c}' is regularized (biased); give an \
-                             unregularized config: pt, bpt, ppm or vcm"
-                        ));
-                    }
-                    unbiased = Some(c);
-                }
-                "--seed" => {
-                    seed = value.trim().parse::<u64>().map_err(|_| {
-                        format!("--seed: expected a non-negative integer, got '{value}'")
-                    })?;
-                }
-                "--tau0" => {
-                    let t = value
-                        .trim()
-                        .parse::<f64>()
-                        .map_err(|_| format!("--tau0: expected a number, got '{value}'"))?;
-                    Regularization::new(Mode::Selective, t, true)
-                        .map_err(|e| format!("--tau0: {e}"))?;
-                    tau0 = Some(t);
-                }
-                "--out" => out = Some(PathBuf::from(value)),
+                "--resolution" => flags.resolution = Some(parse_resolution(&value)?),
+                "--budget" => flags.budget = parse_budget(&value)?,
+                "--unbiased-reference" => flags.unbiased = Some(parse_unbiased(&value)?),
+                "--seed" => flags.seed = parse_seed(&value)?,
+                "--tau0" => flags.tau0 = Some(parse_tau0(&value)?),
+                "--out" => flags.out = Some(PathBuf::from(value)),
                 _ => {
                     return Err(format!(
                         "unknown option '{arg}' (see `cargo xtask study --help`)"
@@ -319,36 +248,161 @@ impl Options {
             }
             i += 1;
         }
-        let scene = scene.ok_or("--scene: required (e.g. --scene scenes/caustic-glass)")?;
-        let (scene_file, scene_dir, scene_name) = resolve_scene(root, &scene)?;
-        let (default_iterations, default_reference, default_resolution) = match budget {
+        flags.into_options(root).map(|o| Parsed::Run(Box::new(o)))
+    }
+}
+
+/// The flags as given, before defaults.
+struct Flags {
+    scene: Option<String>,
+    configs: Option<Vec<Config>>,
+    iterations: Option<u64>,
+    reference_iterations: Option<u64>,
+    resolution: Option<UVec2>,
+    budget: Budget,
+    unbiased: Option<Config>,
+    seed: u64,
+    tau0: Option<f64>,
+    out: Option<PathBuf>,
+    rerender: bool,
+}
+
+impl Default for Flags {
+    fn default() -> Self {
+        Self {
+            scene: None,
+            configs: None,
+            iterations: None,
+            reference_iterations: None,
+            resolution: None,
+            budget: Budget::Full,
+            unbiased: None,
+            seed: 1,
+            tau0: None,
+            out: None,
+            rerender: false,
+        }
+    }
+}
+
+impl Flags {
+    /// The options: the scene resolved, the budget's defaults filled in.
+    fn into_options(self, root: &Path) -> Result<Options, String> {
+        let scene = self
+            .scene
+            .ok_or("--scene: required (e.g. --scene scenes/caustic-glass)")?;
+        let (scene_file, scene_name) = resolve_scene(root, &scene)?;
+        let (default_iterations, default_reference, default_resolution) = match self.budget {
             Budget::Quick => (16, 64, Some(UVec2::new(64, 64))),
             Budget::Full => (1024, 10_000, None),
         };
-        let configs = match configs {
+        let configs = match self.configs {
             Some(c) => c,
             None => DEFAULT_CONFIGS
                 .split(',')
                 .map(Config::parse)
                 .collect::<Result<_, _>>()?,
         };
-        let out = out.unwrap_or_else(|| root.join("target").join("study").join(&scene_name));
-        Ok(Parsed::Run(Box::new(Self {
+        let out = self
+            .out
+            .unwrap_or_else(|| root.join("target").join("study").join(&scene_name));
+        Ok(Options {
             scene_file,
-            scene_dir,
             scene_name,
             configs,
-            iterations: iterations.unwrap_or(default_iterations),
-            reference_iterations: reference_iterations.unwrap_or(default_reference),
-            resolution: resolution.or(default_resolution),
-            budget,
-            unbiased,
-            seed,
-            tau0,
+            iterations: self.iterations.unwrap_or(default_iterations),
+            reference_iterations: self.reference_iterations.unwrap_or(default_reference),
+            resolution: self.resolution.or(default_resolution),
+            budget: self.budget,
+            unbiased: self.unbiased,
+            seed: self.seed,
+            tau0: self.tau0,
             out,
-            rerender,
-        })))
+            rerender: self.rerender,
+        })
     }
+}
+
+/// The flag at `args[*i]` and its value (`--flag=value`, or the next
+/// argument, which `*i` then points to; empty for flags without one).
+fn flag_and_value<'a>(args: &'a [String], i: &mut usize) -> Result<(&'a str, String), String> {
+    let arg = args[*i].as_str();
+    let (flag, inline) = match arg.split_once('=') {
+        Some((f, v)) if f.starts_with("--") => (f, Some(v.to_string())),
+        _ => (arg, None),
+    };
+    let takes_value = !matches!(flag, "-h" | "--help" | "--rerender-reference");
+    let value = if takes_value {
+        match inline {
+            Some(v) => v,
+            None => {
+                *i += 1;
+                args.get(*i)
+                    .cloned()
+                    .ok_or_else(|| format!("{flag}: missing value"))?
+            }
+        }
+    } else if inline.is_some() {
+        return Err(format!("{flag}: takes no value"));
+    } else {
+        String::new()
+    };
+    Ok((flag, value))
+}
+
+/// `--configs a,b,...`: known names, none twice, at least one.
+fn parse_configs(value: &str) -> Result<Vec<Config>, String> {
+    let mut list: Vec<Config> = Vec::new();
+    for name in value.split(',').filter(|s| !s.trim().is_empty()) {
+        let c = Config::parse(name).map_err(|e| format!("--configs: {e}"))?;
+        if list.contains(&c) {
+            return Err(format!("--configs: '{c}' is listed twice"));
+        }
+        list.push(c);
+    }
+    if list.is_empty() {
+        return Err("--configs: the list is empty".into());
+    }
+    Ok(list)
+}
+
+/// `--budget quick|full`.
+fn parse_budget(value: &str) -> Result<Budget, String> {
+    match value.to_ascii_lowercase().as_str() {
+        "quick" => Ok(Budget::Quick),
+        "full" => Ok(Budget::Full),
+        _ => Err(format!("--budget: expected quick or full, got '{value}'")),
+    }
+}
+
+/// `--unbiased-reference C`: an unregularized config.
+fn parse_unbiased(value: &str) -> Result<Config, String> {
+    let c = Config::parse(value).map_err(|e| format!("--unbiased-reference: {e}"))?;
+    if c.regularized {
+        return Err(format!(
+            "--unbiased-reference: '{c}' is regularized (biased); give an \
+             unregularized config: pt, bpt, ppm or vcm"
+        ));
+    }
+    Ok(c)
+}
+
+/// `--seed N`.
+fn parse_seed(value: &str) -> Result<u64, String> {
+    value
+        .trim()
+        .parse::<u64>()
+        .map_err(|_| format!("--seed: expected a non-negative integer, got '{value}'"))
+}
+
+/// `--tau0 T`: a number the regularization accepts.
+fn parse_tau0(value: &str) -> Result<f64, String> {
+    let t = value
+        .trim()
+        .parse::<f64>()
+        .map_err(|_| format!("--tau0: expected a number, got '{value}'"))?;
+    Regularization::new(Mode::Selective, t, true).map_err(|e| format!("--tau0: {e}"))?;
+    Ok(t)
 }
 
 #[cfg(test)]

@@ -31,19 +31,56 @@ pub struct Errors {
     pub rel_mse: f64,
 }
 
+/// Mean squared error and relMSE (SPEC §8) over a set of scalar values,
+/// before the square root: what [`errors`] reports on luminance, and what
+/// `cargo xtask mitsuba` reports per channel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeanSquared {
+    /// mean(e), e the squared error of a value.
+    pub mse: f64,
+    /// mean(e / (ref^2 + 1e-2)).
+    pub rel_mse: f64,
+}
+
+/// The means of SPEC §8 over `(e, ref)` pairs, e a squared error (or its
+/// expectation, such as a variance) of a value whose reference is `ref`;
+/// zero for no pairs. Summed in the order given.
+pub fn mean_squared(terms: impl IntoIterator<Item = (f64, f64)>) -> MeanSquared {
+    let (mut se, mut rel, mut n) = (0.0, 0.0, 0usize);
+    for (e, r) in terms {
+        se += e;
+        rel += e / (r * r + REL_MSE_EPSILON);
+        n += 1;
+    }
+    let n = n.max(1) as f64;
+    MeanSquared {
+        mse: se / n,
+        rel_mse: rel / n,
+    }
+}
+
+/// Squared differences of paired values, with the reference value: the
+/// terms of [`mean_squared`] for an image against a reference.
+pub fn squared_differences<'a>(
+    values: impl IntoIterator<Item = f64> + 'a,
+    reference: impl IntoIterator<Item = f64> + 'a,
+) -> impl Iterator<Item = (f64, f64)> + 'a {
+    values
+        .into_iter()
+        .zip(reference)
+        .map(|(x, r)| ((x - r) * (x - r), r))
+}
+
 /// RMSE and relMSE of `image` against `reference` (luminance, same size).
 pub fn errors(image: &[f64], reference: &[f64]) -> Errors {
     assert_eq!(image.len(), reference.len(), "images of one size");
-    let n = image.len().max(1) as f64;
-    let (mut se, mut rel) = (0.0, 0.0);
-    for (&x, &r) in image.iter().zip(reference) {
-        let d2 = (x - r) * (x - r);
-        se += d2;
-        rel += d2 / (r * r + REL_MSE_EPSILON);
-    }
+    let m = mean_squared(squared_differences(
+        image.iter().copied(),
+        reference.iter().copied(),
+    ));
     Errors {
-        rmse: (se / n).sqrt(),
-        rel_mse: rel / n,
+        rmse: m.mse.sqrt(),
+        rel_mse: m.rel_mse,
     }
 }
 

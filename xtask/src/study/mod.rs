@@ -16,9 +16,9 @@
 //! - `plot`, `raster`: charts as SVG and PNG
 //! - `sheet`: the contact sheet
 
-mod cache;
+pub(crate) mod cache;
 mod cli;
-mod metrics;
+pub(crate) mod metrics;
 mod plot;
 mod progress;
 mod raster;
@@ -177,88 +177,24 @@ fn run_with_cache(root: &Path, args: &[String], cache_dir: &Path) -> Result<(), 
         Parsed::Run(options) => *options,
     };
     let started = Instant::now();
-    let load_before = load_average();
+    let load_before = crate::load_average();
     fs::create_dir_all(options.out.join("images"))
         .map_err(|e| format!("--out: cannot create {}: {e}", options.out.display()))?;
-
-    let scene = scene::load(
-        &options.scene_file,
-        &LoadOptions {
-            camera_name: None,
-            resolution: options.resolution,
-        },
-    )
-    .map_err(|e| format!("--scene: {e}"))?;
-    for warning in &scene.report.warnings {
-        eprintln!("warning: {warning}");
-    }
-    let resolution = scene.camera.resolution;
-    let (width, height) = (resolution.x, resolution.y);
-    let max_depth = scene.render.max_depth.unwrap_or(DEFAULT_MAX_DEPTH);
-    let tau0 = options.tau0.or(scene.render.tau0).unwrap_or(DEFAULT_TAU_0);
-    // A bad tau_0 from the manifest is reported before any rendering.
-    Config::REFERENCE.render_config(0, max_depth, tau0)?;
-    // A manifest's folder is the scene (with subfolders); a model file
-    // given directly is hashed with the files next to it.
-    let manifest = options
-        .scene_file
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
-    let files =
-        cache::scene_files(&options.scene_dir, manifest).map_err(|e| format!("--scene: {e}"))?;
-    let scene_hash = cache::scene_hash(&files);
+    let (scene, settings) = load_scene(&options)?;
+    let scene_hash =
+        cache::scene_hash_of(&options.scene_file).map_err(|e| format!("--scene: {e}"))?;
     let renderer_version = cache::renderer_version(root);
-
-    let mut jobs = vec![("reference", Config::REFERENCE, REFERENCE_SEED_OFFSET)];
-    if let Some(c) = options.unbiased {
-        jobs.push(("unbiased", c, UNBIASED_SEED_OFFSET));
-    }
-    println!(
-        "study: {} at {width}x{height}, configs {} x {} iterations, reference {} x {} \
-         iterations ({} budget), {} cores",
-        options.scene_file.display(),
-        options
-            .configs
-            .iter()
-            .map(Config::to_string)
-            .collect::<Vec<_>>()
-            .join(","),
-        options.iterations,
-        Config::REFERENCE,
-        options.reference_iterations,
-        options.budget.name(),
-        cores(),
-    );
-
-    // The references: from the cache, or rendered (their iterations count
-    // towards the overall progress only when they are rendered).
-    let specs: Vec<(&'static str, Config, ReferenceSpec)> = jobs
-        .iter()
-        .map(|&(role, config, offset)| {
-            (
-                role,
-                config,
-                ReferenceSpec {
-                    config: config.to_string(),
-                    iterations: options.reference_iterations,
-                    seed: options.seed.wrapping_add(offset),
-                    width,
-                    height,
-                    max_depth,
-                    tau0,
-                },
-            )
-        })
-        .collect();
-    let cached: Vec<Option<(Vec<Vec3>, serde_json::Value)>> = specs
-        .iter()
-        .map(|(_, _, spec)| {
-            let key = spec.key(scene_hash, &renderer_version);
-            (!options.rerender)
-                .then(|| cache::load(cache_dir, &key, width, height))
-                .flatten()
-        })
-        .collect();
+    announce(&options, &settings);
+    let specs = reference_specs(&options, &settings);
+    let context = ReferenceContext {
+        scene: &scene,
+        scene_file: &options.scene_file,
+        scene_hash,
+        renderer_version: &renderer_version,
+        cache_dir,
+    };
+    let cached = look_up_cache(&specs, &context, &options, &settings);
+    // Reference iterations count towards the progress only when rendered.
     let to_render: u64 = cached
         .iter()
         .filter(|c| c.is_none())
@@ -266,127 +202,51 @@ fn run_with_cache(root: &Path, args: &[String], cache_dir: &Path) -> Result<(), 
         .sum::<u64>()
         + options.iterations * options.configs.len() as u64;
     let mut progress = Progress::new(to_render);
-
     let mut references = Vec::new();
-    for ((role, config, spec), cached) in specs.into_iter().zip(cached) {
-        let key = spec.key(scene_hash, &renderer_version);
-        let cache_file = cache::paths(cache_dir, &key).0;
-        let reference = match cached {
-            Some((image, meta)) => {
-                progress.println(&format!(
-                    "{role}: {config} x {} iterations from the cache ({})",
-                    spec.iterations,
-                    cache_file.display()
-                ));
-                Reference::from_cache(role, config, spec, key, cache_file, image, &meta)
-            }
-            None => {
-                let job = ReferenceJob {
-                    role,
-                    config,
-                    spec,
-                    key,
-                    cache_file,
-                };
-                let context = ReferenceContext {
-                    scene: &scene,
-                    scene_file: &options.scene_file,
-                    scene_hash,
-                    renderer_version: &renderer_version,
-                    cache_dir,
-                };
-                render_reference(job, &context, &mut progress)?
-            }
-        };
-        let name = if role == "reference" {
-            "reference.exr".to_string()
-        } else {
-            format!("unbiased-{config}.exr")
-        };
-        write_exr(
-            &options.out.join("images").join(name),
-            width,
-            height,
+    for (spec, cached) in specs.into_iter().zip(cached) {
+        let reference = obtain_reference(spec, cached, &context, &mut progress)?;
+        crate::write_exr(
+            &options.out.join("images").join(reference.image_name()),
+            settings.width,
+            settings.height,
             &reference.image,
         )?;
         references.push(reference);
     }
-
-    // The configs.
-    let marks = metrics::checkpoints(options.iterations);
     let mut runs = Vec::new();
     for &config in &options.configs {
-        let render_config = config.render_config(options.seed, max_depth, tau0)?;
-        let t = Instant::now();
-        let renderer = Renderer::new(scene.clone(), render_config);
-        let setup_seconds = t.elapsed().as_secs_f64();
-        let mut points = Vec::new();
-        let rendered = render(
-            &renderer,
-            options.iterations,
-            &marks,
-            &mut progress,
-            &config.to_string(),
-            |state| {
-                let mean = metrics::luminance_image(&state.film.mean());
-                points.push(Point {
-                    iteration: state.iteration,
-                    seconds: state.seconds,
-                    cpu_seconds: state.cpu_seconds,
-                    noise: metrics::noise(&state.luminance_variance(), state.iteration),
-                    errors: references
-                        .iter()
-                        .map(|r| metrics::errors(&mean, &r.luminance))
-                        .collect(),
-                });
-            },
-        );
-        let run = Run {
+        let run = run_config(
             config,
-            setup_seconds,
-            points,
-            invalid_samples: renderer.invalid_samples(),
-            image: rendered.film.mean(),
-        };
-        if let Some(last) = run.points.last() {
-            progress.println(&format!(
-                "{config:>8}: {} iterations in {:.2} s, RMSE {:.3e}, relMSE {:.3e}{}",
-                last.iteration,
-                last.seconds,
-                last.errors[0].rmse,
-                last.errors[0].rel_mse,
-                if run.invalid_samples > 0 {
-                    format!(", {} NaN/Inf samples dropped", run.invalid_samples)
-                } else {
-                    String::new()
-                }
-            ));
-        }
-        write_exr(
+            &scene,
+            &options,
+            &settings,
+            &references,
+            &mut progress,
+        )?;
+        crate::write_exr(
             &options.out.join("images").join(format!("{config}.exr")),
-            width,
-            height,
+            settings.width,
+            settings.height,
             &run.image,
         )?;
         runs.push(run);
     }
     progress.finish();
-
     let study = Study {
         scene_file: options.scene_file.clone(),
         scene_name: options.scene_name.clone(),
         scene_hash,
-        resolution: (width, height),
+        resolution: (settings.width, settings.height),
         iterations: options.iterations,
         budget: options.budget.name(),
         seed: options.seed,
-        max_depth,
-        tau0,
+        max_depth: settings.max_depth,
+        tau0: settings.tau0,
         renderer_version,
         references,
         runs,
-        cores: cores(),
-        load: (load_before, load_average()),
+        cores: crate::cores(),
+        load: (load_before, crate::load_average()),
         total_seconds: started.elapsed().as_secs_f64(),
         command: std::iter::once("cargo xtask study".to_string())
             .chain(args.iter().cloned())
@@ -401,6 +261,205 @@ fn run_with_cache(root: &Path, args: &[String], cache_dir: &Path) -> Result<(), 
         started.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+/// What the scene and the flags fix for every render of a study.
+struct Settings {
+    width: u32,
+    height: u32,
+    max_depth: u32,
+    tau0: f64,
+}
+
+/// The scene at `--resolution`, its warnings printed, and the settings
+/// from its manifest and the flags.
+fn load_scene(options: &Options) -> Result<(scene::Scene, Settings), String> {
+    let scene = scene::load(
+        &options.scene_file,
+        &LoadOptions {
+            camera_name: None,
+            resolution: options.resolution,
+        },
+    )
+    .map_err(|e| format!("--scene: {e}"))?;
+    for warning in &scene.report.warnings {
+        eprintln!("warning: {warning}");
+    }
+    let resolution = scene.camera.resolution;
+    let settings = Settings {
+        width: resolution.x,
+        height: resolution.y,
+        max_depth: scene.render.max_depth.unwrap_or(DEFAULT_MAX_DEPTH),
+        tau0: options.tau0.or(scene.render.tau0).unwrap_or(DEFAULT_TAU_0),
+    };
+    // A bad tau_0 from the manifest is reported before any rendering.
+    Config::REFERENCE.render_config(0, settings.max_depth, settings.tau0)?;
+    Ok((scene, settings))
+}
+
+/// The one line that says what the study will do.
+fn announce(options: &Options, settings: &Settings) {
+    println!(
+        "study: {} at {}x{}, configs {} x {} iterations, reference {} x {} \
+         iterations ({} budget), {} cores",
+        options.scene_file.display(),
+        settings.width,
+        settings.height,
+        options
+            .configs
+            .iter()
+            .map(Config::to_string)
+            .collect::<Vec<_>>()
+            .join(","),
+        options.iterations,
+        Config::REFERENCE,
+        options.reference_iterations,
+        options.budget.name(),
+        crate::cores(),
+    );
+}
+
+/// (role, config, settings) of every reference: the regularized one, then
+/// the unbiased one if asked for.
+fn reference_specs(
+    options: &Options,
+    settings: &Settings,
+) -> Vec<(&'static str, Config, ReferenceSpec)> {
+    let mut jobs = vec![("reference", Config::REFERENCE, REFERENCE_SEED_OFFSET)];
+    if let Some(c) = options.unbiased {
+        jobs.push(("unbiased", c, UNBIASED_SEED_OFFSET));
+    }
+    jobs.into_iter()
+        .map(|(role, config, offset)| {
+            let spec = ReferenceSpec {
+                config: config.to_string(),
+                iterations: options.reference_iterations,
+                seed: options.seed.wrapping_add(offset),
+                width: settings.width,
+                height: settings.height,
+                max_depth: settings.max_depth,
+                tau0: settings.tau0,
+            };
+            (role, config, spec)
+        })
+        .collect()
+}
+
+/// The cache entry of every reference (None: not cached, or
+/// `--rerender-reference`).
+fn look_up_cache(
+    specs: &[(&'static str, Config, ReferenceSpec)],
+    context: &ReferenceContext<'_>,
+    options: &Options,
+    settings: &Settings,
+) -> Vec<Option<(Vec<Vec3>, serde_json::Value)>> {
+    specs
+        .iter()
+        .map(|(_, _, spec)| {
+            let key = spec.key(context.scene_hash, context.renderer_version);
+            (!options.rerender)
+                .then(|| cache::load(context.cache_dir, &key, settings.width, settings.height))
+                .flatten()
+        })
+        .collect()
+}
+
+/// A reference from its cache entry (`cached`), else rendered and stored.
+fn obtain_reference(
+    (role, config, spec): (&'static str, Config, ReferenceSpec),
+    cached: Option<(Vec<Vec3>, serde_json::Value)>,
+    context: &ReferenceContext<'_>,
+    progress: &mut Progress,
+) -> Result<Reference, String> {
+    let key = spec.key(context.scene_hash, context.renderer_version);
+    let cache_file = cache::paths(context.cache_dir, &key).0;
+    match cached {
+        Some((image, meta)) => {
+            progress.println(&format!(
+                "{role}: {config} x {} iterations from the cache ({})",
+                spec.iterations,
+                cache_file.display()
+            ));
+            Ok(Reference::from_cache(
+                role, config, spec, key, cache_file, image, &meta,
+            ))
+        }
+        None => {
+            let job = ReferenceJob {
+                role,
+                config,
+                spec,
+                key,
+                cache_file,
+            };
+            render_reference(job, context, progress)
+        }
+    }
+}
+
+/// Renders one config, measuring it at every checkpoint against every
+/// reference, and prints its final line.
+fn run_config(
+    config: Config,
+    scene: &scene::Scene,
+    options: &Options,
+    settings: &Settings,
+    references: &[Reference],
+    progress: &mut Progress,
+) -> Result<Run, String> {
+    let render_config = config.render_config(options.seed, settings.max_depth, settings.tau0)?;
+    let t = Instant::now();
+    let renderer = Renderer::new(scene.clone(), render_config);
+    let setup_seconds = t.elapsed().as_secs_f64();
+    let marks = metrics::checkpoints(options.iterations);
+    let mut points = Vec::new();
+    let rendered = render(
+        &renderer,
+        options.iterations,
+        &marks,
+        progress,
+        &config.to_string(),
+        |state| points.push(Point::of(state, references)),
+    );
+    let run = Run {
+        config,
+        setup_seconds,
+        points,
+        invalid_samples: renderer.invalid_samples(),
+        image: rendered.film.mean(),
+    };
+    if let Some(last) = run.points.last() {
+        progress.println(&format!(
+            "{config:>8}: {} iterations in {:.2} s, RMSE {:.3e}, relMSE {:.3e}{}",
+            last.iteration,
+            last.seconds,
+            last.errors[0].rmse,
+            last.errors[0].rel_mse,
+            if run.invalid_samples > 0 {
+                format!(", {} NaN/Inf samples dropped", run.invalid_samples)
+            } else {
+                String::new()
+            }
+        ));
+    }
+    Ok(run)
+}
+
+impl Point {
+    /// The measurements of a render at a checkpoint.
+    fn of(state: &Rendered, references: &[Reference]) -> Self {
+        let mean = metrics::luminance_image(&state.film.mean());
+        Self {
+            iteration: state.iteration,
+            seconds: state.seconds,
+            cpu_seconds: state.cpu_seconds,
+            noise: metrics::noise(&state.luminance_variance(), state.iteration),
+            errors: references
+                .iter()
+                .map(|r| metrics::errors(&mean, &r.luminance))
+                .collect(),
+        }
+    }
 }
 
 /// What identifies a reference render.
@@ -422,6 +481,15 @@ struct ReferenceContext<'a> {
 }
 
 impl Reference {
+    /// The file name of its copy in `<out>/images/`.
+    fn image_name(&self) -> String {
+        if self.role == "reference" {
+            "reference.exr".to_string()
+        } else {
+            format!("unbiased-{}.exr", self.config)
+        }
+    }
+
     /// A reference read from the cache, with the sidecar's timings and noise.
     fn from_cache(
         role: &'static str,
@@ -497,7 +565,7 @@ fn render_reference(
         "render_seconds": rendered.seconds,
         "cpu_seconds": rendered.cpu_seconds,
         "setup_seconds": setup_seconds,
-        "cores": cores(),
+        "cores": crate::cores(),
         "noise_std_error": noise.map(|n| n.std_error),
         "noise_variance": noise.map(|n| n.variance),
         "invalid_samples": invalid_samples,
@@ -529,22 +597,6 @@ fn render_reference(
         image,
         spec,
     })
-}
-
-fn write_exr(path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Result<(), String> {
-    image_io::write_exr(path, width, height, pixels).map_err(|e| e.to_string())
-}
-
-fn cores() -> usize {
-    std::thread::available_parallelism().map_or(1, |n| n.get())
-}
-
-/// The first three fields of /proc/loadavg ("?" where unavailable).
-pub(crate) fn load_average() -> String {
-    fs::read_to_string("/proc/loadavg")
-        .ok()
-        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
-        .unwrap_or_else(|| "?".into())
 }
 
 /// CPU time of this process so far, in seconds: the sum over its threads

@@ -2,7 +2,6 @@
 //! report.md with the equal-time comparisons.
 
 use std::fmt::Write as _;
-use std::fs;
 use std::path::Path;
 
 use serde_json::{Value, json};
@@ -53,9 +52,9 @@ pub fn write(out: &Path, study: &Study) -> Result<Vec<String>, String> {
     Ok(written)
 }
 
+/// Writes `<out>/<name>` and adds `name` to `written`.
 fn write_file(out: &Path, name: &str, text: &str, written: &mut Vec<String>) -> Result<(), String> {
-    let path = out.join(name);
-    fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+    crate::write_file(&out.join(name), text)?;
     written.push(name.to_string());
     Ok(())
 }
@@ -401,8 +400,22 @@ fn markdown(
     crop: Crop,
     sheet: &SheetInfo,
 ) -> String {
-    let (w, h) = study.resolution;
     let mut s = String::new();
+    md_settings(&mut s, study);
+    md_metrics(&mut s);
+    md_references(&mut s, study);
+    md_final_iteration(&mut s, study);
+    md_equal_time(&mut s, study, comparisons);
+    md_time_to_reach(&mut s, study, comparisons);
+    md_checkpoints(&mut s, study);
+    md_charts(&mut s, charts);
+    md_contact_sheet(&mut s, study, crop, sheet);
+    s
+}
+
+/// The title, the command and the settings table.
+fn md_settings(s: &mut String, study: &Study) {
+    let (w, h) = study.resolution;
     let _ = writeln!(s, "# Convergence study: {}\n", study.scene_name);
     let _ = writeln!(s, "Command: `{}`\n", study.command);
     let _ = writeln!(s, "| setting | value |\n|---|---|");
@@ -446,7 +459,10 @@ fn markdown(
     for (k, v) in rows {
         let _ = writeln!(s, "| {k} | {v} |");
     }
+}
 
+/// How the metrics and times are defined.
+fn md_metrics(s: &mut String) {
     let _ = writeln!(
         s,
         "\n## Metrics\n\n\
@@ -467,7 +483,10 @@ fn markdown(
          metrics are excluded. The machine is shared: see the load average above. \
          Checkpoints are at N = 1, 2, 4, ... and the last iteration."
     );
+}
 
+/// The references: settings, times, noise, and how far apart they are.
+fn md_references(s: &mut String, study: &Study) {
     let _ = writeln!(s, "\n## References\n");
     let _ = writeln!(
         s,
@@ -525,7 +544,10 @@ fn markdown(
             );
         }
     }
+}
 
+/// Every config's last checkpoint: times, errors against each reference, noise.
+fn md_final_iteration(s: &mut String, study: &Study) {
     let _ = writeln!(s, "\n## Final iteration\n");
     let mut header = String::from(
         "| config | iterations | render time (s) | CPU time (s) | s/iteration | setup (s) |",
@@ -562,7 +584,10 @@ fn markdown(
             run.invalid_samples
         );
     }
+}
 
+/// Regularized against unregularized at equal render time.
+fn md_equal_time(s: &mut String, study: &Study, comparisons: &Comparisons) {
     let _ = writeln!(s, "\n## Equal-time comparison\n");
     let _ = writeln!(
         s,
@@ -603,7 +628,10 @@ fn markdown(
             );
         }
     }
+}
 
+/// When each config's RMSE first reaches each level.
+fn md_time_to_reach(s: &mut String, study: &Study, comparisons: &Comparisons) {
     let _ = writeln!(s, "\n## Time to reach an error level\n");
     let _ = writeln!(
         s,
@@ -642,7 +670,10 @@ fn markdown(
         }
         s.push('\n');
     }
+}
 
+/// Every checkpoint of every config.
+fn md_checkpoints(s: &mut String, study: &Study) {
     let _ = writeln!(s, "## Checkpoints\n");
     let mut header = String::from("| config | N | time (s) | CPU (s) |");
     let mut rule = String::from("|---|---|---|---|");
@@ -673,7 +704,10 @@ fn markdown(
             );
         }
     }
+}
 
+/// The charts, SVG inline and links to the PNG versions.
+fn md_charts(s: &mut String, charts: &[String]) {
     let _ = writeln!(s, "\n## Charts\n");
     for chart in charts.iter().filter(|c| c.ends_with(".svg")) {
         let _ = writeln!(s, "![{chart}]({chart})\n");
@@ -689,7 +723,10 @@ fn markdown(
                 .join(", ")
         );
     }
+}
 
+/// The contact sheet and what its tiles show.
+fn md_contact_sheet(s: &mut String, study: &Study, crop: Crop, sheet: &SheetInfo) {
     let _ = writeln!(
         s,
         "## Contact sheet\n\n![contact sheet](contact-sheet.png)\n"
@@ -715,7 +752,6 @@ fn markdown(
         study.iterations,
         sheet.exposure
     );
-    s
 }
 
 fn reference_name(study: &Study, i: usize) -> String {

@@ -1,0 +1,315 @@
+//! The scene as a Mitsuba 3 scene: `scene.xml` and one binary PLY per
+//! material, written from our world-space triangles.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::fs;
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+use scene::{Light, Material, Scene, Surface};
+
+use super::Options;
+
+/// The exported Mitsuba scene.
+pub(super) struct Exported {
+    pub(super) xml: PathBuf,
+    pub(super) summary: String,
+}
+
+/// Writes `scene` as a Mitsuba 3 scene into `dir`.
+///
+/// Mapping (checked against Mitsuba 3's `path`, `diffuse`, `twosided`,
+/// `area` and `perspective` plugins):
+/// - triangles: one binary PLY per material, world space, three vertices per
+///   triangle in our order, so Mitsuba's face normal cross(p1-p0, p2-p0) is
+///   our winding normal. Face normals (`face_normals=true`) unless the scene
+///   has shading normals that differ from them; then they are written per
+///   vertex.
+/// - `Surface::Diffuse { reflectance }`: `twosided(diffuse(rgb reflectance))`.
+///   Our lobes are two-sided, Mitsuba's `diffuse` is black from the back;
+///   `twosided` makes it reflect on both sides as ours does.
+/// - emission: an `area` emitter with the same RGB radiance. Both emit on the
+///   side of the (winding) normal only.
+/// - camera: `perspective`, `lookat` origin/target/up, the vertical field of
+///   view with `fov_axis="y"`, `box` reconstruction filter, `independent`
+///   sampler with `--spp`.
+/// - integrator: `path` with `max_depth` = ours (both count segments: 1 shows
+///   emitters only) and `rr_depth` = 3 (both roll the dice after sampling the
+///   direction at the third vertex). Differences left: Mitsuba's roulette
+///   survival is capped at 0.95 (ours at 1) and its light choice is uniform
+///   over emitting shapes; both are unbiased, so only the noise differs.
+pub(super) fn export(scene: &Scene, options: &Options, dir: &Path) -> Result<Exported, String> {
+    check_lights(scene)?;
+    let mesh_dir = dir.join("meshes");
+    fs::create_dir_all(&mesh_dir)
+        .map_err(|e| format!("cannot create {}: {e}", mesh_dir.display()))?;
+    let by_material = triangles_by_material(scene);
+    let mut shapes = String::new();
+    let (mut emitters, mut smooth_meshes) = (0, 0);
+    for (&m, triangles) in &by_material {
+        let mesh = write_mesh(scene, m, triangles, dir)?;
+        shapes.push_str(&shape_xml(&mesh));
+        emitters += usize::from(mesh.material.is_emissive());
+        smooth_meshes += usize::from(mesh.smooth);
+    }
+    let xml_path = dir.join("scene.xml");
+    crate::write_file(&xml_path, scene_xml(scene, options, &shapes))?;
+    Ok(Exported {
+        xml: xml_path,
+        summary: format!(
+            "{} meshes, {emitters} emitting, {}",
+            by_material.len(),
+            if smooth_meshes == 0 {
+                "face normals".to_string()
+            } else {
+                format!("{smooth_meshes} with shading normals")
+            }
+        ),
+    })
+}
+
+/// A shading normal whose cosine with the face normal is below this
+/// differs from it (beyond the rounding of normals stored as f32), so the
+/// mesh is written with per-vertex normals.
+const FLAT_COSINE: f32 = 1.0 - 1e-5;
+
+/// An error unless every light is an emissive triangle (Mitsuba's `area`).
+fn check_lights(scene: &Scene) -> Result<(), String> {
+    match scene
+        .lights
+        .iter()
+        .find(|l| !matches!(l, Light::Area { .. }))
+    {
+        Some(light) => Err(format!(
+            "the Mitsuba export handles emissive triangles only; the scene has {light:?}"
+        )),
+        None => Ok(()),
+    }
+}
+
+/// Triangle indices per material index, in material order.
+fn triangles_by_material(scene: &Scene) -> BTreeMap<u32, Vec<usize>> {
+    let mut by_material: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
+    for (i, &m) in scene.triangle_materials.iter().enumerate() {
+        by_material.entry(m).or_default().push(i);
+    }
+    by_material
+}
+
+/// One material's triangles, written as a PLY file.
+struct Mesh<'a> {
+    material: &'a Material,
+    reflectance: Vec3,
+    /// The PLY's path relative to the scene folder.
+    file: String,
+    /// Whether the PLY has per-vertex (shading) normals.
+    smooth: bool,
+}
+
+/// Writes the triangles of material `m` to `<dir>/meshes/`.
+fn write_mesh<'a>(
+    scene: &'a Scene,
+    m: u32,
+    triangles: &[usize],
+    dir: &Path,
+) -> Result<Mesh<'a>, String> {
+    let material = &scene.materials[m as usize];
+    let Surface::Diffuse { reflectance } = material.surface else {
+        return Err(format!(
+            "the Mitsuba export handles diffuse materials only; `{}` is {:?}",
+            material.name, material.surface
+        ));
+    };
+    let file = format!("meshes/{m:03}-{}.ply", sanitize(&material.name));
+    let smooth = triangles.iter().any(|&t| {
+        let n = scene.geometric_normal(t);
+        scene.normals[t].iter().any(|s| s.dot(n) < FLAT_COSINE)
+    });
+    let path = dir.join(&file);
+    crate::write_file(&path, ply(scene, triangles, smooth))?;
+    Ok(Mesh {
+        material,
+        reflectance,
+        file,
+        smooth,
+    })
+}
+
+/// The `<shape>` of a mesh: its PLY file, `twosided(diffuse)`, and an
+/// `area` emitter when the material emits.
+fn shape_xml(mesh: &Mesh) -> String {
+    let mut shape = String::new();
+    let _ = writeln!(
+        shape,
+        r#"    <shape type="ply" id="{id}">
+        <string name="filename" value="{file}"/>
+        <boolean name="face_normals" value="{face}"/>
+        <bsdf type="twosided">
+            <bsdf type="diffuse">
+                <rgb name="reflectance" value="{r}"/>
+            </bsdf>
+        </bsdf>"#,
+        id = sanitize(&mesh.material.name),
+        file = mesh.file,
+        face = !mesh.smooth,
+        r = rgb(mesh.reflectance),
+    );
+    if mesh.material.is_emissive() {
+        let _ = writeln!(
+            shape,
+            r#"        <emitter type="area">
+            <rgb name="radiance" value="{}"/>
+        </emitter>"#,
+            rgb(mesh.material.emission)
+        );
+    }
+    shape.push_str("    </shape>\n");
+    shape
+}
+
+/// The whole `scene.xml`: integrator, camera and film, then `shapes`.
+fn scene_xml(scene: &Scene, options: &Options, shapes: &str) -> String {
+    let c = &scene.camera;
+    let target = c.position + c.forward;
+    format!(
+        r#"<?xml version="1.0" encoding="utf-8"?>
+<!-- Written by `cargo xtask mitsuba` from {source}; mapping in xtask/src/mitsuba/export.rs. -->
+<scene version="3.0.0">
+    <integrator type="path">
+        <integer name="max_depth" value="{max_depth}"/>
+        <integer name="rr_depth" value="3"/>
+    </integrator>
+    <sensor type="perspective">
+        <string name="fov_axis" value="y"/>
+        <float name="fov" value="{fov:?}"/>
+        <float name="near_clip" value="0.001"/>
+        <float name="far_clip" value="100000"/>
+        <transform name="to_world">
+            <lookat origin="{origin}" target="{target}" up="{up}"/>
+        </transform>
+        <sampler type="independent">
+            <integer name="sample_count" value="{spp}"/>
+        </sampler>
+        <film type="hdrfilm">
+            <integer name="width" value="{width}"/>
+            <integer name="height" value="{height}"/>
+            <string name="pixel_format" value="rgb"/>
+            <string name="component_format" value="float32"/>
+            <rfilter type="box"/>
+        </film>
+    </sensor>
+{shapes}</scene>
+"#,
+        source = options.scene.display(),
+        max_depth = options.max_depth,
+        fov = f64::from(c.vertical_fov).to_degrees(),
+        origin = rgb(c.position),
+        target = rgb(target),
+        up = rgb(c.up),
+        spp = options.spp,
+        width = c.resolution.x,
+        height = c.resolution.y,
+    )
+}
+
+/// A binary little-endian PLY of `triangles` (three vertices each).
+fn ply(scene: &Scene, triangles: &[usize], normals: bool) -> Vec<u8> {
+    let mut header = format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\n",
+        3 * triangles.len()
+    );
+    if normals {
+        header.push_str("property float nx\nproperty float ny\nproperty float nz\n");
+    }
+    let _ = write!(
+        header,
+        "element face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        triangles.len()
+    );
+    let mut bytes = header.into_bytes();
+    for &t in triangles {
+        for k in 0..3 {
+            let mut values = scene.triangles[t][k].to_array().to_vec();
+            if normals {
+                values.extend(scene.normals[t][k].to_array());
+            }
+            for v in values {
+                bytes.extend(v.to_le_bytes());
+            }
+        }
+    }
+    for i in 0..triangles.len() as i32 {
+        bytes.push(3);
+        for k in 0..3 {
+            bytes.extend((3 * i + k).to_le_bytes());
+        }
+    }
+    bytes
+}
+
+fn rgb(v: Vec3) -> String {
+    format!("{:?}, {:?}, {:?}", v.x, v.y, v.z)
+}
+
+fn sanitize(name: &str) -> String {
+    let s: String = name
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect();
+    if s.is_empty() { "material".into() } else { s }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::UVec2;
+    use scene::LoadOptions;
+
+    #[test]
+    fn ply_is_well_formed() {
+        let scene = scene::load(
+            &Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-box/scene.toml"),
+            &LoadOptions {
+                camera_name: None,
+                resolution: Some(UVec2::new(8, 8)),
+            },
+        )
+        .unwrap();
+        let bytes = ply(&scene, &[0, 1], false);
+        let header_end = bytes
+            .windows(11)
+            .position(|w| w == b"end_header\n")
+            .unwrap()
+            + 11;
+        // 6 vertices x 3 floats, then 2 faces x (1 + 3 x 4) bytes.
+        assert_eq!(bytes.len() - header_end, 6 * 12 + 2 * 13);
+    }
+
+    #[test]
+    fn export_writes_one_ply_per_material_and_the_scene_xml() {
+        let options = crate::mitsuba::test_options(&["--resolution", "8x8", "--spp", "4"]);
+        let scene = scene::load(
+            &options.scene,
+            &LoadOptions {
+                camera_name: None,
+                resolution: Some(UVec2::new(8, 8)),
+            },
+        )
+        .unwrap();
+        let dir = std::env::temp_dir().join(format!("xtask-mitsuba-export-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        let exported = export(&scene, &options, &dir).unwrap();
+        let xml = fs::read_to_string(&exported.xml).unwrap();
+        let meshes = triangles_by_material(&scene).len();
+        assert_eq!(fs::read_dir(dir.join("meshes")).unwrap().count(), meshes);
+        assert_eq!(xml.matches("<shape type=\"ply\"").count(), meshes);
+        assert!(xml.contains(r#"<integer name="sample_count" value="4"/>"#));
+        assert!(xml.contains(r#"<integer name="width" value="8"/>"#));
+        assert!(xml.contains("<emitter type=\"area\">"));
+        assert!(exported.summary.starts_with(&format!("{meshes} meshes, ")));
+        if std::env::var_os("XTASK_KEEP_EXPORT").is_none() {
+            fs::remove_dir_all(dir).unwrap();
+        }
+    }
+}

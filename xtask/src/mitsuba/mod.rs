@@ -1,0 +1,284 @@
+//! `cargo xtask mitsuba`: our path tracer against Mitsuba 3's `scalar_rgb`
+//! path tracer on the same scene, at the same samples per pixel, by wall
+//! time and by error against one reference.
+//!
+//! What it does, in order:
+//! 1. loads the scene with `scene::load` and exports it to a Mitsuba 3 scene
+//!    (`<out>/mitsuba-scene/scene.xml`, one binary PLY per material, written
+//!    from our world-space triangles; see [`export`] for the mapping);
+//! 2. finds Mitsuba (`<out>/venv`, else the system `python3`), or installs it
+//!    into `<out>/venv` with `python3 -m venv` and `pip install mitsuba`;
+//! 3. renders a reference with our renderer at `--reference-spp` (cached in
+//!    `<out>/cache/`, keyed by the settings and the scene's files: delete
+//!    that folder after changing the renderer);
+//! 4. renders with both renderers at `--spp` (with all cores, and with one
+//!    core unless `--no-single-thread`) and at `--check-spp` (all cores),
+//!    timing the render call only;
+//! 5. compares every image with the reference (RMSE, relMSE, efficiency
+//!    1/(time MSE), time-to-equal-error ratio against Mitsuba) and checks
+//!    that the two renderers estimate the same image (image means, and
+//!    noise-normalised block means), then writes `<out>/report.md` and
+//!    `<out>/report.json`.
+//!
+//! Timings are only meaningful in a release build: when this binary is a
+//! debug build (as `cargo xtask` builds it), it runs itself again through
+//! `cargo run --release -p xtask -- mitsuba ...` and passes the arguments on.
+//!
+//! No light transport happens here: our images come from the `integrators`
+//! library, Mitsuba's from `xtask/scripts/mitsuba_pt.py`.
+//!
+//! - this file: flags, the release re-run, the steps above in order
+//! - `export`: the scene as Mitsuba 3 XML and binary PLY meshes
+//! - `install`: finding Mitsuba, or installing it with pip
+//! - `process`: child processes with captured output and a watchdog
+//! - `render`: the timed renders, ours in-process and Mitsuba's script
+//! - `reference`: our reference image and its cache
+//! - `compare`: per-channel errors, agreement beyond noise, the bias fit
+//! - `report`: report.md and report.json
+
+mod compare;
+mod export;
+mod install;
+mod process;
+mod reference;
+mod render;
+mod report;
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use glam::UVec2;
+use scene::{LoadOptions, Scene};
+
+use export::{Exported, export};
+use install::ensure_mitsuba;
+use reference::reference;
+use render::render_all;
+use report::Report;
+
+pub const USAGE: &str =
+    "  mitsuba [options] compare our path tracer with Mitsuba 3 (scalar_rgb `path`)
+                    on one scene: export, render both, error against a
+                    reference of ours; writes <out>/report.md and report.json.
+                    Runs itself in release (timings need it).
+      --scene PATH          scene (default scenes/cornell-box/scene.toml)
+      --spp N               samples per pixel of the timed renders (default 64)
+      --resolution WxH      image size (default 512x512)
+      --max-depth D         longest path in segments, both renderers (default 16)
+      --reference-spp M     spp of our reference (default 1024; >= 16x --spp
+                            keeps its own error small). Cached in <out>/cache
+                            by settings: delete it after renderer changes
+      --check-spp K         spp of a second pair of renders (all cores, one
+                            repeat) for the convergence rate and the floor fit
+                            (default spp/4; 0 skips them)
+      --repeat R            time each all-core --spp render R times and report
+                            the fastest (default 2; the machine may be shared)
+      --no-single-thread    skip the one-thread renders
+      --out DIR             output folder (default target/mitsuba)
+                            (relative paths are from the workspace root)";
+
+/// The reference's sampler seed (see `render::SEED_TEST`).
+const SEED_REFERENCE: u64 = 0x5EED_0000_0000_0001;
+
+/// Set on the release child so that a release profile with debug
+/// assertions cannot loop.
+const CHILD_ENV: &str = "RLT_XTASK_MITSUBA_CHILD";
+
+#[derive(Clone, Debug)]
+pub(super) struct Options {
+    pub(super) scene: PathBuf,
+    pub(super) spp: u32,
+    pub(super) width: u32,
+    pub(super) height: u32,
+    pub(super) max_depth: u32,
+    pub(super) reference_spp: u32,
+    pub(super) check_spp: u32,
+    pub(super) repeat: u32,
+    pub(super) single_thread: bool,
+    pub(super) out: PathBuf,
+}
+
+impl Options {
+    fn parse(root: &Path, args: &[String]) -> Result<Self, String> {
+        let mut o = Self {
+            scene: root.join("scenes/cornell-box/scene.toml"),
+            spp: 64,
+            width: 512,
+            height: 512,
+            max_depth: 16,
+            reference_spp: 1024,
+            check_spp: u32::MAX,
+            repeat: 2,
+            single_thread: true,
+            out: root.join("target/mitsuba"),
+        };
+        let mut it = args.iter();
+        while let Some(flag) = it.next() {
+            if flag == "--no-single-thread" {
+                o.single_thread = false;
+                continue;
+            }
+            let value = it
+                .next()
+                .ok_or_else(|| format!("{flag} needs a value\n\n{USAGE}"))?;
+            let number = |what: &str| -> Result<u32, String> {
+                value
+                    .parse::<u32>()
+                    .map_err(|_| format!("{what}: expected a whole number, got `{value}`"))
+            };
+            match flag.as_str() {
+                "--scene" => o.scene = root.join(value),
+                "--spp" => o.spp = number("--spp")?,
+                "--max-depth" => o.max_depth = number("--max-depth")?,
+                "--reference-spp" => o.reference_spp = number("--reference-spp")?,
+                "--check-spp" => o.check_spp = number("--check-spp")?,
+                "--repeat" => o.repeat = number("--repeat")?.max(1),
+                "--out" => o.out = root.join(value),
+                "--resolution" => {
+                    let size = crate::study::parse_resolution(value)?;
+                    (o.width, o.height) = (size.x, size.y);
+                }
+                other => return Err(format!("unknown option `{other}`\n\nusage:\n{USAGE}")),
+            }
+        }
+        if o.spp == 0 || o.reference_spp == 0 || o.width == 0 || o.height == 0 {
+            return Err("--spp, --reference-spp and the resolution must be positive".into());
+        }
+        if o.check_spp == u32::MAX {
+            o.check_spp = o.spp / 4;
+        }
+        if o.check_spp == o.spp {
+            o.check_spp = 0;
+        }
+        if o.reference_spp < 16 * o.spp {
+            println!(
+                "warning: --reference-spp {} is below 16x --spp {}: the reference's own error is not negligible (the report removes an estimate of it)",
+                o.reference_spp, o.spp
+            );
+        }
+        if o.max_depth == 0 {
+            return Err("--max-depth must be at least 1 (1: emitters seen directly)".into());
+        }
+        Ok(o)
+    }
+
+    pub(super) fn pixels(&self) -> usize {
+        self.width as usize * self.height as usize
+    }
+}
+
+/// Runs `cargo xtask mitsuba ARGS` (in a release build: see the module docs).
+pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
+    let options = Options::parse(root, args)?;
+    if cfg!(debug_assertions) && std::env::var_os(CHILD_ENV).is_none() {
+        return rerun_in_release(root, args);
+    }
+    let started = Instant::now();
+    let load_before = crate::load_average();
+    fs::create_dir_all(&options.out)
+        .map_err(|e| format!("cannot create {}: {e}", options.out.display()))?;
+    if cfg!(debug_assertions) {
+        println!("warning: this is a debug build; timings are not release numbers");
+    }
+    let (scene, scene_load_s) = load_scene(&options)?;
+    let exported = export_scene(&scene, &options, scene_load_s)?;
+    let mitsuba = ensure_mitsuba(&options.out)?;
+    println!("mitsuba: {} ({})", mitsuba.version, mitsuba.how);
+    let reference = reference(&scene, &options)?;
+    let runs = render_all(root, &scene, &options, &mitsuba, &exported)?;
+    let context = (
+        &options,
+        crate::cores(),
+        &mitsuba,
+        scene_load_s,
+        load_before,
+    );
+    Report::new(context, &reference, &runs).write(&options.out, started.elapsed().as_secs_f64())
+}
+
+/// Our scene at the options' resolution, and the seconds loading took.
+fn load_scene(options: &Options) -> Result<(Scene, f64), String> {
+    let t = Instant::now();
+    let scene = scene::load(
+        &options.scene,
+        &LoadOptions {
+            camera_name: None,
+            resolution: Some(UVec2::new(options.width, options.height)),
+        },
+    )
+    .map_err(|e| format!("cannot load the scene: {e}"))?;
+    Ok((scene, t.elapsed().as_secs_f64()))
+}
+
+/// Exports `scene` to `<out>/mitsuba-scene/` and says so.
+fn export_scene(scene: &Scene, options: &Options, scene_load_s: f64) -> Result<Exported, String> {
+    let exported = export(scene, options, &options.out.join("mitsuba-scene"))?;
+    println!(
+        "scene: {} ({} triangles, loaded in {scene_load_s:.3} s); Mitsuba export: {} ({})",
+        options.scene.display(),
+        scene.triangles.len(),
+        exported.xml.display(),
+        exported.summary
+    );
+    Ok(exported)
+}
+
+/// Runs this task again from a release build of xtask (the child prints
+/// its own one-line error).
+fn rerun_in_release(root: &Path, args: &[String]) -> Result<(), String> {
+    let mut cargo_args = vec![
+        "run",
+        "--release",
+        "--quiet",
+        "-p",
+        "xtask",
+        "--",
+        "mitsuba",
+    ];
+    cargo_args.extend(args.iter().map(String::as_str));
+    println!(
+        "timings need a release build: running `cargo {}`",
+        cargo_args.join(" ")
+    );
+    crate::cargo_with_env(root, &cargo_args, &[(CHILD_ENV, "1")])
+}
+
+/// The options of `args` (flags as string slices) with the workspace as
+/// the root, for tests.
+#[cfg(test)]
+fn test_options(args: &[&str]) -> Options {
+    let args: Vec<String> = args.iter().map(|s| s.to_string()).collect();
+    Options::parse(&crate::workspace_root(), &args).unwrap()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn options_parse_and_reject_bad_values() {
+        let root = Path::new("/r");
+        let args: Vec<String> = ["--spp", "8", "--resolution", "64x32", "--no-single-thread"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        let o = Options::parse(root, &args).unwrap();
+        assert_eq!(
+            (o.spp, o.width, o.height, o.single_thread),
+            (8, 64, 32, false)
+        );
+        assert_eq!(o.out, Path::new("/r/target/mitsuba"));
+        for bad in [
+            &["--spp"][..],
+            &["--spp", "x"],
+            &["--resolution", "64"],
+            &["--max-depth", "0"],
+            &["--frobnicate", "1"],
+        ] {
+            let bad: Vec<String> = bad.iter().map(|s| s.to_string()).collect();
+            let e = Options::parse(root, &bad).unwrap_err();
+            assert!(!e.is_empty());
+        }
+    }
+}

@@ -1,0 +1,283 @@
+//! The timed renders: ours in-process through `integrators::Renderer`,
+//! Mitsuba's through `xtask/scripts/mitsuba_pt.py`, one image each.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+use glam::Vec3;
+use image_io::read_exr;
+use integrators::{Regularization, RenderConfig, Renderer};
+use scene::Scene;
+use serde_json::Value;
+
+use super::Options;
+use super::export::Exported;
+use super::install::Mitsuba;
+use super::process::run_with_timeout;
+
+/// Sampler seeds: every image uses its own random numbers, so that no test
+/// image shares samples with the reference (`SEED_REFERENCE`).
+const SEED_TEST: u64 = 1;
+const SEED_CHECK: u64 = 2;
+
+/// Every timed render, ours and Mitsuba's: `--spp` on all cores and (unless
+/// `--no-single-thread`) on one, then `--check-spp` on all cores.
+pub(super) fn render_all(
+    root: &Path,
+    scene: &Scene,
+    options: &Options,
+    mitsuba: &Mitsuba,
+    exported: &Exported,
+) -> Result<Vec<Run>, String> {
+    let mut runs = Vec::new();
+    for (job, repeat) in plan(options, crate::cores()) {
+        // Alternating, so that other work on the machine hits both alike.
+        let (mut ours, mut theirs) = (None, None);
+        for _ in 0..repeat {
+            merge(&mut ours, render_ours(scene, options, job)?);
+            merge(
+                &mut theirs,
+                render_mitsuba(root, mitsuba, exported, options, job)?,
+            );
+        }
+        runs.extend(ours);
+        runs.extend(theirs);
+    }
+    Ok(runs)
+}
+
+/// The renders of [`render_all`] in order, with how often each is timed:
+/// `--repeat` times only where the table's ratio is read (all cores,
+/// `--spp`), once elsewhere.
+fn plan(options: &Options, cores: usize) -> Vec<(Job, u32)> {
+    let mut thread_counts = vec![cores];
+    if options.single_thread && cores > 1 {
+        thread_counts.push(1);
+    }
+    let mut plan = Vec::new();
+    for &threads in &thread_counts {
+        let repeat = if threads == cores { options.repeat } else { 1 };
+        let job = Job {
+            spp: options.spp,
+            seed: SEED_TEST,
+            threads,
+        };
+        plan.push((job, repeat));
+    }
+    if options.check_spp > 0 {
+        let job = Job {
+            spp: options.check_spp,
+            seed: SEED_CHECK,
+            threads: cores,
+        };
+        plan.push((job, 1));
+    }
+    plan
+}
+
+/// What to render: spp, seed, threads.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Job {
+    pub(super) spp: u32,
+    pub(super) seed: u64,
+    pub(super) threads: usize,
+}
+
+/// Adds `run`'s time to `acc` (a repeat of the same render), or starts it.
+fn merge(acc: &mut Option<Run>, run: Run) {
+    match acc {
+        None => *acc = Some(run),
+        Some(a) => {
+            a.render_times.extend(run.render_times);
+            a.render_s = fastest(&a.render_times);
+        }
+    }
+}
+
+/// One timed render and its image.
+pub(super) struct Run {
+    pub(super) renderer: &'static str,
+    pub(super) threads: usize,
+    pub(super) spp: u32,
+    /// Acceleration-structure build (ours) or scene load (Mitsuba), seconds.
+    pub(super) setup_s: f64,
+    /// The fastest of `render_times`.
+    pub(super) render_s: f64,
+    /// Every repeat's render time (the image is the same each time).
+    pub(super) render_times: Vec<f64>,
+    pub(super) image: Vec<Vec3>,
+    pub(super) path: PathBuf,
+    pub(super) note: String,
+}
+
+pub(super) const OURS: &str = "ours (pt)";
+pub(super) const MITSUBA: &str = "mitsuba 3 (path, scalar_rgb)";
+
+fn config(options: &Options, seed: u64) -> RenderConfig {
+    RenderConfig {
+        max_depth: options.max_depth,
+        seed,
+        regularization: Regularization::off(),
+        ..Default::default()
+    }
+}
+
+/// Renders `spp` iterations of one sample per pixel with our path tracer on
+/// `threads` threads; returns the film's mean and variance of the mean.
+/// Returns the film, the BVH build time, the render time and the number of
+/// dropped NaN/inf samples.
+pub(super) fn render_film(
+    scene: &Scene,
+    options: &Options,
+    job: Job,
+) -> Result<(integrators::Film, f64, Vec<f64>, u64), String> {
+    let threads = job.threads;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| format!("cannot start {threads} render threads: {e}"))?;
+    Ok(pool.install(|| {
+        let t = Instant::now();
+        let renderer = Renderer::new(scene.clone(), config(options, job.seed));
+        let setup_s = t.elapsed().as_secs_f64();
+        let mut film = renderer.new_film();
+        let t = Instant::now();
+        renderer.render(&mut film, 1, u64::from(job.spp));
+        let times = vec![t.elapsed().as_secs_f64()];
+        (film, setup_s, times, renderer.invalid_samples())
+    }))
+}
+
+pub(super) fn fastest(times: &[f64]) -> f64 {
+    times.iter().copied().fold(f64::INFINITY, f64::min)
+}
+
+fn seconds(times: &[f64]) -> String {
+    let list: Vec<String> = times.iter().map(|t| format!("{t:.3}")).collect();
+    list.join(", ")
+}
+
+fn render_ours(scene: &Scene, options: &Options, job: Job) -> Result<Run, String> {
+    let Job { spp, threads, .. } = job;
+    let (film, setup_s, render_times, invalid) = render_film(scene, options, job)?;
+    let render_s = fastest(&render_times);
+    let image = film.mean();
+    let path = options.out.join(format!("ours-{spp}spp-{threads}t.exr"));
+    crate::write_exr(&path, options.width, options.height, &image)?;
+    println!(
+        "ours:    {spp:>5} spp, {threads} thread(s): render {} s (BVH {setup_s:.4} s) -> {}",
+        seconds(&render_times),
+        path.display()
+    );
+    Ok(Run {
+        renderer: OURS,
+        threads,
+        spp,
+        setup_s,
+        render_s,
+        render_times,
+        image,
+        path,
+        note: if invalid > 0 {
+            format!("{invalid} NaN/inf samples dropped")
+        } else {
+            String::new()
+        },
+    })
+}
+
+fn render_mitsuba(
+    root: &Path,
+    mitsuba: &Mitsuba,
+    exported: &Exported,
+    options: &Options,
+    job: Job,
+) -> Result<Run, String> {
+    let Job { spp, seed, threads } = job;
+    let script = root.join("xtask/scripts/mitsuba_pt.py");
+    let path = options.out.join(format!("mitsuba-{spp}spp-{threads}t.exr"));
+    // Generous: 300 s plus 10 us per sample (Mitsuba does ~1e6 samples/s per core here).
+    let samples = options.pixels() as f64 * f64::from(spp);
+    let timeout = Duration::from_secs_f64(300.0 + 1e-5 * samples);
+    let stdout = run_with_timeout(
+        Command::new(&mitsuba.python)
+            .arg(&script)
+            .arg("--scene")
+            .arg(&exported.xml)
+            .arg("--out")
+            .arg(&path)
+            .args(["--spp", &spp.to_string()])
+            .args(["--seed", &seed.to_string()])
+            .args(["--threads", &threads.to_string()]),
+        timeout,
+    )
+    .map_err(|e| format!("mitsuba render failed: {e}"))?;
+    let info: Value = stdout
+        .lines()
+        .rev()
+        .find(|l| l.starts_with('{'))
+        .and_then(|l| serde_json::from_str(l).ok())
+        .ok_or_else(|| "mitsuba render printed no JSON result".to_string())?;
+    let img = read_exr(&path).map_err(|e| format!("mitsuba image: {e}"))?;
+    if img.pixels.len() != options.pixels() {
+        return Err(format!(
+            "mitsuba image is {}x{}, expected {}x{}",
+            img.width, img.height, options.width, options.height
+        ));
+    }
+    if info["threads"].as_u64() != Some(threads as u64) {
+        return Err(format!(
+            "mitsuba ran with {} threads, asked for {threads}",
+            info["threads"]
+        ));
+    }
+    println!(
+        "mitsuba: {spp:>5} spp, {threads} thread(s): render {} s (load {:.3} s) -> {}",
+        seconds(&times_of(&info)),
+        info["load_s"].as_f64().unwrap_or(f64::NAN),
+        path.display()
+    );
+    let render_times = times_of(&info);
+    Ok(Run {
+        renderer: MITSUBA,
+        threads,
+        spp,
+        setup_s: info["load_s"].as_f64().unwrap_or(f64::NAN),
+        render_s: fastest(&render_times),
+        render_times,
+        image: img.pixels,
+        path,
+        note: String::new(),
+    })
+}
+
+fn times_of(info: &Value) -> Vec<f64> {
+    info["render_s"]
+        .as_array()
+        .map(|a| a.iter().filter_map(Value::as_f64).collect())
+        .unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn plan_repeats_only_the_all_core_renders_at_spp() {
+        let options = crate::mitsuba::test_options(&["--spp", "64", "--repeat", "3"]);
+        let planned: Vec<(u32, u64, usize, u32)> = plan(&options, 4)
+            .into_iter()
+            .map(|(j, r)| (j.spp, j.seed, j.threads, r))
+            .collect();
+        assert_eq!(
+            planned,
+            [
+                (64, SEED_TEST, 4, 3),
+                (64, SEED_TEST, 1, 1),
+                (16, SEED_CHECK, 4, 1)
+            ]
+        );
+        assert_eq!(plan(&options, 1).len(), 2, "one core: no one-thread runs");
+    }
+}
