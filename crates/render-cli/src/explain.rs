@@ -1,10 +1,13 @@
-//! `--explain`: what the renderer will do with a scene and why, in prose.
-//! Presentation only: every number comes from the `integrators` crate.
+//! `--explain`: what the renderer will do with a scene and why, in prose,
+//! and every resolved setting with its origin. Presentation only: every
+//! number comes from the `integrators` crate or from `settings`.
 
 use std::fmt::Write as _;
 
 use integrators::merge_radius::MAX_MERGE_RADIUS_PIXELS;
 use integrators::{Algorithm, Mode, ROULETTE_DEPTH, Renderer, Strategies};
+
+use crate::settings::{Budget, Origin, Settings};
 
 /// A human-readable account of the integrator, its techniques, the shadow
 /// roulette, the merge radius and the regularization of `renderer`.
@@ -133,4 +136,43 @@ fn strategies(renderer: &Renderer) -> String {
             )
         }
     }
+}
+
+/// The resolved settings, one line each with its origin.
+pub fn settings(settings: &Settings) -> String {
+    let c = &settings.config;
+    let r = &c.regularization;
+    let rows = [
+        ("integrator", c.algorithm.to_string(), settings.algorithm),
+        (
+            match settings.budget.value {
+                Budget::Iterations(_) => "iterations",
+                Budget::Time(_) => "time",
+            },
+            match settings.budget.value {
+                Budget::Iterations(n) => n.to_string(),
+                Budget::Time(t) => format!("{} s", t.as_secs_f64()),
+            },
+            settings.budget.origin,
+        ),
+        ("regularize", r.mode.to_string(), settings.mode),
+        ("tau0", r.schedule.tau_0().to_string(), settings.tau0),
+        (
+            "progressive",
+            if r.progressive { "yes" } else { "no" }.to_owned(),
+            if r.progressive {
+                Origin::Default
+            } else {
+                Origin::Flag
+            },
+        ),
+        ("max depth", c.max_depth.to_string(), settings.max_depth),
+        ("seed", c.seed.to_string(), settings.seed),
+    ];
+    let heading = "settings:         value (origin: flag, manifest or default)\n".to_owned();
+    heading
+        + &rows
+            .iter()
+            .map(|(name, value, origin)| format!("{:<18}{value} ({origin})\n", format!("{name}:")))
+            .collect::<String>()
 }

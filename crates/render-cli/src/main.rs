@@ -8,9 +8,14 @@
 //! (`error: ...`) naming the file, field or flag, and no partial image is
 //! left behind.
 
-mod args;
+mod cli;
+mod error;
 mod explain;
+mod outputs;
 mod render;
+mod scene_options;
+mod settings;
+mod values;
 
 use std::io::Write;
 use std::process::ExitCode;
@@ -20,8 +25,11 @@ use image_io::{ImageError, write_exr, write_png};
 use integrators::Renderer;
 use scene::SceneError;
 
-use crate::args::{ArgError, Budget, Cli, Outputs, Settings};
+use crate::cli::Cli;
+use crate::error::ArgError;
+use crate::outputs::Outputs;
 use crate::render::{INTERRUPTED_EXIT_CODE, Outcome};
+use crate::settings::{Budget, Settings};
 
 /// Why a render failed; `Display` is the one line printed after `error: `.
 #[derive(Debug, thiserror::Error)]
@@ -48,7 +56,7 @@ fn main() -> ExitCode {
             return ExitCode::SUCCESS;
         }
         Err(e) => {
-            eprintln!("{}", args::one_line(&e));
+            eprintln!("{}", cli::one_line(&e));
             return ExitCode::from(2);
         }
     };
@@ -127,7 +135,7 @@ fn print_explanation(cli: &Cli, renderer: &Renderer, settings: &Settings, output
     let mut text = format!("scene:            {}\n", cli.scene.display());
     text += &format!("{}\n", renderer.features());
     text += &format!("{}\n", explain::integrator(renderer).trim_end());
-    text += &settings.describe();
+    text += &explain::settings(settings);
     text += &format!("resolution:       {width}x{height}\n");
     text += &format!("threads:          {}\n", rayon::current_num_threads());
     if outputs.png.is_some() {
