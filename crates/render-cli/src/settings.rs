@@ -222,6 +222,7 @@ mod tests {
             regularize: Some("uniform".into()),
             tau0: Some(30.0),
             seed: Some(7),
+            ..Default::default()
         };
         let path = Path::new("scene.toml");
 

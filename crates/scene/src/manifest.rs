@@ -9,12 +9,16 @@
 //! up = [0, 1, 0]                # optional, default +y
 //! fov = 40
 //! # name = "render_camera"      # or: use this glTF camera instead
-//! [render]                      # defaults; the command line overrides them
-//! integrator = "pt"
+//! [render]                      # defaults; the command line's flags override them
+//! integrator = "pt"             # pt | bpt | ppm | vcm
 //! iterations = 64
 //! max_depth = 16
-//! regularize = "selective"
-//! tau0 = 7.5
+//! regularize = "selective"      # off | uniform | selective
+//! tau0 = 7.5                    # > 1/(2 pi)
+//! seed = 0
+//! radius = 0.003                # first merge radius (ppm, vcm), fraction of the scene radius, > 0
+//! shadow_roulette = 0.1         # shadow-ray roulette (bpt, vcm), fraction of the mean pixel, >= 0
+//! virtual_merges = true         # bpt, vcm with regularization (default: on for vcm only)
 //! [[model]]
 //! file = "cornell.obj"          # relative to this file; .obj, .gltf, .glb
 //! [[material]]                  # overrides a model's material of that name,
@@ -91,6 +95,9 @@ struct RenderSection {
     regularize: Option<String>,
     tau0: Option<f64>,
     seed: Option<u64>,
+    radius: Option<f32>,
+    shadow_roulette: Option<f32>,
+    virtual_merges: Option<bool>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -220,6 +227,9 @@ pub fn load(path: &Path, camera_name: Option<&str>) -> Result<LoadedManifest, Sc
             regularize: r.regularize,
             tau0: r.tau0,
             seed: r.seed,
+            radius: r.radius,
+            shadow_roulette: r.shadow_roulette,
+            virtual_merges: r.virtual_merges,
         });
     Ok(LoadedManifest {
         builder,
@@ -233,15 +243,21 @@ pub fn load(path: &Path, camera_name: Option<&str>) -> Result<LoadedManifest, Sc
 /// Largest image side a manifest may ask for (a 64k x 64k RGB f64 film is 100 GB).
 pub const MAX_RESOLUTION: u32 = 65_536;
 
-/// toml's message with the line and column of the error.
+/// toml's message with the line of the error and, for a bad value, its key
+/// (toml names the expected type but not the key).
 fn toml_message(text: &str, e: &toml::de::Error) -> String {
     let message = e.message().to_string();
-    match e.span() {
-        Some(span) => {
-            let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
-            format!("line {line}: {message}")
+    let Some(span) = e.span() else {
+        return message;
+    };
+    let before = &text[..span.start.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    match before[line_start..].split_once('=') {
+        Some((key, _)) if !key.trim().is_empty() => {
+            format!("line {line}: {}: {message}", key.trim())
         }
-        None => message,
+        _ => format!("line {line}: {message}"),
     }
 }
 

@@ -25,6 +25,12 @@ pub struct RenderSettings {
     pub tau0: Option<f64>,
     /// Random seed.
     pub seed: Option<u64>,
+    /// First merge radius of PPM and VCM, as a fraction of the scene's bounding-sphere radius.
+    pub radius: Option<f32>,
+    /// Shadow-ray Russian roulette threshold, as a fraction of the mean pixel value (0: off).
+    pub shadow_roulette: Option<f32>,
+    /// Virtual merges in BPT and VCM with regularization.
+    pub virtual_merges: Option<bool>,
 }
 
 /// What a load skipped or noticed (nothing is dropped silently).
