@@ -16,7 +16,9 @@ use crate::values::{
 
 const AFTER_LONG_HELP: &str = "\
 Settings are taken from the flags, else from the scene manifest's [render] table, else from the \
-defaults above; --explain shows where each one came from.
+defaults above; --explain shows where each one came from. The table's keys are the flags' names \
+with underscores: integrator, iterations, max_depth, regularize, tau0, seed, radius, \
+shadow_roulette, and virtual_merges (true or false).
 
 Progress goes to stderr (a bar on a terminal); the last line is always a summary such as
   rendered 64 iterations of 256x256 in 3.21 s (19.9 it/s, 1.30 Msamples/s) -> render.exr, render.png
@@ -116,12 +118,13 @@ pub struct Cli {
     /// Virtual merges (supp. §6) for bpt and vcm with regularization: a connection through a
     /// regularized vertex also counts as a merge inside the vertex's blur cone, which keeps
     /// the MIS weights of blurred connections low where merging does better.
-    /// [default: on for vcm with regularization, off otherwise]
+    /// [default: the manifest's, else on for vcm with regularization, off otherwise]
     #[arg(long, value_name = "on|off", value_parser = parse_on_off, help_heading = "Regularization")]
     pub virtual_merges: Option<bool>,
 
     /// First merge radius of ppm and vcm, as a fraction of the radius of the scene's bounding
-    /// sphere; it shrinks as r_N = r_1 N^((alpha - 1)/2) with alpha = 0.75. [default: 0.003]
+    /// sphere; it shrinks as r_N = r_1 N^((alpha - 1)/2) with alpha = 0.75.
+    /// [default: the manifest's, else 0.003]
     #[arg(long, value_name = "FRACTION", value_parser = parse_radius, help_heading = "Rendering")]
     pub radius: Option<f32>,
 
@@ -130,7 +133,7 @@ pub struct Cli {
     /// fraction t of the mean pixel value (from a small path-traced preview) keeps its shadow
     /// ray with probability c / t and is scaled by t / c, so the image stays unbiased; 0 traces
     /// every shadow ray.
-    /// [default: 0.1]
+    /// [default: the manifest's, else 0.1]
     #[arg(long, value_name = "FRACTION", value_parser = parse_shadow_roulette, allow_negative_numbers = true,
           help_heading = "Rendering")]
     pub shadow_roulette: Option<f32>,
@@ -240,10 +243,27 @@ impl Cli {
 
 #[cfg(test)]
 mod tests {
+    use clap::CommandFactory;
+
     use super::*;
 
     fn cli(args: &[&str]) -> Result<Cli, clap::Error> {
         Cli::parse_test(args)
+    }
+
+    #[test]
+    fn help_shows_the_defaults_of_the_integrators_crate() {
+        let help = Cli::command().render_long_help().to_string();
+        // As one line: where clap wraps depends on the terminal.
+        let help = help.split_whitespace().collect::<Vec<_>>().join(" ");
+        for default in [
+            format!("else {}]", integrators::DEFAULT_RADIUS_FACTOR),
+            format!("else {}]", integrators::DEFAULT_SHADOW_ROULETTE),
+            format!("else {}]", integrators::DEFAULT_TAU_0),
+            format!("else {}]", integrators::DEFAULT_MAX_DEPTH),
+        ] {
+            assert!(help.contains(&default), "--help lacks '{default}'");
+        }
     }
 
     #[test]

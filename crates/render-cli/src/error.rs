@@ -8,14 +8,14 @@ use std::path::PathBuf;
 pub enum ArgError {
     /// A value of the manifest's `[render]` table.
     #[error(
-        "{}: [render] {field}: {message} (set in the manifest; the {flag} flag overrides it)",
+        "{}: [render] {key}: {message} (set in the manifest; the {flag} flag overrides it)",
         manifest.display()
     )]
     Manifest {
         /// The manifest.
         manifest: PathBuf,
-        /// The field.
-        field: &'static str,
+        /// The key in the `[render]` table.
+        key: &'static str,
         /// The flag that would override it.
         flag: &'static str,
         /// What is wrong.

@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 use integrators::merge_radius::MAX_MERGE_RADIUS_PIXELS;
 use integrators::{Algorithm, Mode, ROULETTE_DEPTH, Renderer, Strategies};
 
-use crate::settings::{Budget, Origin, Settings};
+use crate::settings::{Budget, Settings};
 
 /// A human-readable account of the integrator, its techniques, the shadow
 /// roulette, the merge radius and the regularization of `renderer`.
@@ -138,41 +138,126 @@ fn strategies(renderer: &Renderer) -> String {
     }
 }
 
-/// The resolved settings, one line each with its origin.
+/// The resolved settings, one line each with its value and origin.
 pub fn settings(settings: &Settings) -> String {
     let c = &settings.config;
     let r = &c.regularization;
+    let (budget, budget_value) = match settings.budget.value {
+        Budget::Iterations(n) => ("iterations", n.to_string()),
+        Budget::Time(t) => ("time", format!("{} s", t.as_secs_f64())),
+    };
+    let on_off = |on: bool| if on { "on" } else { "off" }.to_owned();
+    // Unless given, the integrator decides (on for vcm with regularization).
+    let virtual_merges = c.virtual_merges.unwrap_or_else(|| c.uses_virtual_merges());
     let rows = [
         ("integrator", c.algorithm.to_string(), settings.algorithm),
-        (
-            match settings.budget.value {
-                Budget::Iterations(_) => "iterations",
-                Budget::Time(_) => "time",
-            },
-            match settings.budget.value {
-                Budget::Iterations(n) => n.to_string(),
-                Budget::Time(t) => format!("{} s", t.as_secs_f64()),
-            },
-            settings.budget.origin,
-        ),
+        (budget, budget_value, settings.budget.origin),
         ("regularize", r.mode.to_string(), settings.mode),
         ("tau0", r.schedule.tau_0().to_string(), settings.tau0),
         (
             "progressive",
             if r.progressive { "yes" } else { "no" }.to_owned(),
-            if r.progressive {
-                Origin::Default
-            } else {
-                Origin::Flag
-            },
+            settings.progressive,
         ),
         ("max depth", c.max_depth.to_string(), settings.max_depth),
         ("seed", c.seed.to_string(), settings.seed),
+        ("radius", c.radius_factor.to_string(), settings.radius),
+        (
+            "shadow roulette",
+            c.shadow_roulette.to_string(),
+            settings.shadow_roulette,
+        ),
+        (
+            "virtual merges",
+            on_off(virtual_merges),
+            settings.virtual_merges,
+        ),
     ];
-    let heading = "settings:         value (origin: flag, manifest or default)\n".to_owned();
-    heading
-        + &rows
-            .iter()
-            .map(|(name, value, origin)| format!("{:<18}{value} ({origin})\n", format!("{name}:")))
-            .collect::<String>()
+    let mut text = "settings:         value (origin: flag, manifest or default)\n".to_owned();
+    for (name, value, origin) in rows {
+        let _ = writeln!(text, "{:<18}{value} ({origin})", format!("{name}:"));
+    }
+    text
+}
+
+#[cfg(test)]
+mod tests {
+    use scene::RenderSettings;
+
+    use super::*;
+    use crate::cli::Cli;
+
+    fn explain(args: &[&str], manifest: &RenderSettings) -> String {
+        let cli = Cli::parse_test(args).unwrap();
+        settings(&Settings::resolve(&cli, manifest, std::path::Path::new("scene.toml")).unwrap())
+    }
+
+    #[test]
+    fn every_setting_shows_its_value_and_origin() {
+        let manifest = RenderSettings {
+            integrator: Some("vcm".into()),
+            tau0: Some(30.0),
+            radius: Some(0.01),
+            shadow_roulette: Some(0.25),
+            virtual_merges: Some(false),
+            ..Default::default()
+        };
+        let text = explain(&["--iterations", "2", "--seed", "3"], &manifest);
+        for line in [
+            "integrator:       vcm (manifest)",
+            "iterations:       2 (flag)",
+            "regularize:       selective (default)",
+            "tau0:             30 (manifest)",
+            "progressive:      yes (default)",
+            "max depth:        12 (default)",
+            "seed:             3 (flag)",
+            "radius:           0.01 (manifest)",
+            "shadow roulette:  0.25 (manifest)",
+            "virtual merges:   off (manifest)",
+        ] {
+            assert!(
+                text.contains(&format!("{line}\n")),
+                "'{line}' missing from:\n{text}"
+            );
+        }
+        assert_eq!(text.lines().count(), 11, "{text}");
+
+        let flags = [
+            "--radius",
+            "0.5",
+            "--shadow-roulette",
+            "0",
+            "--virtual-merges",
+            "on",
+        ];
+        let text = explain(&flags, &manifest);
+        for line in [
+            "radius:           0.5 (flag)",
+            "shadow roulette:  0 (flag)",
+            "virtual merges:   on (flag)",
+        ] {
+            assert!(text.contains(line), "'{line}' missing from:\n{text}");
+        }
+    }
+
+    #[test]
+    fn default_virtual_merges_show_what_the_integrator_does() {
+        let none = RenderSettings::default();
+        for (args, expected) in [
+            (&["--integrator", "vcm"][..], "on"),
+            (&["--integrator", "vcm", "--regularize", "off"][..], "off"),
+            (&["--integrator", "bpt"][..], "off"),
+            (&[][..], "off"),
+        ] {
+            let text = explain(args, &none);
+            let line = format!("virtual merges:   {expected} (default)\n");
+            assert!(
+                text.contains(&line),
+                "{args:?}: '{line}' missing from:\n{text}"
+            );
+        }
+        let text = explain(&["--time", "1.5", "--no-progressive"], &none);
+        assert!(text.contains("time:             1.5 s (flag)\n"), "{text}");
+        assert!(text.contains("progressive:      no (flag)\n"), "{text}");
+    }
 }

@@ -83,7 +83,7 @@ fn run(cli: &Cli) -> Result<ExitCode, Error> {
     for warning in &scene.report.warnings {
         eprintln!("warning: {warning}");
     }
-    let settings = cli.resolve(&scene.render, &cli.scene)?;
+    let settings = Settings::resolve(cli, &scene.render, &cli.scene)?;
     if let Some(camera) = camera {
         scene.camera = camera.camera(scene.camera.resolution)?;
     }

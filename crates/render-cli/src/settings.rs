@@ -11,13 +11,17 @@ use std::path::Path;
 use std::time::Duration;
 
 use integrators::{
-    Algorithm, DEFAULT_MAX_DEPTH, DEFAULT_TAU_0, Mode, Regularization, RenderConfig, Strategies,
+    Algorithm, DEFAULT_MAX_DEPTH, DEFAULT_RADIUS_FACTOR, DEFAULT_SHADOW_ROULETTE, DEFAULT_TAU_0,
+    Mode, Regularization, RenderConfig, Strategies,
 };
 use scene::RenderSettings;
 
 use crate::cli::Cli;
 use crate::error::ArgError;
-use crate::values::{at_least_one, check_tau0, parse_algorithm, parse_regularize};
+use crate::values::{
+    at_least_one, check_radius, check_shadow_roulette, check_tau0, parse_algorithm,
+    parse_regularize,
+};
 
 /// Iterations when neither a flag nor the manifest gives a count or a time.
 pub const DEFAULT_ITERATIONS: u64 = 64;
@@ -87,93 +91,137 @@ pub struct Settings {
     pub mode: Origin,
     /// Origin of tau_0.
     pub tau0: Origin,
+    /// Origin of `config.regularization.progressive`.
+    pub progressive: Origin,
     /// Origin of `config.max_depth`.
     pub max_depth: Origin,
     /// Origin of `config.seed`.
     pub seed: Origin,
+    /// Origin of `config.radius_factor`.
+    pub radius: Origin,
+    /// Origin of `config.shadow_roulette`.
+    pub shadow_roulette: Origin,
+    /// Origin of `config.virtual_merges` (`None` by default: the integrator decides).
+    pub virtual_merges: Origin,
 }
 
-impl Cli {
-    /// The render settings: each flag, else the manifest's value (checked
-    /// here; errors name `manifest`), else the default.
+impl Settings {
+    /// Every render setting: the flag, else the manifest's value (checked
+    /// here; errors name `manifest_path` and the key), else the default.
     pub fn resolve(
-        &self,
+        cli: &Cli,
         manifest: &RenderSettings,
         manifest_path: &Path,
-    ) -> Result<Settings, ArgError> {
-        let from_manifest = |field, flag| {
-            move |message: String| ArgError::Manifest {
-                manifest: manifest_path.to_path_buf(),
-                field,
-                flag,
-                message,
-            }
-        };
+    ) -> Result<Self, ArgError> {
+        let key = |key, flag| manifest_error(manifest_path, key, flag);
         let algorithm = pick(
-            self.integrator,
+            cli.integrator,
             manifest.integrator.as_deref(),
             Algorithm::default(),
-            |s| parse_algorithm(s).map_err(from_manifest("integrator", "--integrator")),
+            |s| parse_algorithm(s).map_err(key("integrator", "--integrator")),
         )?;
-        let budget = match (self.iterations, self.time) {
-            (Some(n), _) => flag(Budget::Iterations(n)),
-            (None, Some(t)) => flag(Budget::Time(t)),
-            (None, None) => pick(
-                None,
-                manifest.iterations,
-                Budget::Iterations(DEFAULT_ITERATIONS),
-                |n| {
-                    at_least_one(u64::from(n))
-                        .map(Budget::Iterations)
-                        .map_err(from_manifest("iterations", "--iterations"))
-                },
-            )?,
-        };
+        let budget = budget(cli, manifest.iterations, key("iterations", "--iterations"))?;
         let mode = pick(
-            self.regularize,
+            cli.regularize,
             manifest.regularize.as_deref(),
             DEFAULT_MODE,
-            |s| parse_regularize(s).map_err(from_manifest("regularize", "--regularize")),
+            |s| parse_regularize(s).map_err(key("regularize", "--regularize")),
         )?;
-        let tau0 = pick(self.tau0, manifest.tau0, DEFAULT_TAU_0, |t| {
-            check_tau0(t).map_err(from_manifest("tau0", "--tau0"))
+        let tau0 = pick(cli.tau0, manifest.tau0, DEFAULT_TAU_0, |t| {
+            check_tau0(t).map_err(key("tau0", "--tau0"))
         })?;
-        let max_depth = pick(self.max_depth, manifest.max_depth, DEFAULT_MAX_DEPTH, |d| {
+        // No manifest key: progressive unless --no-progressive.
+        let progressive = pick(cli.no_progressive.then_some(false), None, true, Ok)?;
+        let max_depth = pick(cli.max_depth, manifest.max_depth, DEFAULT_MAX_DEPTH, |d| {
             at_least_one(u64::from(d))
                 .map(|_| d)
-                .map_err(from_manifest("max_depth", "--max-depth"))
+                .map_err(key("max_depth", "--max-depth"))
         })?;
-        let seed = pick(self.seed, manifest.seed, DEFAULT_SEED, Ok)?;
-        let regularization = Regularization::new(mode.value, tau0.value, !self.no_progressive)
+        let seed = pick(cli.seed, manifest.seed, DEFAULT_SEED, Ok)?;
+        let radius = pick(cli.radius, manifest.radius, DEFAULT_RADIUS_FACTOR, |r| {
+            check_radius(r).map_err(key("radius", "--radius"))
+        })?;
+        let shadow_roulette = pick(
+            cli.shadow_roulette,
+            manifest.shadow_roulette,
+            DEFAULT_SHADOW_ROULETTE,
+            |t| check_shadow_roulette(t).map_err(key("shadow_roulette", "--shadow-roulette")),
+        )?;
+        let virtual_merges = pick(
+            cli.virtual_merges.map(Some),
+            manifest.virtual_merges,
+            None,
+            |on| Ok(Some(on)),
+        )?;
+        let regularization = Regularization::new(mode.value, tau0.value, progressive.value)
             .map_err(|e| match tau0.origin {
-                Origin::Manifest => from_manifest("tau0", "--tau0")(e.to_string()),
+                Origin::Manifest => key("tau0", "--tau0")(e.to_string()),
                 _ => ArgError::Flag {
                     flag: "--tau0",
                     message: e.to_string(),
                 },
             })?;
-        Ok(Settings {
+        Ok(Self {
             config: RenderConfig {
                 algorithm: algorithm.value,
                 strategies: Strategies::Mis,
                 max_depth: max_depth.value,
                 seed: seed.value,
                 regularization,
-                virtual_merges: self.virtual_merges,
-                radius_factor: self.radius.unwrap_or(integrators::DEFAULT_RADIUS_FACTOR),
-                shadow_roulette: self
-                    .shadow_roulette
-                    .unwrap_or(integrators::DEFAULT_SHADOW_ROULETTE),
+                virtual_merges: virtual_merges.value,
+                radius_factor: radius.value,
+                shadow_roulette: shadow_roulette.value,
                 ..RenderConfig::default()
             },
             budget,
             algorithm: algorithm.origin,
             mode: mode.origin,
             tau0: tau0.origin,
+            progressive: progressive.origin,
             max_depth: max_depth.origin,
             seed: seed.origin,
+            radius: radius.origin,
+            shadow_roulette: shadow_roulette.origin,
+            virtual_merges: virtual_merges.origin,
         })
     }
+}
+
+/// The error of a bad value of the manifest's `key`, which `flag` overrides.
+fn manifest_error(
+    manifest: &Path,
+    key: &'static str,
+    flag: &'static str,
+) -> impl Fn(String) -> ArgError {
+    move |message| ArgError::Manifest {
+        manifest: manifest.to_path_buf(),
+        key,
+        flag,
+        message,
+    }
+}
+
+/// `--iterations` or `--time`, else the manifest's iterations, else the default count.
+fn budget(
+    cli: &Cli,
+    manifest_iterations: Option<u32>,
+    error: impl Fn(String) -> ArgError,
+) -> Result<Resolved<Budget>, ArgError> {
+    let flag_value = match (cli.iterations, cli.time) {
+        (Some(n), _) => Some(Budget::Iterations(n)),
+        (None, Some(t)) => Some(Budget::Time(t)),
+        (None, None) => None,
+    };
+    pick(
+        flag_value,
+        manifest_iterations,
+        Budget::Iterations(DEFAULT_ITERATIONS),
+        |n| {
+            at_least_one(u64::from(n))
+                .map(Budget::Iterations)
+                .map_err(error)
+        },
+    )
 }
 
 /// `Resolved` from a flag.
@@ -209,32 +257,52 @@ fn pick<T, M>(
 mod tests {
     use super::*;
 
-    fn cli(args: &[&str]) -> Result<Cli, clap::Error> {
-        Cli::parse_test(args)
+    fn resolve(args: &[&str], manifest: &RenderSettings) -> Result<Settings, ArgError> {
+        let cli = Cli::parse_test(args).expect("valid flags");
+        Settings::resolve(&cli, manifest, Path::new("dir/scene.toml"))
     }
 
-    #[test]
-    fn flags_override_the_manifest_which_overrides_defaults() {
-        let manifest = RenderSettings {
+    fn full_manifest() -> RenderSettings {
+        RenderSettings {
             integrator: Some("pt".into()),
             iterations: Some(16),
             max_depth: Some(5),
             regularize: Some("uniform".into()),
             tau0: Some(30.0),
             seed: Some(7),
-            ..Default::default()
-        };
-        let path = Path::new("scene.toml");
+            radius: Some(0.01),
+            shadow_roulette: Some(0.0),
+            virtual_merges: Some(false),
+        }
+    }
 
-        let s = cli(&[]).unwrap().resolve(&manifest, path).unwrap();
-        assert_eq!(s.budget.value, Budget::Iterations(16));
-        assert_eq!(s.config.max_depth, 5);
-        assert_eq!(s.config.regularization.mode, Mode::Uniform);
-        assert_eq!(s.config.regularization.schedule.tau_0(), 30.0);
-        assert_eq!(s.config.seed, 7);
-        assert!(s.config.regularization.progressive);
-        assert_eq!(s.mode, Origin::Manifest);
+    #[test]
+    fn the_manifest_overrides_defaults() {
+        let s = resolve(&[], &full_manifest()).unwrap();
+        let c = &s.config;
+        assert_eq!(s.budget, manifest(Budget::Iterations(16)));
+        assert_eq!((c.algorithm, c.max_depth, c.seed), (Algorithm::Pt, 5, 7));
+        assert_eq!(c.regularization.mode, Mode::Uniform);
+        assert_eq!(c.regularization.schedule.tau_0(), 30.0);
+        assert!(c.regularization.progressive);
+        assert_eq!((c.radius_factor, c.shadow_roulette), (0.01, 0.0));
+        assert_eq!(c.virtual_merges, Some(false));
+        let origins = [
+            s.algorithm,
+            s.mode,
+            s.tau0,
+            s.max_depth,
+            s.seed,
+            s.radius,
+            s.shadow_roulette,
+            s.virtual_merges,
+        ];
+        assert!(origins.iter().all(|o| *o == Origin::Manifest), "{s:?}");
+        assert_eq!(s.progressive, Origin::Default);
+    }
 
+    #[test]
+    fn flags_override_the_manifest() {
         let args = [
             "--iterations=3",
             "--max-depth=2",
@@ -242,83 +310,232 @@ mod tests {
             "--tau0=8",
             "--seed=1",
             "--no-progressive",
+            "--radius=0.02",
+            "--shadow-roulette=0.5",
+            "--virtual-merges=on",
         ];
-        let s = cli(&args).unwrap().resolve(&manifest, path).unwrap();
+        let s = resolve(&args, &full_manifest()).unwrap();
+        let c = &s.config;
         assert_eq!(s.budget, flag(Budget::Iterations(3)));
-        assert_eq!(s.config.max_depth, 2);
-        assert_eq!(s.config.regularization.mode, Mode::Off);
-        assert_eq!(s.config.regularization.schedule.tau_0(), 8.0);
-        assert_eq!(s.config.seed, 1);
-        assert!(!s.config.regularization.progressive);
+        assert_eq!((c.max_depth, c.seed), (2, 1));
+        assert_eq!(c.regularization.mode, Mode::Off);
+        assert_eq!(c.regularization.schedule.tau_0(), 8.0);
+        assert!(!c.regularization.progressive);
+        assert_eq!((c.radius_factor, c.shadow_roulette), (0.02, 0.5));
+        assert_eq!(c.virtual_merges, Some(true));
+        let origins = [
+            s.mode,
+            s.tau0,
+            s.progressive,
+            s.max_depth,
+            s.seed,
+            s.radius,
+            s.shadow_roulette,
+            s.virtual_merges,
+        ];
+        assert!(origins.iter().all(|o| *o == Origin::Flag), "{s:?}");
+        assert_eq!(s.algorithm, Origin::Manifest);
 
-        let s = cli(&["--time", "2"])
-            .unwrap()
-            .resolve(&manifest, path)
-            .unwrap();
-        assert_eq!(s.budget.value, Budget::Time(Duration::from_secs(2)));
-
-        let s = cli(&[])
-            .unwrap()
-            .resolve(&RenderSettings::default(), path)
-            .unwrap();
-        assert_eq!(s.budget.value, Budget::Iterations(DEFAULT_ITERATIONS));
-        assert_eq!(s.config.max_depth, DEFAULT_MAX_DEPTH);
-        assert_eq!(s.config.regularization.mode, DEFAULT_MODE);
-        assert_eq!(s.config.regularization.schedule.tau_0(), DEFAULT_TAU_0);
-        assert_eq!(s.config.seed, DEFAULT_SEED);
-        assert_eq!(s.tau0, Origin::Default);
+        let s = resolve(&["--time", "2"], &full_manifest()).unwrap();
+        assert_eq!(s.budget, flag(Budget::Time(Duration::from_secs(2))));
     }
 
     #[test]
-    fn bad_manifest_values_name_the_manifest_unless_overridden() {
-        let path = Path::new("dir/scene.toml");
+    fn defaults_apply_where_flags_and_manifest_are_silent() {
+        let s = resolve(&[], &RenderSettings::default()).unwrap();
+        let c = &s.config;
+        assert_eq!(s.budget.value, Budget::Iterations(DEFAULT_ITERATIONS));
+        assert_eq!((c.max_depth, c.seed), (DEFAULT_MAX_DEPTH, DEFAULT_SEED));
+        assert_eq!(c.regularization.mode, DEFAULT_MODE);
+        assert_eq!(c.regularization.schedule.tau_0(), DEFAULT_TAU_0);
+        assert_eq!(c.radius_factor, DEFAULT_RADIUS_FACTOR);
+        assert_eq!(c.shadow_roulette, DEFAULT_SHADOW_ROULETTE);
+        assert_eq!(c.virtual_merges, None);
+        let origins = [
+            s.budget.origin,
+            s.algorithm,
+            s.mode,
+            s.tau0,
+            s.progressive,
+            s.max_depth,
+            s.seed,
+            s.radius,
+            s.shadow_roulette,
+            s.virtual_merges,
+        ];
+        assert!(origins.iter().all(|o| *o == Origin::Default), "{s:?}");
+        // Exactly what the integrators crate would choose by itself.
+        let defaults = RenderConfig::default();
+        assert_eq!(
+            (c.radius_factor, c.shadow_roulette, c.radius_alpha),
+            (
+                defaults.radius_factor,
+                defaults.shadow_roulette,
+                defaults.radius_alpha
+            )
+        );
+    }
+
+    #[test]
+    fn bad_manifest_values_name_the_manifest_and_key() {
+        let bad = |settings: RenderSettings| resolve(&[], &settings).unwrap_err().to_string();
         let cases = [
             (
-                RenderSettings {
+                bad(RenderSettings {
                     regularize: Some("strict".into()),
                     ..Default::default()
-                },
+                }),
                 "regularize",
+                "--regularize",
             ),
             (
-                RenderSettings {
+                bad(RenderSettings {
                     integrator: Some("xyz".into()),
                     ..Default::default()
-                },
+                }),
                 "integrator",
+                "--integrator",
             ),
             (
-                RenderSettings {
+                bad(RenderSettings {
                     tau0: Some(0.1),
                     ..Default::default()
-                },
+                }),
                 "tau0",
+                "--tau0",
             ),
             (
-                RenderSettings {
+                bad(RenderSettings {
                     iterations: Some(0),
                     ..Default::default()
-                },
+                }),
                 "iterations",
+                "--iterations",
+            ),
+            (
+                bad(RenderSettings {
+                    max_depth: Some(0),
+                    ..Default::default()
+                }),
+                "max_depth",
+                "--max-depth",
+            ),
+            (
+                bad(RenderSettings {
+                    radius: Some(f32::NAN),
+                    ..Default::default()
+                }),
+                "radius",
+                "--radius",
+            ),
+            (
+                bad(RenderSettings {
+                    radius: Some(0.0),
+                    ..Default::default()
+                }),
+                "radius",
+                "--radius",
+            ),
+            (
+                bad(RenderSettings {
+                    radius: Some(-0.5),
+                    ..Default::default()
+                }),
+                "radius",
+                "--radius",
+            ),
+            (
+                bad(RenderSettings {
+                    radius: Some(f32::INFINITY),
+                    ..Default::default()
+                }),
+                "radius",
+                "--radius",
+            ),
+            (
+                bad(RenderSettings {
+                    shadow_roulette: Some(-0.1),
+                    ..Default::default()
+                }),
+                "shadow_roulette",
+                "--shadow-roulette",
+            ),
+            (
+                bad(RenderSettings {
+                    shadow_roulette: Some(f32::NAN),
+                    ..Default::default()
+                }),
+                "shadow_roulette",
+                "--shadow-roulette",
+            ),
+            (
+                bad(RenderSettings {
+                    shadow_roulette: Some(f32::INFINITY),
+                    ..Default::default()
+                }),
+                "shadow_roulette",
+                "--shadow-roulette",
             ),
         ];
-        for (manifest, field) in cases {
-            let e = cli(&[]).unwrap().resolve(&manifest, path).unwrap_err();
-            let text = e.to_string();
+        for (text, key, flag) in cases {
+            let prefix = format!("dir/scene.toml: [render] {key}: ");
+            assert!(text.starts_with(&prefix), "{text}");
             assert!(
-                text.starts_with("dir/scene.toml: [render] ") && text.contains(field),
+                text.ends_with(&format!(
+                    "(set in the manifest; the {flag} flag overrides it)"
+                )),
                 "{text}"
             );
-            assert!(text.contains("manifest") && !text.contains('\n'), "{text}");
+            assert!(!text.contains('\n'), "{text}");
         }
-        let overridden = RenderSettings {
+        // The same ranges and wording as the flags.
+        let text = bad(RenderSettings {
+            radius: Some(-0.5),
+            ..Default::default()
+        });
+        assert!(
+            text.contains(&crate::values::parse_radius("-0.5").unwrap_err()),
+            "{text}"
+        );
+        let text = bad(RenderSettings {
+            shadow_roulette: Some(-1.0),
+            ..Default::default()
+        });
+        assert!(
+            text.contains(&crate::values::parse_shadow_roulette("-1").unwrap_err()),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn a_bad_manifest_value_that_a_flag_overrides_is_not_looked_at() {
+        let bad = RenderSettings {
             regularize: Some("strict".into()),
+            radius: Some(f32::NAN),
+            shadow_roulette: Some(-1.0),
             ..Default::default()
         };
-        let s = cli(&["--regularize", "uniform"])
-            .unwrap()
-            .resolve(&overridden, path)
-            .unwrap();
+        let args = [
+            "--regularize",
+            "uniform",
+            "--radius",
+            "0.1",
+            "--shadow-roulette",
+            "0",
+        ];
+        let s = resolve(&args, &bad).unwrap();
         assert_eq!(s.config.regularization.mode, Mode::Uniform);
+        assert_eq!(
+            (s.config.radius_factor, s.config.shadow_roulette),
+            (0.1, 0.0)
+        );
+    }
+
+    /// `Resolved` from the manifest.
+    fn manifest<T>(value: T) -> Resolved<T> {
+        Resolved {
+            value,
+            origin: Origin::Manifest,
+        }
     }
 }

@@ -21,20 +21,38 @@ pub fn parse_on_off(s: &str) -> Result<bool, String> {
     }
 }
 
-pub fn parse_radius(s: &str) -> Result<f32, String> {
-    match s.parse::<f32>() {
-        Ok(r) if r > 0.0 && r.is_finite() => Ok(r),
-        _ => Err("expected a positive number (a fraction of the scene radius, e.g. 0.003)".into()),
+/// The first merge radius, a fraction of the scene's radius: positive and finite.
+pub fn check_radius(r: f32) -> Result<f32, String> {
+    if r > 0.0 && r.is_finite() {
+        return Ok(r);
     }
+    Err(format!(
+        "expected a positive number (a fraction of the scene radius, e.g. 0.003), got {r}"
+    ))
+}
+
+/// The shadow-roulette threshold, a fraction of the mean pixel value: finite and >= 0.
+pub fn check_shadow_roulette(t: f32) -> Result<f32, String> {
+    if t >= 0.0 && t.is_finite() {
+        return Ok(t);
+    }
+    Err(format!(
+        "expected a number >= 0 (a fraction of the mean pixel value, e.g. 0.1; 0: off), got {t}"
+    ))
+}
+
+pub fn parse_radius(s: &str) -> Result<f32, String> {
+    check_radius(parse_number(s)?)
 }
 
 pub fn parse_shadow_roulette(s: &str) -> Result<f32, String> {
-    match s.parse::<f32>() {
-        Ok(t) if t >= 0.0 && t.is_finite() => Ok(t),
-        _ => Err(
-            "expected a number >= 0 (a fraction of the mean pixel value, e.g. 0.1; 0: off)".into(),
-        ),
-    }
+    check_shadow_roulette(parse_number(s)?)
+}
+
+fn parse_number(s: &str) -> Result<f32, String> {
+    s.trim()
+        .parse()
+        .map_err(|_| format!("'{s}' is not a number"))
 }
 
 pub fn parse_algorithm(s: &str) -> Result<Algorithm, String> {
@@ -208,6 +226,15 @@ mod tests {
         assert!(parse_tau0("NaN").is_err());
         assert_eq!(parse_tau0("30"), Ok(30.0));
         assert!(parse_threads("0").is_err());
+        assert_eq!(parse_radius("0.01"), Ok(0.01));
+        for bad in ["0", "-0.1", "NaN", "inf", "x", ""] {
+            assert!(parse_radius(bad).is_err(), "{bad}");
+        }
+        assert!(parse_radius("-1").unwrap_err().ends_with("got -1"));
+        assert_eq!(parse_shadow_roulette("0"), Ok(0.0));
+        for bad in ["-0.1", "NaN", "inf", "x"] {
+            assert!(parse_shadow_roulette(bad).is_err(), "{bad}");
+        }
         assert!(parse_exr_path("out.png").is_err() && parse_exr_path("a/b.EXR").is_ok());
     }
 }
