@@ -13,7 +13,6 @@ use crate::settings::{Budget, Settings};
 /// roulette, the merge radius and the regularization of `renderer`.
 pub fn integrator(renderer: &Renderer) -> String {
     let c = renderer.config();
-    let f = renderer.features();
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -25,6 +24,16 @@ pub fn integrator(renderer: &Renderer) -> String {
         "strategies:       {}; Russian roulette from depth {ROULETTE_DEPTH}",
         strategies(renderer)
     );
+    shadow_roulette(&mut s, renderer);
+    merging(&mut s, renderer);
+    regularization(&mut s, renderer);
+    left_out(&mut s, renderer);
+    s
+}
+
+/// The shadow-ray roulette's threshold, if there is one.
+fn shadow_roulette(s: &mut String, renderer: &Renderer) {
+    let c = renderer.config();
     let scale = renderer.shadow_roulette_scale();
     if scale > 0.0 {
         let _ = writeln!(
@@ -35,6 +44,11 @@ pub fn integrator(renderer: &Renderer) -> String {
             scale
         );
     }
+}
+
+/// The merge radius and its rule, or why VCM does not merge.
+fn merging(s: &mut String, renderer: &Renderer) {
+    let c = renderer.config();
     if renderer.techniques().merging && c.algorithm != Algorithm::Pt {
         let radius = renderer.merge_radius_rule();
         let rule = if radius.is_capped() {
@@ -58,7 +72,11 @@ pub fn integrator(renderer: &Renderer) -> String {
             "merging:          left out: no near-specular or refractive surface, so connections sample every path well (VCM runs as BPT)"
         );
     }
-    let r = &c.regularization;
+}
+
+/// The regularization mode, its schedule, and whether it changes anything.
+fn regularization(s: &mut String, renderer: &Renderer) {
+    let r = &renderer.config().regularization;
     let _ = write!(s, "regularization:   {}", r.mode);
     if r.mode != Mode::Off {
         let _ = write!(
@@ -76,11 +94,19 @@ pub fn integrator(renderer: &Renderer) -> String {
             let _ = write!(
                 s,
                 "\n                  inactive: no surface is sharper than alpha_tau (smallest alpha {}), so the render equals the unregularized one",
-                f.smallest_alpha.map_or("none".into(), |a| a.to_string())
+                renderer
+                    .features()
+                    .smallest_alpha
+                    .map_or("none".into(), |a| a.to_string())
             );
         }
     }
     let _ = writeln!(s);
+}
+
+/// The code paths the scene does not need, and a warning if it has no light.
+fn left_out(s: &mut String, renderer: &Renderer) {
+    let f = renderer.features();
     let _ = writeln!(
         s,
         "left out:         {}{}{}",
@@ -106,7 +132,6 @@ pub fn integrator(renderer: &Renderer) -> String {
             "warning:          the scene has no light; the image will be black"
         );
     }
-    s
 }
 
 /// The techniques that reach the lights.

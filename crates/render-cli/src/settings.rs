@@ -256,6 +256,7 @@ fn pick<T, M>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::values::{parse_radius, parse_shadow_roulette};
 
     fn resolve(args: &[&str], manifest: &RenderSettings) -> Result<Settings, ArgError> {
         let cli = Cli::parse_test(args).expect("valid flags");
@@ -376,133 +377,72 @@ mod tests {
         );
     }
 
+    /// The error of a manifest with only `set` applied.
+    fn bad(set: impl FnOnce(&mut RenderSettings)) -> String {
+        let mut settings = RenderSettings::default();
+        set(&mut settings);
+        resolve(&[], &settings).unwrap_err().to_string()
+    }
+
     #[test]
     fn bad_manifest_values_name_the_manifest_and_key() {
-        let bad = |settings: RenderSettings| resolve(&[], &settings).unwrap_err().to_string();
         let cases = [
             (
-                bad(RenderSettings {
-                    regularize: Some("strict".into()),
-                    ..Default::default()
-                }),
+                bad(|m| m.regularize = Some("strict".into())),
                 "regularize",
                 "--regularize",
             ),
             (
-                bad(RenderSettings {
-                    integrator: Some("xyz".into()),
-                    ..Default::default()
-                }),
+                bad(|m| m.integrator = Some("xyz".into())),
                 "integrator",
                 "--integrator",
             ),
+            (bad(|m| m.tau0 = Some(0.1)), "tau0", "--tau0"),
             (
-                bad(RenderSettings {
-                    tau0: Some(0.1),
-                    ..Default::default()
-                }),
-                "tau0",
-                "--tau0",
-            ),
-            (
-                bad(RenderSettings {
-                    iterations: Some(0),
-                    ..Default::default()
-                }),
+                bad(|m| m.iterations = Some(0)),
                 "iterations",
                 "--iterations",
             ),
+            (bad(|m| m.max_depth = Some(0)), "max_depth", "--max-depth"),
+            (bad(|m| m.radius = Some(f32::NAN)), "radius", "--radius"),
+            (bad(|m| m.radius = Some(0.0)), "radius", "--radius"),
+            (bad(|m| m.radius = Some(-0.5)), "radius", "--radius"),
             (
-                bad(RenderSettings {
-                    max_depth: Some(0),
-                    ..Default::default()
-                }),
-                "max_depth",
-                "--max-depth",
-            ),
-            (
-                bad(RenderSettings {
-                    radius: Some(f32::NAN),
-                    ..Default::default()
-                }),
+                bad(|m| m.radius = Some(f32::INFINITY)),
                 "radius",
                 "--radius",
             ),
             (
-                bad(RenderSettings {
-                    radius: Some(0.0),
-                    ..Default::default()
-                }),
-                "radius",
-                "--radius",
-            ),
-            (
-                bad(RenderSettings {
-                    radius: Some(-0.5),
-                    ..Default::default()
-                }),
-                "radius",
-                "--radius",
-            ),
-            (
-                bad(RenderSettings {
-                    radius: Some(f32::INFINITY),
-                    ..Default::default()
-                }),
-                "radius",
-                "--radius",
-            ),
-            (
-                bad(RenderSettings {
-                    shadow_roulette: Some(-0.1),
-                    ..Default::default()
-                }),
+                bad(|m| m.shadow_roulette = Some(-0.1)),
                 "shadow_roulette",
                 "--shadow-roulette",
             ),
             (
-                bad(RenderSettings {
-                    shadow_roulette: Some(f32::NAN),
-                    ..Default::default()
-                }),
+                bad(|m| m.shadow_roulette = Some(f32::NAN)),
                 "shadow_roulette",
                 "--shadow-roulette",
             ),
             (
-                bad(RenderSettings {
-                    shadow_roulette: Some(f32::INFINITY),
-                    ..Default::default()
-                }),
+                bad(|m| m.shadow_roulette = Some(f32::INFINITY)),
                 "shadow_roulette",
                 "--shadow-roulette",
             ),
         ];
         for (text, key, flag) in cases {
             let prefix = format!("dir/scene.toml: [render] {key}: ");
-            assert!(text.starts_with(&prefix), "{text}");
+            let suffix = format!("(set in the manifest; the {flag} flag overrides it)");
             assert!(
-                text.ends_with(&format!(
-                    "(set in the manifest; the {flag} flag overrides it)"
-                )),
+                text.starts_with(&prefix) && text.ends_with(&suffix),
                 "{text}"
             );
             assert!(!text.contains('\n'), "{text}");
         }
         // The same ranges and wording as the flags.
-        let text = bad(RenderSettings {
-            radius: Some(-0.5),
-            ..Default::default()
-        });
+        let text = bad(|m| m.radius = Some(-0.5));
+        assert!(text.contains(&parse_radius("-0.5").unwrap_err()), "{text}");
+        let text = bad(|m| m.shadow_roulette = Some(-1.0));
         assert!(
-            text.contains(&crate::values::parse_radius("-0.5").unwrap_err()),
-            "{text}"
-        );
-        let text = bad(RenderSettings {
-            shadow_roulette: Some(-1.0),
-            ..Default::default()
-        });
-        assert!(
-            text.contains(&crate::values::parse_shadow_roulette("-1").unwrap_err()),
+            text.contains(&parse_shadow_roulette("-1").unwrap_err()),
             "{text}"
         );
     }
