@@ -279,32 +279,7 @@ fn apply_materials(
     for section in sections {
         let element = format!("material \"{}\"", section.name);
         let invalid = |message: String| SceneError::invalid(path, element.clone(), message);
-        let alpha = match (section.alpha, section.roughness) {
-            (Some(_), Some(_)) => {
-                return Err(invalid("give `alpha` or `roughness`, not both".into()));
-            }
-            (Some(a), None) => Some(a),
-            (None, Some(r)) => Some(r * r),
-            (None, None) => None,
-        };
-        if let Some(a) = alpha.filter(|a| !(a.is_finite() && *a >= 0.0)) {
-            return Err(invalid(format!("alpha must be >= 0, got {a}")));
-        }
-        if let Some(ior) = section.ior.filter(|i| !(i.is_finite() && *i > 0.0)) {
-            return Err(invalid(format!("ior must be > 0, got {ior}")));
-        }
-        for (name, value) in [
-            ("reflectance", section.reflectance),
-            ("emission", section.emission),
-            ("eta", section.eta),
-            ("k", section.k),
-        ] {
-            if let Some(v) = vec3(value).filter(|v| !(v.is_finite() && v.min_element() >= 0.0)) {
-                return Err(invalid(format!(
-                    "{name} must be finite and non-negative, got {v}"
-                )));
-            }
-        }
+        let alpha = checked_values(section).map_err(invalid)?;
         let ndf = section
             .ndf
             .as_deref()
@@ -326,25 +301,7 @@ fn apply_materials(
                     alpha.unwrap_or(0.0),
                     shadowing.unwrap_or(Shadowing::Smith),
                 );
-                let reflectance = vec3(section.reflectance);
-                match kind.as_str() {
-                    "diffuse" => Surface::Diffuse {
-                        reflectance: reflectance.unwrap_or(Vec3::splat(0.8)).min(Vec3::ONE),
-                    },
-                    "conductor" => Surface::Conductor {
-                        model,
-                        fresnel: conductor_fresnel(section, reflectance),
-                    },
-                    "dielectric" => Surface::Dielectric {
-                        model,
-                        ior: section.ior.unwrap_or(1.5),
-                    },
-                    other => {
-                        return Err(invalid(format!(
-                            "unknown type \"{other}\" (expected diffuse, conductor or dielectric)"
-                        )));
-                    }
-                }
+                new_surface(kind, section, model).map_err(invalid)?
             }
             (None, Some(base)) => {
                 override_surface(base.surface, section, alpha, ndf, shadowing).map_err(invalid)?
@@ -371,6 +328,61 @@ fn apply_materials(
         }
     }
     Ok(())
+}
+
+/// The section's alpha (given as `alpha` or as `roughness`, alpha = r^2),
+/// after checking that its numbers are in range.
+fn checked_values(section: &MaterialSection) -> Result<Option<f32>, String> {
+    let alpha = match (section.alpha, section.roughness) {
+        (Some(_), Some(_)) => return Err("give `alpha` or `roughness`, not both".into()),
+        (Some(a), None) => Some(a),
+        (None, Some(r)) => Some(r * r),
+        (None, None) => None,
+    };
+    if let Some(a) = alpha.filter(|a| !(a.is_finite() && *a >= 0.0)) {
+        return Err(format!("alpha must be >= 0, got {a}"));
+    }
+    if let Some(ior) = section.ior.filter(|i| !(i.is_finite() && *i > 0.0)) {
+        return Err(format!("ior must be > 0, got {ior}"));
+    }
+    for (name, value) in [
+        ("reflectance", section.reflectance),
+        ("emission", section.emission),
+        ("eta", section.eta),
+        ("k", section.k),
+    ] {
+        if let Some(v) = vec3(value).filter(|v| !(v.is_finite() && v.min_element() >= 0.0)) {
+            return Err(format!("{name} must be finite and non-negative, got {v}"));
+        }
+    }
+    Ok(alpha)
+}
+
+/// The surface of a section that gives its `type`.
+fn new_surface(
+    kind: &str,
+    section: &MaterialSection,
+    model: MicrofacetModel,
+) -> Result<Surface, String> {
+    let reflectance = vec3(section.reflectance);
+    Ok(match kind {
+        "diffuse" => Surface::Diffuse {
+            reflectance: reflectance.unwrap_or(Vec3::splat(0.8)).min(Vec3::ONE),
+        },
+        "conductor" => Surface::Conductor {
+            model,
+            fresnel: conductor_fresnel(section, reflectance),
+        },
+        "dielectric" => Surface::Dielectric {
+            model,
+            ior: section.ior.unwrap_or(1.5),
+        },
+        other => {
+            return Err(format!(
+                "unknown type \"{other}\" (expected diffuse, conductor or dielectric)"
+            ));
+        }
+    })
 }
 
 fn conductor_fresnel(section: &MaterialSection, reflectance: Option<Vec3>) -> Fresnel {
