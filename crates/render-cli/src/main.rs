@@ -1,12 +1,13 @@
 //! `render-cli`: arguments -> scene -> integrator -> OpenEXR + PNG preview.
 //!
 //! A thin driver in the manner of pbrt-v4's and Mitsuba's command lines: it
-//! parses flags ([`args`]), loads the scene, resolves the render settings
-//! (flag, else manifest, else default), runs the progressive loop
-//! ([`render`]) in a rayon pool of the requested size, and writes the mean
-//! image. It contains no light transport. Every error is one line on stderr
-//! (`error: ...`) naming the file, field or flag, and no partial image is
-//! left behind.
+//! parses flags ([`cli`], with the value checks of [`values`]), loads the
+//! scene, resolves the render settings (flag, else manifest, else default:
+//! [`settings`]), optionally explains them ([`explain`]), runs the
+//! progressive loop ([`render`]) in a rayon pool of the requested size, and
+//! writes the mean image ([`outputs`]). It contains no light transport. Every
+//! error is one line on stderr (`error: ...`) naming the file and key, or the
+//! flag, and no partial image is left behind.
 
 mod cli;
 mod error;

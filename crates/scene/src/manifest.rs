@@ -2,6 +2,7 @@
 //! and shapes, material overrides by name, and default render settings.
 //!
 //! ```toml
+//! description = "one line"      # optional
 //! resolution = [512, 512]
 //! [camera]                      # look-from, look-at, up, vertical fov in degrees
 //! from = [0, 1, 3.5]

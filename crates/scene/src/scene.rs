@@ -10,7 +10,9 @@ use crate::light::Light;
 use crate::material::Material;
 use crate::texture::Texture;
 
-/// Render settings a manifest may suggest; the CLI validates and may override them.
+/// Render settings a manifest's `[render]` table may suggest, as written
+/// (their types checked, not their ranges): `render-cli` checks a value,
+/// with the same checks as its flag, when no flag overrides it.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RenderSettings {
     /// Integrator name (`pt`, `bpt`, `ppm`, `vcm`).
