@@ -125,7 +125,8 @@ pub struct Cli {
     /// First merge radius of ppm and vcm, as a fraction of the radius of the scene's bounding
     /// sphere; it shrinks as r_N = r_1 N^((alpha - 1)/2) with alpha = 0.75.
     /// [default: the manifest's, else 0.003]
-    #[arg(long, value_name = "FRACTION", value_parser = parse_radius, help_heading = "Rendering")]
+    #[arg(long, value_name = "FRACTION", value_parser = parse_radius, allow_negative_numbers = true,
+          help_heading = "Rendering")]
     pub radius: Option<f32>,
 
     /// Russian roulette on the shadow rays of bpt and vcm's next-event estimation, vertex

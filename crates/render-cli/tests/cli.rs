@@ -135,7 +135,7 @@ fn bad_flag_values_name_the_flag() {
     let dir = tempfile::tempdir().unwrap();
     let scene = bundled("cornell-box");
     let exr = dir.path().join("out.exr");
-    let cases: [(&[&str], &[&str]); 8] = [
+    let cases: [(&[&str], &[&str]); 11] = [
         (&["--regularize", "strict"], &["--regularize", "strict"]),
         (&["--integrator", "xyz"], &["--integrator", "xyz"]),
         (&["--resolution", "0x5"], &["--resolution", "0x5"]),
@@ -143,6 +143,15 @@ fn bad_flag_values_name_the_flag() {
         (&["--iterations", "0"], &["--iterations"]),
         (&["--time", "-1"], &["--time"]),
         (&["--camera-from", "1,2"], &["--camera-from"]),
+        (&["--radius", "-1"], &["--radius", "got -1"]),
+        (
+            &["--shadow-roulette", "NaN"],
+            &["--shadow-roulette", "got NaN"],
+        ),
+        (
+            &["--virtual-merges", "yes"],
+            &["--virtual-merges", "on or off"],
+        ),
         (
             &["--iterations", "2", "--time", "1"],
             &["--iterations", "--time"],
