@@ -1,16 +1,18 @@
-//! `--explain`: what the renderer will do with a scene and why, in prose.
-//! Presentation only: every number comes from the `integrators` crate.
+//! `--explain`: what the renderer will do with a scene and why, in prose,
+//! and every resolved setting with its origin. Presentation only: every
+//! number comes from the `integrators` crate or from `settings`.
 
 use std::fmt::Write as _;
 
 use integrators::merge_radius::MAX_MERGE_RADIUS_PIXELS;
 use integrators::{Algorithm, Mode, ROULETTE_DEPTH, Renderer, Strategies};
 
+use crate::settings::{Budget, Settings};
+
 /// A human-readable account of the integrator, its techniques, the shadow
 /// roulette, the merge radius and the regularization of `renderer`.
 pub fn integrator(renderer: &Renderer) -> String {
     let c = renderer.config();
-    let f = renderer.features();
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -22,6 +24,16 @@ pub fn integrator(renderer: &Renderer) -> String {
         "strategies:       {}; Russian roulette from depth {ROULETTE_DEPTH}",
         strategies(renderer)
     );
+    shadow_roulette(&mut s, renderer);
+    merging(&mut s, renderer);
+    regularization(&mut s, renderer);
+    left_out(&mut s, renderer);
+    s
+}
+
+/// The shadow-ray roulette's threshold, if there is one.
+fn shadow_roulette(s: &mut String, renderer: &Renderer) {
+    let c = renderer.config();
     let scale = renderer.shadow_roulette_scale();
     if scale > 0.0 {
         let _ = writeln!(
@@ -32,7 +44,13 @@ pub fn integrator(renderer: &Renderer) -> String {
             scale
         );
     }
-    if renderer.techniques().is_some_and(|t| t.merging) {
+}
+
+/// The merge radius and its rule, or why VCM does not merge.
+fn merging(s: &mut String, renderer: &Renderer) {
+    let c = renderer.config();
+    let merges = c.algorithm == Algorithm::Ppm || renderer.techniques().is_some_and(|t| t.merging);
+    if merges {
         let radius = renderer.merge_radius_rule();
         let rule = if radius.is_capped() {
             format!(
@@ -55,7 +73,11 @@ pub fn integrator(renderer: &Renderer) -> String {
             "merging:          left out: no near-specular or refractive surface, so connections sample every path well (VCM runs as BPT)"
         );
     }
-    let r = &c.regularization;
+}
+
+/// The regularization mode, its schedule, and whether it changes anything.
+fn regularization(s: &mut String, renderer: &Renderer) {
+    let r = &renderer.config().regularization;
     let _ = write!(s, "regularization:   {}", r.mode);
     if r.mode != Mode::Off {
         let _ = write!(
@@ -73,11 +95,19 @@ pub fn integrator(renderer: &Renderer) -> String {
             let _ = write!(
                 s,
                 "\n                  inactive: no surface is sharper than alpha_tau (smallest alpha {}), so the render equals the unregularized one",
-                f.smallest_alpha.map_or("none".into(), |a| a.to_string())
+                renderer
+                    .features()
+                    .smallest_alpha
+                    .map_or("none".into(), |a| a.to_string())
             );
         }
     }
     let _ = writeln!(s);
+}
+
+/// The code paths the scene does not need, and a warning if it has no light.
+fn left_out(s: &mut String, renderer: &Renderer) {
+    let f = renderer.features();
     let _ = writeln!(
         s,
         "left out:         {}{}{}",
@@ -103,12 +133,14 @@ pub fn integrator(renderer: &Renderer) -> String {
             "warning:          the scene has no light; the image will be black"
         );
     }
-    s
 }
 
 /// The techniques that reach the lights.
 fn strategies(renderer: &Renderer) -> String {
     let c = renderer.config();
+    if c.algorithm == Algorithm::Ppm {
+        return "one light subpath per pixel (the photons); camera paths follow delta lobes and merge at their first non-specular vertex, no MIS (Hachisuka et al. 2008)".to_owned();
+    }
     let Some(t) = renderer.techniques() else {
         return match c.strategies {
             Strategies::Mis => "next-event estimation + BSDF sampling, power-heuristic MIS",
@@ -131,4 +163,128 @@ fn strategies(renderer: &Renderer) -> String {
         "one light subpath per pixel; {}; balance-heuristic VCM MIS",
         list.join(", ")
     )
+}
+
+/// The resolved settings, one line each with its value and origin.
+pub fn settings(settings: &Settings) -> String {
+    let c = &settings.config;
+    let r = &c.regularization;
+    let (budget, budget_value) = match settings.budget.value {
+        Budget::Iterations(n) => ("iterations", n.to_string()),
+        Budget::Time(t) => ("time", format!("{} s", t.as_secs_f64())),
+    };
+    let on_off = |on: bool| if on { "on" } else { "off" }.to_owned();
+    // Unless given, the integrator decides (on for vcm with regularization).
+    let virtual_merges = c.virtual_merges.unwrap_or_else(|| c.uses_virtual_merges());
+    let rows = [
+        ("integrator", c.algorithm.to_string(), settings.algorithm),
+        (budget, budget_value, settings.budget.origin),
+        ("regularize", r.mode.to_string(), settings.mode),
+        ("tau0", r.schedule.tau_0().to_string(), settings.tau0),
+        (
+            "progressive",
+            if r.progressive { "yes" } else { "no" }.to_owned(),
+            settings.progressive,
+        ),
+        ("max depth", c.max_depth.to_string(), settings.max_depth),
+        ("seed", c.seed.to_string(), settings.seed),
+        ("radius", c.radius_factor.to_string(), settings.radius),
+        (
+            "shadow roulette",
+            c.shadow_roulette.to_string(),
+            settings.shadow_roulette,
+        ),
+        (
+            "virtual merges",
+            on_off(virtual_merges),
+            settings.virtual_merges,
+        ),
+    ];
+    let mut text = "settings:         value (origin: flag, manifest or default)\n".to_owned();
+    for (name, value, origin) in rows {
+        let _ = writeln!(text, "{:<18}{value} ({origin})", format!("{name}:"));
+    }
+    text
+}
+
+#[cfg(test)]
+mod tests {
+    use scene::RenderSettings;
+
+    use super::*;
+    use crate::cli::Cli;
+
+    fn explain(args: &[&str], manifest: &RenderSettings) -> String {
+        let cli = Cli::parse_test(args).unwrap();
+        settings(&Settings::resolve(&cli, manifest, std::path::Path::new("scene.toml")).unwrap())
+    }
+
+    #[test]
+    fn every_setting_shows_its_value_and_origin() {
+        let manifest = RenderSettings {
+            integrator: Some("vcm".into()),
+            tau0: Some(30.0),
+            radius: Some(0.01),
+            shadow_roulette: Some(0.25),
+            virtual_merges: Some(false),
+            ..Default::default()
+        };
+        let text = explain(&["--iterations", "2", "--seed", "3"], &manifest);
+        for line in [
+            "integrator:       vcm (manifest)",
+            "iterations:       2 (flag)",
+            "regularize:       selective (default)",
+            "tau0:             30 (manifest)",
+            "progressive:      yes (default)",
+            "max depth:        12 (default)",
+            "seed:             3 (flag)",
+            "radius:           0.01 (manifest)",
+            "shadow roulette:  0.25 (manifest)",
+            "virtual merges:   off (manifest)",
+        ] {
+            assert!(
+                text.contains(&format!("{line}\n")),
+                "'{line}' missing from:\n{text}"
+            );
+        }
+        assert_eq!(text.lines().count(), 11, "{text}");
+
+        let flags = [
+            "--radius",
+            "0.5",
+            "--shadow-roulette",
+            "0",
+            "--virtual-merges",
+            "on",
+        ];
+        let text = explain(&flags, &manifest);
+        for line in [
+            "radius:           0.5 (flag)",
+            "shadow roulette:  0 (flag)",
+            "virtual merges:   on (flag)",
+        ] {
+            assert!(text.contains(line), "'{line}' missing from:\n{text}");
+        }
+    }
+
+    #[test]
+    fn default_virtual_merges_show_what_the_integrator_does() {
+        let none = RenderSettings::default();
+        for (args, expected) in [
+            (&["--integrator", "vcm"][..], "on"),
+            (&["--integrator", "vcm", "--regularize", "off"][..], "off"),
+            (&["--integrator", "bpt"][..], "off"),
+            (&[][..], "off"),
+        ] {
+            let text = explain(args, &none);
+            let line = format!("virtual merges:   {expected} (default)\n");
+            assert!(
+                text.contains(&line),
+                "{args:?}: '{line}' missing from:\n{text}"
+            );
+        }
+        let text = explain(&["--time", "1.5", "--no-progressive"], &none);
+        assert!(text.contains("time:             1.5 s (flag)\n"), "{text}");
+        assert!(text.contains("progressive:      no (flag)\n"), "{text}");
+    }
 }

@@ -1,16 +1,22 @@
 //! `render-cli`: arguments -> scene -> integrator -> OpenEXR + PNG preview.
 //!
 //! A thin driver in the manner of pbrt-v4's and Mitsuba's command lines: it
-//! parses flags ([`args`]), loads the scene, resolves the render settings
-//! (flag, else manifest, else default), runs the progressive loop
-//! ([`render`]) in a rayon pool of the requested size, and writes the mean
-//! image. It contains no light transport. Every error is one line on stderr
-//! (`error: ...`) naming the file, field or flag, and no partial image is
-//! left behind.
+//! parses flags ([`cli`], with the value checks of [`values`]), loads the
+//! scene, resolves the render settings (flag, else manifest, else default:
+//! [`settings`]), optionally explains them ([`explain`]), runs the
+//! progressive loop ([`render`]) in a rayon pool of the requested size, and
+//! writes the mean image ([`outputs`]). It contains no light transport. Every
+//! error is one line on stderr (`error: ...`) naming the file and key, or the
+//! flag, and no partial image is left behind.
 
-mod args;
+mod cli;
+mod error;
 mod explain;
+mod outputs;
 mod render;
+mod scene_options;
+mod settings;
+mod values;
 
 use std::io::Write;
 use std::process::ExitCode;
@@ -20,8 +26,11 @@ use image_io::{ImageError, write_exr, write_png};
 use integrators::Renderer;
 use scene::SceneError;
 
-use crate::args::{ArgError, Budget, Cli, Outputs, Settings};
+use crate::cli::Cli;
+use crate::error::ArgError;
+use crate::outputs::Outputs;
 use crate::render::{INTERRUPTED_EXIT_CODE, Outcome};
+use crate::settings::{Budget, Settings};
 
 /// Why a render failed; `Display` is the one line printed after `error: `.
 #[derive(Debug, thiserror::Error)]
@@ -48,7 +57,7 @@ fn main() -> ExitCode {
             return ExitCode::SUCCESS;
         }
         Err(e) => {
-            eprintln!("{}", args::one_line(&e));
+            eprintln!("{}", cli::one_line(&e));
             return ExitCode::from(2);
         }
     };
@@ -75,7 +84,7 @@ fn run(cli: &Cli) -> Result<ExitCode, Error> {
     for warning in &scene.report.warnings {
         eprintln!("warning: {warning}");
     }
-    let settings = cli.resolve(&scene.render, &cli.scene)?;
+    let settings = Settings::resolve(cli, &scene.render, &cli.scene)?;
     if let Some(camera) = camera {
         scene.camera = camera.camera(scene.camera.resolution)?;
     }
@@ -127,7 +136,7 @@ fn print_explanation(cli: &Cli, renderer: &Renderer, settings: &Settings, output
     let mut text = format!("scene:            {}\n", cli.scene.display());
     text += &format!("{}\n", renderer.features());
     text += &format!("{}\n", explain::integrator(renderer).trim_end());
-    text += &settings.describe();
+    text += &explain::settings(settings);
     text += &format!("resolution:       {width}x{height}\n");
     text += &format!("threads:          {}\n", rayon::current_num_threads());
     if outputs.png.is_some() {

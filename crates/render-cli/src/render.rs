@@ -15,7 +15,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressState, ProgressStyle};
 use integrators::Renderer;
 use integrators::film::Film;
 
-use crate::args::Budget;
+use crate::settings::Budget;
 
 /// Exit code of an interrupted render (128 + SIGINT, the shell convention).
 pub const INTERRUPTED_EXIT_CODE: u8 = 130;

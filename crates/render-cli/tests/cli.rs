@@ -135,7 +135,7 @@ fn bad_flag_values_name_the_flag() {
     let dir = tempfile::tempdir().unwrap();
     let scene = bundled("cornell-box");
     let exr = dir.path().join("out.exr");
-    let cases: [(&[&str], &[&str]); 8] = [
+    let cases: [(&[&str], &[&str]); 11] = [
         (&["--regularize", "strict"], &["--regularize", "strict"]),
         (&["--integrator", "xyz"], &["--integrator", "xyz"]),
         (&["--resolution", "0x5"], &["--resolution", "0x5"]),
@@ -143,6 +143,15 @@ fn bad_flag_values_name_the_flag() {
         (&["--iterations", "0"], &["--iterations"]),
         (&["--time", "-1"], &["--time"]),
         (&["--camera-from", "1,2"], &["--camera-from"]),
+        (&["--radius", "-1"], &["--radius", "got -1"]),
+        (
+            &["--shadow-roulette", "NaN"],
+            &["--shadow-roulette", "got NaN"],
+        ),
+        (
+            &["--virtual-merges", "yes"],
+            &["--virtual-merges", "on or off"],
+        ),
         (
             &["--iterations", "2", "--time", "1"],
             &["--iterations", "--time"],
@@ -197,7 +206,11 @@ fn help_mentions_every_flag() {
         "--no-png",
         "--exposure",
         "--explain",
+        "--radius",
+        "--shadow-roulette",
+        "--virtual-merges",
         "D/4 for reflection",
+        "shadow_roulette",
     ] {
         assert!(help.contains(flag), "--help does not mention {flag}");
     }
@@ -223,6 +236,84 @@ fn explain_prints_the_settings_and_renders() {
         assert!(stdout.contains(line), "'{line}' missing from:\n{stdout}");
     }
     assert!(exr.is_file() && !dir.path().join("out.png").exists());
+}
+
+/// The caustic-glass manifest (analytic shapes only, no model file) with
+/// `extra` at the start of its `[render]` table, written to `dir`.
+fn caustic_glass_with_render_keys(dir: &Path, extra: &str) -> PathBuf {
+    let manifest = std::fs::read_to_string(bundled("caustic-glass"))
+        .unwrap()
+        .replace("[render]\n", &format!("[render]\n{extra}"));
+    assert!(manifest.contains(extra) && !manifest.contains("[[model]]"));
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, manifest).unwrap();
+    scene
+}
+
+#[test]
+fn manifest_render_keys_take_effect_and_flags_override_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let keys = "radius = 0.02\nshadow_roulette = 0.25\nvirtual_merges = false\n";
+    let scene = caustic_glass_with_render_keys(dir.path(), keys);
+    let exr = dir.path().join("out.exr");
+    let mut args = vec![scene.to_str().unwrap(), "-o", exr.to_str().unwrap()];
+    args.extend(TINY);
+    args.extend(["--explain", "--no-png", "--integrator", "vcm"]);
+    let output = render_cli(&args);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let stdout = String::from_utf8(output.stdout).unwrap();
+    for line in [
+        "radius:           0.02 (manifest)",
+        "shadow roulette:  0.25 (manifest)",
+        "virtual merges:   off (manifest)",
+        "(0.02 x scene radius;",
+    ] {
+        assert!(stdout.contains(line), "'{line}' missing from:\n{stdout}");
+    }
+    args.extend(["--radius", "0.01", "--shadow-roulette", "0"]);
+    args.extend(["--virtual-merges", "on"]);
+    let output = render_cli(&args);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let stdout = String::from_utf8(output.stdout).unwrap();
+    for line in [
+        "radius:           0.01 (flag)",
+        "shadow roulette:  0 (flag)",
+        "virtual merges:   on (flag)",
+        "(0.01 x scene radius;",
+    ] {
+        assert!(stdout.contains(line), "'{line}' missing from:\n{stdout}");
+    }
+}
+
+#[test]
+fn a_bad_manifest_radius_is_one_line_naming_the_file_and_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("out.exr");
+    for (keys, names) in [
+        (
+            "radius = nan\n",
+            &["scene.toml", "[render] radius", "--radius"][..],
+        ),
+        (
+            "radius = -1\n",
+            &["scene.toml", "[render] radius", "got -1"][..],
+        ),
+        (
+            "shadow_roulette = -0.5\n",
+            &["scene.toml", "[render] shadow_roulette"][..],
+        ),
+        (
+            "virtual_merges = \"on\"\n",
+            &["scene.toml", "virtual_merges", "boolean"][..],
+        ),
+    ] {
+        let scene = caustic_glass_with_render_keys(dir.path(), keys);
+        let mut args = vec![scene.to_str().unwrap(), "-o", exr.to_str().unwrap()];
+        args.extend(TINY);
+        let output = render_cli(&args);
+        assert_eq!(output.status.code(), Some(1), "{keys}: {}", stderr(&output));
+        assert_fails_cleanly(&output, names, dir.path());
+    }
 }
 
 #[cfg(unix)]

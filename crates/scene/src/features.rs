@@ -1,5 +1,5 @@
 //! What a scene contains, so integrators and the CLI can leave out work the
-//! scene does not need (SPEC's "pay only for what a scene uses").
+//! scene does not need: a scene pays only for what it uses.
 
 use std::fmt;
 

@@ -2,6 +2,7 @@
 //! and shapes, material overrides by name, and default render settings.
 //!
 //! ```toml
+//! description = "one line"      # optional
 //! resolution = [512, 512]
 //! [camera]                      # look-from, look-at, up, vertical fov in degrees
 //! from = [0, 1, 3.5]
@@ -9,12 +10,16 @@
 //! up = [0, 1, 0]                # optional, default +y
 //! fov = 40
 //! # name = "render_camera"      # or: use this glTF camera instead
-//! [render]                      # defaults; the command line overrides them
-//! integrator = "pt"
+//! [render]                      # defaults; the command line's flags override them
+//! integrator = "pt"             # pt | bpt | ppm | vcm
 //! iterations = 64
 //! max_depth = 16
-//! regularize = "selective"
-//! tau0 = 7.5
+//! regularize = "selective"      # off | uniform | selective
+//! tau0 = 7.5                    # > 1/(2 pi)
+//! seed = 0
+//! radius = 0.003                # first merge radius (ppm, vcm), fraction of the scene radius, > 0
+//! shadow_roulette = 0.1         # shadow-ray roulette (bpt, vcm), fraction of the mean pixel, >= 0
+//! virtual_merges = true         # bpt, vcm with regularization (default: on for vcm only)
 //! [[model]]
 //! file = "cornell.obj"          # relative to this file; .obj, .gltf, .glb
 //! [[material]]                  # overrides a model's material of that name,
@@ -91,6 +96,9 @@ struct RenderSection {
     regularize: Option<String>,
     tau0: Option<f64>,
     seed: Option<u64>,
+    radius: Option<f32>,
+    shadow_roulette: Option<f32>,
+    virtual_merges: Option<bool>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -220,6 +228,9 @@ pub fn load(path: &Path, camera_name: Option<&str>) -> Result<LoadedManifest, Sc
             regularize: r.regularize,
             tau0: r.tau0,
             seed: r.seed,
+            radius: r.radius,
+            shadow_roulette: r.shadow_roulette,
+            virtual_merges: r.virtual_merges,
         });
     Ok(LoadedManifest {
         builder,
@@ -233,15 +244,21 @@ pub fn load(path: &Path, camera_name: Option<&str>) -> Result<LoadedManifest, Sc
 /// Largest image side a manifest may ask for (a 64k x 64k RGB f64 film is 100 GB).
 pub const MAX_RESOLUTION: u32 = 65_536;
 
-/// toml's message with the line and column of the error.
+/// toml's message with the line of the error and, for a bad value, its key
+/// (toml names the expected type but not the key).
 fn toml_message(text: &str, e: &toml::de::Error) -> String {
     let message = e.message().to_string();
-    match e.span() {
-        Some(span) => {
-            let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
-            format!("line {line}: {message}")
+    let Some(span) = e.span() else {
+        return message;
+    };
+    let before = &text[..span.start.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    match before[line_start..].split_once('=') {
+        Some((key, _)) if !key.trim().is_empty() => {
+            format!("line {line}: {}: {message}", key.trim())
         }
-        None => message,
+        _ => format!("line {line}: {message}"),
     }
 }
 
@@ -263,32 +280,7 @@ fn apply_materials(
     for section in sections {
         let element = format!("material \"{}\"", section.name);
         let invalid = |message: String| SceneError::invalid(path, element.clone(), message);
-        let alpha = match (section.alpha, section.roughness) {
-            (Some(_), Some(_)) => {
-                return Err(invalid("give `alpha` or `roughness`, not both".into()));
-            }
-            (Some(a), None) => Some(a),
-            (None, Some(r)) => Some(r * r),
-            (None, None) => None,
-        };
-        if let Some(a) = alpha.filter(|a| !(a.is_finite() && *a >= 0.0)) {
-            return Err(invalid(format!("alpha must be >= 0, got {a}")));
-        }
-        if let Some(ior) = section.ior.filter(|i| !(i.is_finite() && *i > 0.0)) {
-            return Err(invalid(format!("ior must be > 0, got {ior}")));
-        }
-        for (name, value) in [
-            ("reflectance", section.reflectance),
-            ("emission", section.emission),
-            ("eta", section.eta),
-            ("k", section.k),
-        ] {
-            if let Some(v) = vec3(value).filter(|v| !(v.is_finite() && v.min_element() >= 0.0)) {
-                return Err(invalid(format!(
-                    "{name} must be finite and non-negative, got {v}"
-                )));
-            }
-        }
+        let alpha = checked_values(section).map_err(invalid)?;
         let ndf = section
             .ndf
             .as_deref()
@@ -310,25 +302,7 @@ fn apply_materials(
                     alpha.unwrap_or(0.0),
                     shadowing.unwrap_or(Shadowing::Smith),
                 );
-                let reflectance = vec3(section.reflectance);
-                match kind.as_str() {
-                    "diffuse" => Surface::Diffuse {
-                        reflectance: reflectance.unwrap_or(Vec3::splat(0.8)).min(Vec3::ONE),
-                    },
-                    "conductor" => Surface::Conductor {
-                        model,
-                        fresnel: conductor_fresnel(section, reflectance),
-                    },
-                    "dielectric" => Surface::Dielectric {
-                        model,
-                        ior: section.ior.unwrap_or(1.5),
-                    },
-                    other => {
-                        return Err(invalid(format!(
-                            "unknown type \"{other}\" (expected diffuse, conductor or dielectric)"
-                        )));
-                    }
-                }
+                new_surface(kind, section, model).map_err(invalid)?
             }
             (None, Some(base)) => {
                 override_surface(base.surface, section, alpha, ndf, shadowing).map_err(invalid)?
@@ -355,6 +329,61 @@ fn apply_materials(
         }
     }
     Ok(())
+}
+
+/// The section's alpha (given as `alpha` or as `roughness`, alpha = r^2),
+/// after checking that its numbers are in range.
+fn checked_values(section: &MaterialSection) -> Result<Option<f32>, String> {
+    let alpha = match (section.alpha, section.roughness) {
+        (Some(_), Some(_)) => return Err("give `alpha` or `roughness`, not both".into()),
+        (Some(a), None) => Some(a),
+        (None, Some(r)) => Some(r * r),
+        (None, None) => None,
+    };
+    if let Some(a) = alpha.filter(|a| !(a.is_finite() && *a >= 0.0)) {
+        return Err(format!("alpha must be >= 0, got {a}"));
+    }
+    if let Some(ior) = section.ior.filter(|i| !(i.is_finite() && *i > 0.0)) {
+        return Err(format!("ior must be > 0, got {ior}"));
+    }
+    for (name, value) in [
+        ("reflectance", section.reflectance),
+        ("emission", section.emission),
+        ("eta", section.eta),
+        ("k", section.k),
+    ] {
+        if let Some(v) = vec3(value).filter(|v| !(v.is_finite() && v.min_element() >= 0.0)) {
+            return Err(format!("{name} must be finite and non-negative, got {v}"));
+        }
+    }
+    Ok(alpha)
+}
+
+/// The surface of a section that gives its `type`.
+fn new_surface(
+    kind: &str,
+    section: &MaterialSection,
+    model: MicrofacetModel,
+) -> Result<Surface, String> {
+    let reflectance = vec3(section.reflectance);
+    Ok(match kind {
+        "diffuse" => Surface::Diffuse {
+            reflectance: reflectance.unwrap_or(Vec3::splat(0.8)).min(Vec3::ONE),
+        },
+        "conductor" => Surface::Conductor {
+            model,
+            fresnel: conductor_fresnel(section, reflectance),
+        },
+        "dielectric" => Surface::Dielectric {
+            model,
+            ior: section.ior.unwrap_or(1.5),
+        },
+        other => {
+            return Err(format!(
+                "unknown type \"{other}\" (expected diffuse, conductor or dielectric)"
+            ));
+        }
+    })
 }
 
 fn conductor_fresnel(section: &MaterialSection, reflectance: Option<Vec3>) -> Fresnel {

@@ -10,7 +10,9 @@ use crate::light::Light;
 use crate::material::Material;
 use crate::texture::Texture;
 
-/// Render settings a manifest may suggest; the CLI validates and may override them.
+/// Render settings a manifest's `[render]` table may suggest, as written
+/// (their types checked, not their ranges): `render-cli` checks a value,
+/// with the same checks as its flag, when no flag overrides it.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RenderSettings {
     /// Integrator name (`pt`, `bpt`, `ppm`, `vcm`).
@@ -25,6 +27,12 @@ pub struct RenderSettings {
     pub tau0: Option<f64>,
     /// Random seed.
     pub seed: Option<u64>,
+    /// First merge radius of PPM and VCM, as a fraction of the scene's bounding-sphere radius.
+    pub radius: Option<f32>,
+    /// Shadow-ray Russian roulette threshold, as a fraction of the mean pixel value (0: off).
+    pub shadow_roulette: Option<f32>,
+    /// Virtual merges in BPT and VCM with regularization.
+    pub virtual_merges: Option<bool>,
 }
 
 /// What a load skipped or noticed (nothing is dropped silently).

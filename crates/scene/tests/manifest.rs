@@ -135,3 +135,75 @@ fn gltf_punctual_lights_and_orthographic_camera() {
         if *position == Vec3::new(0.0, 2.0, 0.0) && *intensity == Vec3::new(8.0, 4.0, 2.0) && (cos_inner - 0.2f32.cos()).abs() < 1e-6)));
     assert!(s.lights.iter().any(|l| matches!(l, Light::Directional { direction, .. } if (*direction - Vec3::NEG_Z).length() < 1e-6)));
 }
+
+/// A manifest with one triangle (so that it loads) and `render` as its `[render]` table.
+fn with_render_table(name: &str, render: &str) -> Result<scene::Scene, SceneError> {
+    let text = format!(
+        "[[material]]\nname = \"m\"\ntype = \"diffuse\"\n[[shape]]\ntype = \"quad\"\nmaterial = \"m\"\norigin = [0, 0, 0]\nu = [1, 0, 0]\nv = [0, 1, 0]\n[render]\n{render}"
+    );
+    load(&write_manifest(name, &text), &LoadOptions::default())
+}
+
+#[test]
+fn render_table_keys_are_read() {
+    let s = with_render_table(
+        "render-keys",
+        "integrator = \"vcm\"\niterations = 8\nmax_depth = 5\nregularize = \"uniform\"\ntau0 = 30\nseed = 7\nradius = 0.01\nshadow_roulette = 0\nvirtual_merges = false\n",
+    )
+    .unwrap();
+    let r = &s.render;
+    assert_eq!(
+        (r.integrator.as_deref(), r.iterations, r.max_depth),
+        (Some("vcm"), Some(8), Some(5))
+    );
+    assert_eq!(
+        (r.regularize.as_deref(), r.tau0, r.seed),
+        (Some("uniform"), Some(30.0), Some(7))
+    );
+    assert_eq!(
+        (r.radius, r.shadow_roulette, r.virtual_merges),
+        (Some(0.01), Some(0.0), Some(false))
+    );
+    // Keys left out stay unset: the command line's defaults apply.
+    let s = with_render_table("render-empty", "").unwrap();
+    assert_eq!(s.render, scene::RenderSettings::default());
+}
+
+#[test]
+fn render_table_values_of_the_wrong_type_name_the_file_line_and_key() {
+    for (render, key, line) in [
+        ("virtual_merges = \"on\"\n", "virtual_merges", "line 11"),
+        ("virtual_merges = 1\n", "virtual_merges", "line 11"),
+        ("radius = \"small\"\n", "radius", "line 11"),
+        (
+            "seed = 0\nshadow_roulette = [0.1]\n",
+            "shadow_roulette",
+            "line 12",
+        ),
+    ] {
+        let err = with_render_table("render-types", render).unwrap_err();
+        let text = err.to_string();
+        assert!(matches!(err, SceneError::Malformed { .. }), "{text}");
+        assert!(
+            text.contains("scene.toml: ") && text.contains(&format!("{line}: {key}: ")),
+            "{render}: {text}"
+        );
+        assert!(!text.contains('\n'), "{text}");
+    }
+    // The keys are spelt with underscores, like max_depth.
+    let err = with_render_table("render-dash", "shadow-roulette = 0.1\n").unwrap_err();
+    assert!(
+        err.to_string().contains("unknown field `shadow-roulette`"),
+        "{err}"
+    );
+}
+
+#[test]
+fn render_table_numbers_are_passed_on_for_the_command_line_to_check() {
+    // Ranges are checked by render-cli, with the flags' checks, when the value
+    // is used (a flag that overrides it makes it irrelevant): the loader keeps
+    // NaN and negative values as they are written.
+    let s = with_render_table("render-nan", "radius = nan\nshadow_roulette = -1\n").unwrap();
+    assert!(s.render.radius.is_some_and(f32::is_nan));
+    assert_eq!(s.render.shadow_roulette, Some(-1.0));
+}
