@@ -122,7 +122,7 @@ pub struct Cli {
     #[arg(long, value_name = "on|off", value_parser = parse_on_off, help_heading = "Regularization")]
     pub virtual_merges: Option<bool>,
 
-    /// First merge radius of ppm and vcm, as a fraction of the radius of the scene's bounding
+    /// First merge radius of ppm, bpm and vcm, as a fraction of the radius of the scene's bounding
     /// sphere; it shrinks as r_N = r_1 N^((alpha - 1)/2) with alpha = 0.75.
     /// [default: the manifest's, else 0.003]
     #[arg(long, value_name = "FRACTION", value_parser = parse_radius, allow_negative_numbers = true,
@@ -200,7 +200,9 @@ fn algorithm_help() -> String {
     format!(
         "Light-transport algorithm, one of: {}. pt: path tracing with next-event estimation \
          and multiple importance sampling; bpt: bidirectional path tracing; ppm: progressive \
-         photon mapping (merging only); vcm: vertex connection and merging (BPT + merging). \
+         photon mapping (camera paths merge at their first non-specular vertex, no MIS); bpm: \
+         bidirectional photon mapping (merging at every camera vertex, MIS); vcm: vertex \
+         connection and merging (BPT + merging). \
          [default: the manifest's, else {}]",
         names.join(", "),
         Algorithm::default()

@@ -11,13 +11,13 @@
 //! fov = 40
 //! # name = "render_camera"      # or: use this glTF camera instead
 //! [render]                      # defaults; the command line's flags override them
-//! integrator = "pt"             # pt | bpt | ppm | vcm
+//! integrator = "pt"             # pt | bpt | ppm | bpm | vcm
 //! iterations = 64
 //! max_depth = 16
 //! regularize = "selective"      # off | uniform | selective
 //! tau0 = 7.5                    # > 1/(2 pi)
 //! seed = 0
-//! radius = 0.003                # first merge radius (ppm, vcm), fraction of the scene radius, > 0
+//! radius = 0.003                # first merge radius (ppm, bpm, vcm), fraction of the scene radius, > 0
 //! shadow_roulette = 0.1         # shadow-ray roulette (bpt, vcm), fraction of the mean pixel, >= 0
 //! virtual_merges = true         # bpt, vcm with regularization (default: on for vcm only)
 //! [[model]]

@@ -15,7 +15,7 @@ use crate::texture::Texture;
 /// with the same checks as its flag, when no flag overrides it.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RenderSettings {
-    /// Integrator name (`pt`, `bpt`, `ppm`, `vcm`).
+    /// Integrator name (`pt`, `bpt`, `ppm`, `bpm`, `vcm`).
     pub integrator: Option<String>,
     /// Number of iterations.
     pub iterations: Option<u32>,
@@ -27,7 +27,7 @@ pub struct RenderSettings {
     pub tau0: Option<f64>,
     /// Random seed.
     pub seed: Option<u64>,
-    /// First merge radius of PPM and VCM, as a fraction of the scene's bounding-sphere radius.
+    /// First merge radius of PPM, BPM and VCM, as a fraction of the scene's bounding-sphere radius.
     pub radius: Option<f32>,
     /// Shadow-ray Russian roulette threshold, as a fraction of the mean pixel value (0: off).
     pub shadow_roulette: Option<f32>,

@@ -30,7 +30,7 @@ pub(crate) use run::child as run_child;
 
 /// The task's lines in `cargo xtask help` (and `cargo xtask bench --help`).
 pub const USAGE: &str =
-    "  bench [options]   end-to-end benchmark: every integrator (pt, bpt, ppm, vcm)
+    "  bench [options]   end-to-end benchmark: every integrator (pt, bpt, ppm, bpm, vcm)
                     on every bundled scene (scenes/*/scene.toml), each run in
                     its own process: seconds per iteration, samples/s, rays/s,
                     rays per sample, peak memory and build time. Writes
@@ -41,7 +41,7 @@ pub const USAGE: &str =
                     are each scene manifest's (render-cli's defaults
                     otherwise); the integrator is the run's.
       --scenes LIST         comma-separated bundled scenes (default: all)
-      --integrators LIST    comma-separated pt, bpt, ppm, vcm (default: all)
+      --integrators LIST    comma-separated pt, bpt, ppm, bpm, vcm (default: all)
       --resolution WxH      image size of every scene (default 256x192)
       --iterations N        timed iterations, after 1 untimed warm-up
                             (default 8)

@@ -19,10 +19,11 @@ const LENGTH_KEYS: [&str; 8] = [
 ];
 
 /// Integrators and regularization modes every render case runs.
-const ALGORITHMS: [Algorithm; 4] = [
+const ALGORITHMS: [Algorithm; 5] = [
     Algorithm::Pt,
     Algorithm::Bpt,
     Algorithm::Ppm,
+    Algorithm::Bpm,
     Algorithm::Vcm,
 ];
 const MODES: [Mode; 3] = [Mode::Off, Mode::Uniform, Mode::Selective];
@@ -305,7 +306,7 @@ fn scaled_row(dir: &Path, scales: &[f64], tmp: &Path) -> Row {
         name: format!("scene: {name} scaled"),
         covers: format!(
             "scenes/{name} with positions and lengths x s (point/spot intensities x s^2, so the image is the same), \
-             s = {}; 32x24, {iterations} iterations, max depth {max_depth}; pt, bpt, ppm, vcm x off, uniform, selective",
+             s = {}; 32x24, {iterations} iterations, max depth {max_depth}; pt, bpt, ppm, bpm, vcm x off, uniform, selective",
             ordered
                 .iter()
                 .map(|s| format!("{s:e}"))
@@ -388,7 +389,7 @@ fn stiff_row(budget: Budget, dir: &Path) -> Row {
     let start = Instant::now();
     let mut t = Tally::default();
     let manifest = dir.join("scene.toml");
-    // Not its own 128x96: PPM and VCM merge within 0.3 % of the scene's
+    // Not its own 128x96: PPM, BPM and VCM merge within 0.3 % of the scene's
     // bounding radius, which its 1e5 backdrop makes about 200 units, so every
     // camera vertex merges with every photon and an iteration costs O(pixels^2)
     // (6 s at 128x96 against 0.03 s for PT).
@@ -422,7 +423,7 @@ fn stiff_row(budget: Budget, dir: &Path) -> Row {
     Row {
         name: "scene: stiff as bundled".into(),
         covers: format!(
-            "scenes/stiff unscaled at {}x{}, {iterations} iterations, its max depth (16); pt, bpt, ppm, vcm x off, uniform, selective",
+            "scenes/stiff unscaled at {}x{}, {iterations} iterations, its max depth (16); pt, bpt, ppm, bpm, vcm x off, uniform, selective",
             size.x, size.y
         ),
         other: "samples the renderer zeroed (invalid_samples), or the scene does not load",
@@ -692,7 +693,7 @@ fn degenerate_row(budget: Budget, tmp: &Path) -> Row {
         name: "scene: degenerate geometry".into(),
         covers: format!(
             "{} cases ({}), and the first with zero-area triangles injected into the Scene; each loaded (a typed error is fine) \
-             and rendered 32x24, {iterations} iterations, pt, bpt, ppm, vcm x {}",
+             and rendered 32x24, {iterations} iterations, pt, bpt, ppm, bpm, vcm x {}",
             cases.len(),
             cases.iter().map(|c| c.name).collect::<Vec<_>>().join("; "),
             modes

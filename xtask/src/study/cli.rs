@@ -22,7 +22,7 @@ options:
                         outside it are not seen), or the files next to a
                         model file.
   --configs LIST        comma-separated configs, each an algorithm (pt, bpt,
-                        ppm, vcm) with regularization off, or with `-reg`:
+                        ppm, bpm, vcm) with regularization off, or with `-reg`:
                         selective regularization, progressive tau from tau_0
                         [default: pt,pt-reg,bpt,bpt-reg,ppm,vcm,vcm-reg]
   --iterations N        iterations of every config [quick: 16, full: 1024]
@@ -78,7 +78,7 @@ impl Config {
         };
         let algorithm = name.parse::<Algorithm>().map_err(|_| {
             format!(
-                "unknown config '{s}' (expected pt, bpt, ppm or vcm, each optionally with -reg)"
+                "unknown config '{s}' (expected pt, bpt, ppm, bpm or vcm, each optionally with -reg)"
             )
         })?;
         Ok(Self {
@@ -381,7 +381,7 @@ fn parse_unbiased(value: &str) -> Result<Config, String> {
     if c.regularized {
         return Err(format!(
             "--unbiased-reference: '{c}' is regularized (biased); give an \
-             unregularized config: pt, bpt, ppm or vcm"
+             unregularized config: pt, bpt, ppm, bpm or vcm"
         ));
     }
     Ok(c)
@@ -424,7 +424,7 @@ mod tests {
     #[test]
     fn configs_parse_and_print() {
         for name in [
-            "pt", "pt-reg", "bpt", "bpt-reg", "ppm", "ppm-reg", "vcm", "vcm-reg",
+            "pt", "pt-reg", "bpt", "bpt-reg", "ppm", "ppm-reg", "bpm", "bpm-reg", "vcm", "vcm-reg",
         ] {
             assert_eq!(Config::parse(name).unwrap().to_string(), name);
         }

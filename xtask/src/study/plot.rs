@@ -42,6 +42,8 @@ pub fn color_of(name: &str) -> RGBColor {
         "bpt-reg" => RGBColor(140, 86, 75),
         "ppm" => RGBColor(44, 160, 44),
         "ppm-reg" => RGBColor(188, 189, 34),
+        "bpm" => RGBColor(227, 119, 194),
+        "bpm-reg" => RGBColor(247, 182, 210),
         "vcm" => RGBColor(214, 39, 40),
         "vcm-reg" => RGBColor(148, 103, 189),
         _ => RGBColor(127, 127, 127),

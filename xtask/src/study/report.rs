@@ -534,9 +534,10 @@ fn md_references(s: &mut String, study: &Study) {
             sci(e.rel_mse),
             study.references[0].spec.iterations
         );
-        if study.references[1].config.algorithm == integrators::Algorithm::Vcm
-            || study.references[1].config.algorithm == integrators::Algorithm::Ppm
-        {
+        if matches!(
+            study.references[1].config.algorithm,
+            integrators::Algorithm::Vcm | integrators::Algorithm::Ppm | integrators::Algorithm::Bpm
+        ) {
             let _ = writeln!(
                 s,
                 "\nNote: the unregularized reference merges photons, which is consistent but \
