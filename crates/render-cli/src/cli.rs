@@ -9,9 +9,10 @@ use glam::{UVec2, Vec3};
 use integrators::{Algorithm, Mode};
 
 use crate::values::{
-    parse_algorithm, parse_exposure, parse_exr_path, parse_fov, parse_iterations, parse_max_depth,
-    parse_on_off, parse_png_path, parse_radius, parse_regularize, parse_resolution,
-    parse_shadow_roulette, parse_tau0, parse_threads, parse_time, parse_vec3,
+    parse_algorithm, parse_exposure, parse_exr_path, parse_fov, parse_iteration_range,
+    parse_iterations, parse_max_depth, parse_on_off, parse_partial_path, parse_png_path,
+    parse_radius, parse_regularize, parse_resolution, parse_shadow_roulette, parse_tau0,
+    parse_threads, parse_time, parse_vec3,
 };
 
 const AFTER_LONG_HELP: &str = "\
@@ -25,6 +26,8 @@ Progress goes to stderr (a bar on a terminal); the last line is always a summary
 
 Once rendering has started, Ctrl-C (or SIGTERM) stops after the current iteration and writes the \
 mean of the iterations done so far; a second Ctrl-C quits at once without writing.
+
+Shards: --iteration-range A..B --partial shard.rltfilm renders iterations A..B of a longer render (with their global indices) into a partial film; `render-cli merge a.rltfilm b.rltfilm ... -o image.exr` sums partial films of one render into its image (`render-cli merge --help`).
 
 Exit status: 0 rendered; 1 error (one line on stderr: 'error: ...'); 2 invalid command line; \
 130 interrupted (the image of the completed iterations was written, or nothing if none completed).
@@ -193,6 +196,21 @@ pub struct Cli {
     #[arg(long, value_name = "STOPS", value_parser = parse_exposure, allow_hyphen_values = true,
           help_heading = "Output")]
     pub exposure: Option<f32>,
+
+    /// Render only iterations A..B of a longer render (1-based and inclusive, as the progress
+    /// bar counts them: 1..64 is all of a 64-iteration render). Iterations keep their global
+    /// index, so tau_N, the merge radius and the random numbers are those of the whole render,
+    /// and the merged shards equal it.
+    #[arg(long, value_name = "A..B", value_parser = parse_iteration_range,
+          conflicts_with_all = ["iterations", "time"], help_heading = "Shards")]
+    pub iteration_range: Option<(u64, u64)>,
+
+    /// Write the film's state (per-pixel sums and squares, iteration range, scene hash and
+    /// settings) to this .rltfilm file instead of an image, for `render-cli merge`. Written
+    /// (atomically) only when every iteration of the range completed.
+    #[arg(long, value_name = "PATH", value_parser = parse_partial_path,
+          conflicts_with_all = ["output", "png", "no_png", "exposure"], help_heading = "Shards")]
+    pub partial: Option<PathBuf>,
 }
 
 fn algorithm_help() -> String {

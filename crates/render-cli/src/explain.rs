@@ -170,6 +170,14 @@ pub fn settings(settings: &Settings) -> String {
     let c = &settings.config;
     let r = &c.regularization;
     let (budget, budget_value) = match settings.budget.value {
+        Budget::Iterations(n) if settings.first_iteration > 1 => (
+            "iterations",
+            format!(
+                "{}..{}",
+                settings.first_iteration,
+                settings.first_iteration + n - 1
+            ),
+        ),
         Budget::Iterations(n) => ("iterations", n.to_string()),
         Budget::Time(t) => ("time", format!("{} s", t.as_secs_f64())),
     };

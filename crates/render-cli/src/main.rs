@@ -12,6 +12,8 @@
 mod cli;
 mod error;
 mod explain;
+mod film_file;
+mod merge;
 mod outputs;
 mod render;
 mod scene_options;
@@ -46,10 +48,20 @@ enum Error {
     Write(ImageError),
     #[error("interrupted before the first iteration completed; nothing written")]
     InterruptedEarly,
+    #[error(
+        "interrupted after {0} of the range's iterations: a partial film holds its whole range, so nothing was written"
+    )]
+    InterruptedPartial(u64),
+    #[error(transparent)]
+    Film(#[from] film_file::FilmFileError),
 }
 
 fn main() -> ExitCode {
-    let cli = match Cli::try_parse() {
+    let args: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    if args.get(1).is_some_and(|a| a == "merge") {
+        return merge::main(&args[1..]);
+    }
+    let cli = match Cli::try_parse_from(&args) {
         Ok(cli) => cli,
         // --help and --version: printed to stdout, success.
         Err(e) if !e.use_stderr() => {
@@ -66,7 +78,9 @@ fn main() -> ExitCode {
         Err(e) => {
             eprintln!("error: {e}");
             match e {
-                Error::InterruptedEarly => ExitCode::from(INTERRUPTED_EXIT_CODE),
+                Error::InterruptedEarly | Error::InterruptedPartial(_) => {
+                    ExitCode::from(INTERRUPTED_EXIT_CODE)
+                }
                 _ => ExitCode::FAILURE,
             }
         }
@@ -94,25 +108,43 @@ fn run(cli: &Cli) -> Result<ExitCode, Error> {
         .build()?;
     render::install_interrupt_handler();
     // The BVH build and every iteration run in the pool, so --threads bounds both.
-    let (film, outcome) = pool.install(|| {
+    let (film, outcome, header) = pool.install(|| {
         let renderer = Renderer::new(scene, settings.config);
         if cli.explain {
             print_explanation(cli, &renderer, &settings, &outputs);
         }
         let mut film = renderer.new_film();
-        let outcome = render::progressive(&renderer, &mut film, settings.budget.value);
+        let first = settings.first_iteration;
+        let outcome = render::progressive(&renderer, &mut film, settings.budget.value, first);
         let invalid = renderer.invalid_samples();
         if invalid > 0 {
             eprintln!("warning: {invalid} samples were NaN or infinite and were replaced by 0");
         }
-        (film, outcome)
+        let last = first + outcome.iterations.max(1) - 1;
+        let header = outputs.partial.as_ref().map(|_| {
+            film_file::FilmHeader::new(&cli.scene, renderer.scene(), &settings.config, first, last)
+        });
+        (film, outcome, header)
     });
     if outcome.iterations == 0 {
         return Err(Error::InterruptedEarly);
     }
 
     render::begin_writing();
-    let (width, height) = (film.width(), film.height());
+    let resolution = (film.width(), film.height());
+    if let (Some(path), Some(header)) = (&outputs.partial, header) {
+        if outcome.interrupted {
+            return Err(Error::InterruptedPartial(outcome.iterations));
+        }
+        let range = header.range();
+        film_file::write(path, &film_file::PartialFilm { header, film })?;
+        eprintln!(
+            "{} (iterations {range})",
+            summary(&outcome, settings.budget.value, resolution, &outputs)
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
+    let (width, height) = resolution;
     let pixels = film.mean();
     write_exr(&outputs.exr, width, height, &pixels).map_err(Error::Write)?;
     if let Some(png) = &outputs.png {
@@ -173,6 +205,9 @@ fn summary(outcome: &Outcome, budget: Budget, (w, h): (u32, u32), outputs: &Outp
 }
 
 fn file_list(outputs: &Outputs) -> String {
+    if let Some(partial) = &outputs.partial {
+        return partial.display().to_string();
+    }
     let mut files = outputs.exr.display().to_string();
     if let Some(png) = &outputs.png {
         files.push_str(", ");

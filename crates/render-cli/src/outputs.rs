@@ -17,17 +17,22 @@ pub struct Outputs {
     pub png: Option<PathBuf>,
     /// Exposure of the preview, in stops.
     pub exposure: f32,
+    /// With `--partial`: the partial film written instead of the images.
+    pub partial: Option<PathBuf>,
 }
 
 impl Cli {
     /// The files to write; an error if a folder to write into does not exist.
     pub fn outputs(&self) -> Result<Outputs, ArgError> {
+        if let Some(partial) = &self.partial {
+            check_writable("--partial", partial)?;
+        }
         let exr = self
             .output
             .clone()
             .unwrap_or_else(|| PathBuf::from(DEFAULT_OUTPUT));
         check_writable("--output", &exr)?;
-        let png = if self.no_png {
+        let png = if self.no_png || self.partial.is_some() {
             None
         } else if let Some(png) = &self.png {
             check_writable("--png", png)?;
@@ -39,12 +44,13 @@ impl Cli {
             exr,
             png,
             exposure: self.exposure.unwrap_or(0.0),
+            partial: self.partial.clone(),
         })
     }
 }
 
 /// Checks that `path` can be created: its folder exists and it is not a folder.
-fn check_writable(flag: &'static str, path: &Path) -> Result<(), ArgError> {
+pub fn check_writable(flag: &'static str, path: &Path) -> Result<(), ArgError> {
     let folder = path
         .parent()
         .filter(|p| !p.as_os_str().is_empty())

@@ -67,10 +67,11 @@ pub struct Outcome {
     pub interrupted: bool,
 }
 
-/// Renders iterations 1, 2, ... into `film` until `budget` is spent or an
-/// interrupt is requested (checked before each iteration, so an iteration
-/// that has started is always completed and kept).
-pub fn progressive(renderer: &Renderer, film: &mut Film, budget: Budget) -> Outcome {
+/// Renders iterations `first`, `first` + 1, ... (global indices) into
+/// `film` until `budget` is spent or an interrupt is requested (checked
+/// before each iteration, so an iteration that has started is always
+/// completed and kept).
+pub fn progressive(renderer: &Renderer, film: &mut Film, budget: Budget, first: u64) -> Outcome {
     let pixels = film.width() as usize * film.height() as usize;
     let mut estimates = vec![Vec3::ZERO; pixels];
     let bar = progress_bar(budget);
@@ -88,8 +89,8 @@ pub fn progressive(renderer: &Renderer, film: &mut Film, budget: Budget) -> Outc
         if INTERRUPT_REQUESTED.load(Ordering::SeqCst) {
             break true;
         }
+        renderer.render_iteration(first + n, &mut estimates);
         n += 1;
-        renderer.render_iteration(n, &mut estimates);
         film.add_iteration(&estimates);
         match budget {
             Budget::Iterations(_) => bar.set_position(n),

@@ -85,6 +85,8 @@ pub struct Settings {
     pub config: RenderConfig,
     /// When to stop.
     pub budget: Resolved<Budget>,
+    /// The global index of the first iteration (1 unless `--iteration-range`).
+    pub first_iteration: u64,
     /// Origin of `config.algorithm`.
     pub algorithm: Origin,
     /// Origin of `config.regularization.mode`.
@@ -174,6 +176,7 @@ impl Settings {
                 ..RenderConfig::default()
             },
             budget,
+            first_iteration: cli.iteration_range.map_or(1, |(first, _)| first),
             algorithm: algorithm.origin,
             mode: mode.origin,
             tau0: tau0.origin,
@@ -207,10 +210,11 @@ fn budget(
     manifest_iterations: Option<u32>,
     error: impl Fn(String) -> ArgError,
 ) -> Result<Resolved<Budget>, ArgError> {
-    let flag_value = match (cli.iterations, cli.time) {
-        (Some(n), _) => Some(Budget::Iterations(n)),
-        (None, Some(t)) => Some(Budget::Time(t)),
-        (None, None) => None,
+    let flag_value = match (cli.iterations, cli.time, cli.iteration_range) {
+        (Some(n), _, _) => Some(Budget::Iterations(n)),
+        (None, Some(t), _) => Some(Budget::Time(t)),
+        (None, None, Some((first, last))) => Some(Budget::Iterations(last - first + 1)),
+        (None, None, None) => None,
     };
     pick(
         flag_value,

@@ -92,6 +92,21 @@ pub fn parse_iterations(s: &str) -> Result<u64, String> {
     )
 }
 
+/// `A..B`: iterations A to B, 1-based and inclusive, as the progress bar
+/// counts them.
+pub fn parse_iteration_range(s: &str) -> Result<(u64, u64), String> {
+    let expected = || format!("expected A..B with 1 <= A <= B (e.g. 1..64), got '{s}'");
+    let (a, b) = s.trim().split_once("..").ok_or_else(expected)?;
+    let (a, b): (u64, u64) = (
+        a.trim().parse().map_err(|_| expected())?,
+        b.trim().parse().map_err(|_| expected())?,
+    );
+    if a == 0 || b < a {
+        return Err(expected());
+    }
+    Ok((a, b))
+}
+
 pub fn parse_max_depth(s: &str) -> Result<u32, String> {
     let d: u32 = (s.trim().parse())
         .map_err(|_| format!("'{s}' is not a whole number up to {}", u32::MAX))?;
@@ -188,9 +203,22 @@ pub fn parse_png_path(s: &str) -> Result<PathBuf, String> {
     parse_path_with_extension(s, "png")
 }
 
+pub fn parse_partial_path(s: &str) -> Result<PathBuf, String> {
+    parse_path_with_extension(s, crate::film_file::EXTENSION)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn iteration_ranges_are_one_based_and_inclusive() {
+        assert_eq!(parse_iteration_range("1..64"), Ok((1, 64)));
+        assert_eq!(parse_iteration_range(" 33 .. 33 "), Ok((33, 33)));
+        for bad in ["0..4", "5..4", "1-4", "1..", "..4", "a..b", "1..2..3"] {
+            assert!(parse_iteration_range(bad).is_err(), "{bad}");
+        }
+    }
 
     #[test]
     fn vectors_need_three_finite_numbers() {

@@ -374,3 +374,87 @@ fn interrupt_writes_the_iterations_done_so_far() {
         .collect();
     assert!(leftovers.is_empty(), "{leftovers:?}");
 }
+
+/// Iteration shards written with `--partial` and merged in any order give
+/// the EXR of the single-process render, byte for byte (VCM: light-tracing
+/// splats and merges included); a merge merges again; gaps, overlaps,
+/// other settings and damaged files are refused naming the file.
+#[test]
+fn shards_merge_into_the_single_process_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_owned();
+    let scene = bundled("caustic-glass");
+    let scene = scene.to_str().unwrap();
+    let common = [scene, "--integrator", "vcm", "--resolution", "24x18"];
+    let run = |extra: &[&str]| {
+        let mut args = common.to_vec();
+        args.extend(extra);
+        let output = render_cli(&args);
+        assert!(output.status.success(), "{args:?}: {}", stderr(&output));
+    };
+    run(&["--iterations", "7", "-o", &path("whole.exr"), "--no-png"]);
+    for (range, file) in [("1..2", "a"), ("3..3", "b"), ("4..7", "c")] {
+        run(&[
+            "--iteration-range",
+            range,
+            "--partial",
+            &path(&format!("{file}.rltfilm")),
+        ]);
+    }
+    let merge = |films: &[&str], out: &str| {
+        let mut args = vec!["merge"];
+        args.extend(films);
+        args.extend(["-o", out, "--no-png"]);
+        render_cli(&args)
+    };
+    let (a, b, c) = (path("a.rltfilm"), path("b.rltfilm"), path("c.rltfilm"));
+    let merged = merge(&[&c, &a, &b], &path("merged.exr"));
+    assert!(merged.status.success(), "{}", stderr(&merged));
+    assert!(
+        stderr(&merged).contains("iterations 1..7"),
+        "{}",
+        stderr(&merged)
+    );
+    let bytes = |name: &str| std::fs::read(dir.path().join(name)).unwrap();
+    assert_eq!(bytes("merged.exr"), bytes("whole.exr"));
+    // Hierarchically: (a + b) + c.
+    assert!(merge(&[&a, &b], &path("ab.rltfilm")).status.success());
+    assert!(
+        merge(&[&path("ab.rltfilm"), &c], &path("again.exr"))
+            .status
+            .success()
+    );
+    assert_eq!(bytes("again.exr"), bytes("whole.exr"));
+
+    let refused = |films: &[&str], names: &[&str]| {
+        let output = merge(films, &path("refused.exr"));
+        let err = stderr(&output);
+        assert!(
+            !output.status.success() && err.starts_with("error: "),
+            "{err}"
+        );
+        for name in names {
+            assert!(err.contains(name), "'{name}' missing from: {err}");
+        }
+        assert!(!dir.path().join("refused.exr").exists());
+    };
+    refused(
+        &[&a, &c],
+        &["iterations 3..3 are missing", "a.rltfilm", "c.rltfilm"],
+    );
+    refused(&[&a, &path("ab.rltfilm")], &["overlap"]);
+    run(&[
+        "--iteration-range",
+        "3..3",
+        "--seed",
+        "9",
+        "--partial",
+        &path("seed.rltfilm"),
+    ]);
+    refused(&[&a, &path("seed.rltfilm")], &["different settings"]);
+    let damaged = path("damaged.rltfilm");
+    let mut data = bytes("b.rltfilm");
+    data.truncate(data.len() - 10);
+    std::fs::write(&damaged, data).unwrap();
+    refused(&[&a, &damaged, &c], &["damaged.rltfilm", "truncated"]);
+}

@@ -1,0 +1,573 @@
+//! Partial films (`.rltfilm`): the state of a render over a range of
+//! iterations, written by `--partial` and summed by `render-cli merge`, so
+//! that the iterations of one image can be rendered on several machines.
+//!
+//! Every iteration is a pure function of (scene, settings, seed, global
+//! iteration index), so a film is its iteration range plus the per-pixel
+//! sums and sums of squares of its estimates (light-tracing splats
+//! included). Merging adds the sums of the shards in the order of their
+//! ranges.
+//!
+//! # Format (little-endian)
+//! | bytes | content |
+//! |---|---|
+//! | 8 | magic `RLTFILM\0` |
+//! | 4 | format version, u32 ([`FORMAT_VERSION`]) |
+//! | 4 | header length H, u32 |
+//! | H | header: UTF-8 lines `key = value` (see [`FilmHeader`]) |
+//! | 8 | iterations accumulated, u64 |
+//! | 24 W H | per pixel, row-major: sum of the estimates, 3 x f64 |
+//! | 24 W H | per pixel: sum of their squares, 3 x f64 |
+//! | 4 | CRC-32 (ISO-HDLC, as zlib) of every byte before it |
+//!
+//! Version rule: a reader reads every version up to its own and refuses a
+//! newer one, naming both. New information is added as header keys, which
+//! readers that do not know them skip (no version change); the version
+//! changes only when the binary layout does.
+
+use std::fmt::Write as _;
+use std::fs;
+use std::hash::Hasher;
+use std::io::{Read as _, Write as _};
+use std::path::{Path, PathBuf};
+
+use glam::DVec3;
+use integrators::{Film, RenderConfig};
+use scene::Scene;
+
+/// The first bytes of every partial film.
+pub const MAGIC: &[u8; 8] = b"RLTFILM\0";
+
+/// The binary layout written by this version.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// Bytes before the header: magic, version, header length.
+const PREAMBLE: usize = 16;
+
+/// The file name extension of partial films.
+pub const EXTENSION: &str = "rltfilm";
+
+/// What a partial film says about the render it belongs to.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct FilmHeader {
+    /// The scene file as given on the command line (for messages only).
+    pub scene: String,
+    /// [`scene_hash`] of the loaded scene: films of different scenes never merge.
+    pub scene_hash: u64,
+    /// Every resolved render setting (seed included), as one line.
+    pub settings: String,
+    /// The seed of every random stream (also in `settings`; for messages).
+    pub seed: u64,
+    /// First iteration, 1-based, inclusive.
+    pub first: u64,
+    /// Last iteration, inclusive.
+    pub last: u64,
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+}
+
+impl FilmHeader {
+    /// The header of a render of `scene` (loaded from `scene_path`) with
+    /// `config` over iterations `first..=last`.
+    pub fn new(
+        scene_path: &Path,
+        scene: &Scene,
+        config: &RenderConfig,
+        first: u64,
+        last: u64,
+    ) -> Self {
+        let r = scene.camera.resolution;
+        Self {
+            scene: scene_path.display().to_string(),
+            scene_hash: scene_hash(scene),
+            settings: format!("{config:?}"),
+            seed: config.seed,
+            first,
+            last,
+            width: r.x,
+            height: r.y,
+        }
+    }
+
+    /// The iteration range as the progress bar counts it, `first..last`.
+    pub fn range(&self) -> String {
+        format!("{}..{}", self.first, self.last)
+    }
+
+    fn to_text(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(s, "scene = {}", self.scene.replace('\n', " "));
+        let _ = writeln!(s, "scene_hash = {:016x}", self.scene_hash);
+        let _ = writeln!(s, "settings = {}", self.settings);
+        let _ = writeln!(s, "seed = {}", self.seed);
+        let _ = writeln!(s, "first = {}", self.first);
+        let _ = writeln!(s, "last = {}", self.last);
+        let _ = writeln!(s, "width = {}", self.width);
+        let _ = writeln!(s, "height = {}", self.height);
+        s
+    }
+
+    fn from_text(text: &str) -> Result<Self, String> {
+        let value = |key: &str| {
+            text.lines()
+                .find_map(|line| {
+                    let (k, v) = line.split_once(" = ")?;
+                    (k == key).then_some(v)
+                })
+                .ok_or_else(|| format!("header has no '{key}'"))
+        };
+        let number = |key: &str| {
+            value(key)?
+                .parse::<u64>()
+                .map_err(|_| format!("header '{key}' is not a number"))
+        };
+        let size = |key: &str| {
+            u32::try_from(number(key)?).map_err(|_| format!("header '{key}' is too large"))
+        };
+        let header = Self {
+            scene: value("scene")?.to_owned(),
+            scene_hash: u64::from_str_radix(value("scene_hash")?, 16)
+                .map_err(|_| "header 'scene_hash' is not hexadecimal".to_owned())?,
+            settings: value("settings")?.to_owned(),
+            seed: number("seed")?,
+            first: number("first")?,
+            last: number("last")?,
+            width: size("width")?,
+            height: size("height")?,
+        };
+        if header.first == 0 || header.last < header.first {
+            return Err(format!(
+                "header range {} is empty or not 1-based",
+                header.range()
+            ));
+        }
+        Ok(header)
+    }
+}
+
+/// A partial film: the header and the accumulated film.
+#[derive(Clone, Debug)]
+pub struct PartialFilm {
+    /// Which render and which iterations.
+    pub header: FilmHeader,
+    /// The sums of the estimates of those iterations.
+    pub film: Film,
+}
+
+/// A partial film could not be read, written or merged.
+#[derive(Debug, thiserror::Error)]
+pub enum FilmFileError {
+    /// The file system refused.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The file is not a partial film, or is damaged.
+    #[error("{}: {message}", path.display())]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// The films do not belong to one render, or their ranges do not tile one range.
+    #[error("{0}")]
+    Mismatch(String),
+}
+
+/// A 64-bit FNV-1a hash of what determines the image: geometry, shading
+/// data, materials, textures, lights and camera (not the file names).
+pub fn scene_hash(scene: &Scene) -> u64 {
+    let mut h = fnv::FnvHasher::default();
+    let floats = |h: &mut fnv::FnvHasher, values: &mut dyn Iterator<Item = f32>| {
+        for v in values {
+            h.write_u32(v.to_bits());
+        }
+    };
+    floats(
+        &mut h,
+        &mut scene.triangles.iter().flatten().flat_map(|v| v.to_array()),
+    );
+    floats(
+        &mut h,
+        &mut scene.normals.iter().flatten().flat_map(|v| v.to_array()),
+    );
+    floats(
+        &mut h,
+        &mut scene.uvs.iter().flatten().flat_map(|v| v.to_array()),
+    );
+    for &m in &scene.triangle_materials {
+        h.write_u32(m);
+    }
+    for t in &scene.textures {
+        h.write_u32(t.width);
+        h.write_u32(t.height);
+        floats(&mut h, &mut t.texels.iter().flat_map(|v| v.to_array()));
+        h.write(format!("{:?}{:?}", t.wrap_u, t.wrap_v).as_bytes());
+    }
+    // Small parts: their Debug form lists every field.
+    h.write(format!("{:?}{:?}{:?}", scene.materials, scene.lights, scene.camera).as_bytes());
+    h.finish()
+}
+
+/// Writes `partial` to `path` through a temporary file in the same folder,
+/// synced and renamed: an interrupted write never leaves a file under
+/// `path` that a merge would accept.
+pub fn write(path: &Path, partial: &PartialFilm) -> Result<(), FilmFileError> {
+    let io = |source| FilmFileError::Io {
+        path: path.to_owned(),
+        source,
+    };
+    let bytes = encode(partial);
+    let temporary = path.with_extension(format!("{EXTENSION}.partial-{}", std::process::id()));
+    let result = (|| {
+        let mut file = fs::File::create(&temporary)?;
+        file.write_all(&bytes)?;
+        file.sync_all()?;
+        fs::rename(&temporary, path)
+    })();
+    if result.is_err() {
+        let _ = fs::remove_file(&temporary);
+    }
+    result.map_err(io)
+}
+
+/// Reads a partial film, checking magic, version, length and checksum.
+pub fn read(path: &Path) -> Result<PartialFilm, FilmFileError> {
+    let bytes = fs::read(path).map_err(|source| FilmFileError::Io {
+        path: path.to_owned(),
+        source,
+    })?;
+    decode(&bytes).map_err(|message| FilmFileError::Invalid {
+        path: path.to_owned(),
+        message,
+    })
+}
+
+fn encode(partial: &PartialFilm) -> Vec<u8> {
+    let header = partial.header.to_text();
+    let (sum, sum_sq) = partial.film.sums();
+    let mut bytes = Vec::with_capacity(PREAMBLE + header.len() + 12 + 48 * sum.len());
+    bytes.extend_from_slice(MAGIC);
+    bytes.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+    bytes.extend_from_slice(&(header.len() as u32).to_le_bytes());
+    bytes.extend_from_slice(header.as_bytes());
+    bytes.extend_from_slice(&partial.film.iterations().to_le_bytes());
+    for v in sum.iter().chain(sum_sq) {
+        for c in v.to_array() {
+            bytes.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    let crc = crc32fast::hash(&bytes);
+    bytes.extend_from_slice(&crc.to_le_bytes());
+    bytes
+}
+
+/// Checks magic and version; returns the header length.
+fn check_preamble(bytes: &[u8]) -> Result<usize, String> {
+    if bytes.len() < PREAMBLE || &bytes[..8] != MAGIC {
+        return Err("not a partial film (no RLTFILM magic number)".to_owned());
+    }
+    let u32_at = |i: usize| u32::from_le_bytes(bytes[i..i + 4].try_into().expect("4 bytes"));
+    let version = u32_at(8);
+    if version > FORMAT_VERSION {
+        return Err(format!(
+            "written in partial-film format {version}; this render-cli reads up to {FORMAT_VERSION}"
+        ));
+    }
+    Ok(u32_at(12) as usize)
+}
+
+fn decode(bytes: &[u8]) -> Result<PartialFilm, String> {
+    let header_end = PREAMBLE + check_preamble(bytes)?;
+    let text = bytes
+        .get(PREAMBLE..header_end)
+        .ok_or("truncated (the header is cut off)")?;
+    let text = std::str::from_utf8(text).map_err(|_| "header is not UTF-8".to_owned())?;
+    let header = FilmHeader::from_text(text)?;
+    let pixels = header.width as usize * header.height as usize;
+    let expected = header_end + 8 + 48 * pixels + 4;
+    if bytes.len() != expected {
+        return Err(format!(
+            "{} bytes, expected {expected} for {}x{} pixels (truncated or damaged)",
+            bytes.len(),
+            header.width,
+            header.height
+        ));
+    }
+    let (body, crc) = bytes.split_at(expected - 4);
+    if crc32fast::hash(body) != u32::from_le_bytes(crc.try_into().expect("4 bytes")) {
+        return Err("checksum mismatch (the file is damaged)".to_owned());
+    }
+    let iterations = u64::from_le_bytes(body[header_end..header_end + 8].try_into().expect("8"));
+    if iterations != header.last - header.first + 1 {
+        return Err(format!(
+            "holds {iterations} iterations, but its range {} has {}",
+            header.range(),
+            header.last - header.first + 1
+        ));
+    }
+    let mut values = body[header_end + 8..].chunks_exact(24).map(|c| {
+        DVec3::from_array(std::array::from_fn(|k| {
+            f64::from_le_bytes(c[8 * k..8 * k + 8].try_into().expect("8 bytes"))
+        }))
+    });
+    let sum: Vec<DVec3> = values.by_ref().take(pixels).collect();
+    let sum_sq: Vec<DVec3> = values.collect();
+    let film = Film::from_sums(header.width, header.height, iterations, sum, sum_sq)
+        .ok_or("pixel data does not match the size")?;
+    Ok(PartialFilm { header, film })
+}
+
+/// Reads only the header of a partial film (the pixel data is checked when
+/// it is read whole).
+pub fn read_header(path: &Path) -> Result<FilmHeader, FilmFileError> {
+    let invalid = |message: String| FilmFileError::Invalid {
+        path: path.to_owned(),
+        message,
+    };
+    let io = |source| FilmFileError::Io {
+        path: path.to_owned(),
+        source,
+    };
+    let mut file = fs::File::open(path).map_err(io)?;
+    let mut preamble = [0u8; PREAMBLE];
+    file.read_exact(&mut preamble)
+        .map_err(|_| invalid("truncated (shorter than the preamble)".to_owned()))?;
+    let header_len = check_preamble(&preamble).map_err(invalid)?;
+    let mut text = vec![0u8; header_len];
+    file.read_exact(&mut text)
+        .map_err(|_| invalid("truncated (the header is cut off)".to_owned()))?;
+    let text = std::str::from_utf8(&text).map_err(|_| invalid("header is not UTF-8".to_owned()))?;
+    FilmHeader::from_text(text).map_err(invalid)
+}
+
+/// Sums the partial films at `paths` (given in any order) into the film of
+/// the union of their ranges. Refuses films of different scenes, settings
+/// or sizes, and ranges that overlap or leave a gap, naming the files;
+/// then reads the films one at a time (memory: two films). The sums are
+/// added in the order of the ranges, in f64: the result equals the
+/// single-process render to f64 rounding, which the f32 image hides
+/// (see `tests`).
+pub fn merge(paths: &[PathBuf]) -> Result<PartialFilm, FilmFileError> {
+    let headers = paths
+        .iter()
+        .map(|p| Ok((p.clone(), read_header(p)?)))
+        .collect::<Result<Vec<_>, FilmFileError>>()?;
+    let order = merge_order(&headers).map_err(FilmFileError::Mismatch)?;
+    let mut merged: Option<PartialFilm> = None;
+    for i in order {
+        let (path, header) = &headers[i];
+        let film = read(path)?;
+        if film.header != *header {
+            return Err(FilmFileError::Mismatch(format!(
+                "{} changed while it was being merged",
+                path.display()
+            )));
+        }
+        match &mut merged {
+            None => merged = Some(film),
+            Some(m) => {
+                m.film.merge(&film.film);
+                m.header.last = header.last;
+            }
+        }
+    }
+    merged.ok_or_else(|| FilmFileError::Mismatch("no partial film to merge".to_owned()))
+}
+
+/// The order (by range) in which `headers` tile one range of one render, or
+/// why they do not.
+fn merge_order(headers: &[(PathBuf, FilmHeader)]) -> Result<Vec<usize>, String> {
+    let mut order: Vec<usize> = (0..headers.len()).collect();
+    order.sort_by_key(|&i| headers[i].1.first);
+    let Some(&first) = order.first() else {
+        return Err("no partial film to merge".to_owned());
+    };
+    let name = |i: usize| headers[i].0.display().to_string();
+    let reference = &headers[first].1;
+    for pair in order.windows(2) {
+        let (i, j) = (pair[0], pair[1]);
+        let (a, b) = (&headers[i].1, &headers[j].1);
+        let differs = if reference.scene_hash != b.scene_hash {
+            Some(format!("scenes ({} and {})", reference.scene, b.scene))
+        } else if reference.settings != b.settings {
+            Some(format!(
+                "settings:\n  {}\n  {}",
+                reference.settings, b.settings
+            ))
+        } else if (reference.width, reference.height) != (b.width, b.height) {
+            Some(format!(
+                "sizes ({}x{} and {}x{})",
+                reference.width, reference.height, b.width, b.height
+            ))
+        } else {
+            None
+        };
+        if let Some(what) = differs {
+            return Err(format!(
+                "{} and {} are of different renders: different {what}",
+                name(first),
+                name(j)
+            ));
+        }
+        if b.first <= a.last {
+            return Err(format!(
+                "{} ({}) and {} ({}) overlap",
+                name(i),
+                a.range(),
+                name(j),
+                b.range()
+            ));
+        }
+        if b.first > a.last + 1 {
+            return Err(format!(
+                "iterations {}..{} are missing (between {} and {})",
+                a.last + 1,
+                b.first - 1,
+                name(i),
+                name(j)
+            ));
+        }
+    }
+    Ok(order)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    fn header(first: u64, last: u64) -> FilmHeader {
+        FilmHeader {
+            scene: "scenes/x/scene.toml".to_owned(),
+            scene_hash: 0x0123_4567_89ab_cdef,
+            settings: "RenderConfig { seed: 3 }".to_owned(),
+            seed: 3,
+            first,
+            last,
+            width: 3,
+            height: 2,
+        }
+    }
+
+    /// A film over `first..=last` whose estimates are a function of the
+    /// global iteration index.
+    fn partial(first: u64, last: u64) -> PartialFilm {
+        let mut film = Film::new(3, 2);
+        for n in first..=last {
+            let e: Vec<Vec3> = (0..6)
+                .map(|p| {
+                    Vec3::new(
+                        n as f32 * 0.37 + p as f32,
+                        1.0 / n as f32,
+                        (n * n) as f32 * 1e-3,
+                    )
+                })
+                .collect();
+            film.add_iteration(&e);
+        }
+        PartialFilm {
+            header: header(first, last),
+            film,
+        }
+    }
+
+    #[test]
+    fn a_film_survives_the_round_trip_exactly() {
+        let p = partial(5, 9);
+        let q = decode(&encode(&p)).unwrap();
+        assert_eq!(q.header, p.header);
+        assert_eq!(q.film.sums(), p.film.sums());
+        assert_eq!(q.film.iterations(), 5);
+    }
+
+    #[test]
+    fn damage_is_refused_with_a_reason() {
+        let bytes = encode(&partial(1, 4));
+        let err = |b: &[u8]| decode(b).unwrap_err();
+        assert!(err(&bytes[..bytes.len() - 1]).contains("truncated"));
+        assert!(err(&bytes[..20]).contains("truncated"));
+        let mut flipped = bytes.clone();
+        flipped[bytes.len() / 2] ^= 0x10;
+        assert!(err(&flipped).contains("checksum"));
+        assert!(err(b"P6 3 2 255\n").contains("magic"));
+        let mut newer = bytes.clone();
+        newer[8] = 2;
+        assert!(err(&newer).contains("format 2"));
+    }
+
+    #[test]
+    fn unknown_header_keys_are_skipped() {
+        let mut text = header(1, 2).to_text();
+        text.push_str("future_key = anything\n");
+        assert_eq!(FilmHeader::from_text(&text).unwrap(), header(1, 2));
+    }
+
+    /// Writes each film to a file of a fresh folder named after its range.
+    fn files(name: &str, films: Vec<PartialFilm>) -> Vec<PathBuf> {
+        let dir = std::env::temp_dir().join(format!("rlt-film-{name}-{}", std::process::id()));
+        fs::create_dir_all(&dir).unwrap();
+        films
+            .into_iter()
+            .map(|f| {
+                let path = dir.join(format!("{}.{EXTENSION}", f.header.range()));
+                write(&path, &f).unwrap();
+                path
+            })
+            .collect()
+    }
+
+    /// Shards in any order merge into the film of the whole range, equal
+    /// to the single-process film to f64 rounding and identical once the
+    /// mean is rounded to f32 (the image); merges merge again.
+    #[test]
+    fn shards_merge_in_any_order_and_hierarchically() {
+        let whole = partial(1, 40);
+        let shards = files(
+            "any-order",
+            vec![partial(21, 40), partial(1, 7), partial(8, 20)],
+        );
+        let merged = merge(&shards).unwrap();
+        assert_eq!(merged.header, header(1, 40));
+        assert_eq!(merged.film.mean(), whole.film.mean());
+        let (a, b) = (merged.film.sums().0, whole.film.sums().0);
+        for (x, y) in a.iter().zip(b) {
+            assert!(((*x - *y) / *y).abs().max_element() < 1e-14, "{x} {y}");
+        }
+        let halves = files("halves", vec![partial(1, 10), partial(11, 20)]);
+        let mut half = merge(&halves).unwrap();
+        half.header.first = 1;
+        let again = files("again", vec![half, partial(21, 40)]);
+        assert_eq!(merge(&again).unwrap().film.mean(), whole.film.mean());
+        for path in shards.iter().chain(&halves).chain(&again) {
+            let _ = fs::remove_dir_all(path.parent().unwrap());
+        }
+    }
+
+    #[test]
+    fn gaps_overlaps_and_foreign_films_are_named() {
+        let named = |name: &str, f: PartialFilm| (PathBuf::from(name), f.header);
+        let message = |headers: Vec<(PathBuf, FilmHeader)>| merge_order(&headers).unwrap_err();
+        let gap = message(vec![named("a", partial(1, 8)), named("b", partial(12, 20))]);
+        assert!(gap.contains("9..11 are missing (between a and b)"), "{gap}");
+        let overlap = message(vec![named("b", partial(5, 20)), named("a", partial(1, 8))]);
+        assert!(
+            overlap.contains("a (1..8) and b (5..20) overlap"),
+            "{overlap}"
+        );
+        let mut other = partial(9, 10);
+        other.header.settings = "RenderConfig { seed: 4 }".to_owned();
+        let foreign = message(vec![named("a", partial(1, 8)), named("b", other)]);
+        assert!(foreign.contains("different settings"), "{foreign}");
+        let mut moved = partial(9, 10);
+        moved.header.scene_hash ^= 1;
+        assert!(message(vec![named("a", partial(1, 8)), named("b", moved)]).contains("scenes"));
+        assert!(merge_order(&[]).unwrap_err().contains("no partial film"));
+    }
+}
