@@ -1,5 +1,6 @@
-//! Writing and reading images: linear HDR OpenEXR (the result) and a
-//! tone-mapped 8-bit sRGB PNG (a preview).
+//! The files of a render: linear HDR OpenEXR images (the result), a
+//! tone-mapped 8-bit sRGB PNG (a preview), and partial films of iteration
+//! shards ([`film_file`]).
 //!
 //! Both writers go through a temporary file in the target folder that is
 //! renamed at the end, so a failed or interrupted write never leaves a
@@ -10,6 +11,8 @@ use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
+
+pub mod film_file;
 
 /// An image file could not be written or read.
 #[derive(Debug, thiserror::Error)]

@@ -12,12 +12,12 @@
 mod cli;
 mod error;
 mod explain;
-mod film_file;
 mod merge;
 mod outputs;
 mod render;
 mod scene_options;
 mod settings;
+mod shard;
 mod values;
 
 use std::io::Write;
@@ -53,7 +53,7 @@ enum Error {
     )]
     InterruptedPartial(u64),
     #[error(transparent)]
-    Film(#[from] film_file::FilmFileError),
+    Film(#[from] image_io::film_file::FilmFileError),
 }
 
 fn main() -> ExitCode {
@@ -121,9 +121,10 @@ fn run(cli: &Cli) -> Result<ExitCode, Error> {
             eprintln!("warning: {invalid} samples were NaN or infinite and were replaced by 0");
         }
         let last = first + outcome.iterations.max(1) - 1;
-        let header = outputs.partial.as_ref().map(|_| {
-            film_file::FilmHeader::new(&cli.scene, renderer.scene(), &settings.config, first, last)
-        });
+        let header = outputs
+            .partial
+            .as_ref()
+            .map(|_| shard::header(&cli.scene, renderer.scene(), &settings.config, first, last));
         (film, outcome, header)
     });
     if outcome.iterations == 0 {
@@ -137,7 +138,7 @@ fn run(cli: &Cli) -> Result<ExitCode, Error> {
             return Err(Error::InterruptedPartial(outcome.iterations));
         }
         let range = header.range();
-        film_file::write(path, &film_file::PartialFilm { header, film })?;
+        image_io::film_file::write(path, &shard::partial(header, &film))?;
         eprintln!(
             "{} (iterations {range})",
             summary(&outcome, settings.budget.value, resolution, &outputs)

@@ -9,9 +9,11 @@ use std::time::Instant;
 use clap::Parser;
 use image_io::{write_exr, write_png};
 
+use image_io::film_file::{self, EXTENSION};
+
 use crate::cli::one_line;
-use crate::film_file::{self, EXTENSION};
 use crate::outputs::check_writable;
+use crate::shard;
 use crate::values::parse_exposure;
 
 const AFTER_LONG_HELP: &str = "\
@@ -68,6 +70,8 @@ enum MergeError {
     Film(#[from] film_file::FilmFileError),
     #[error("cannot write {0}")]
     Write(image_io::ImageError),
+    #[error("the merged film's pixel data does not match its size")]
+    Size,
 }
 
 /// Parses `args` (starting with `merge`) and merges; the exit code.
@@ -126,11 +130,12 @@ fn run(cli: &MergeCli) -> Result<(), MergeError> {
     if to_film {
         film_file::write(&cli.output, &merged)?;
     } else {
-        let pixels = merged.film.mean();
-        write_exr(&cli.output, h.width, h.height, &pixels).map_err(MergeError::Write)?;
+        let (width, height) = (h.width, h.height);
+        let pixels = shard::film(merged).ok_or(MergeError::Size)?.mean();
+        write_exr(&cli.output, width, height, &pixels).map_err(MergeError::Write)?;
         if let Some(png) = &png {
             let exposure = cli.exposure.unwrap_or(0.0);
-            write_png(png, h.width, h.height, &pixels, exposure).map_err(MergeError::Write)?;
+            write_png(png, width, height, &pixels, exposure).map_err(MergeError::Write)?;
             files += &format!(", {}", png.display());
         }
     }

@@ -204,7 +204,7 @@ pub fn parse_png_path(s: &str) -> Result<PathBuf, String> {
 }
 
 pub fn parse_partial_path(s: &str) -> Result<PathBuf, String> {
-    parse_path_with_extension(s, crate::film_file::EXTENSION)
+    parse_path_with_extension(s, image_io::film_file::EXTENSION)
 }
 
 #[cfg(test)]

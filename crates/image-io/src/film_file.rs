@@ -1,6 +1,7 @@
 //! Partial films (`.rltfilm`): the state of a render over a range of
-//! iterations, written by `--partial` and summed by `render-cli merge`, so
-//! that the iterations of one image can be rendered on several machines.
+//! iterations, written by `render-cli --partial` and summed by `render-cli
+//! merge`, so that the iterations of one image can be rendered on several
+//! machines.
 //!
 //! Every iteration is a pure function of (scene, settings, seed, global
 //! iteration index), so a film is its iteration range plus the per-pixel
@@ -27,13 +28,10 @@
 
 use std::fmt::Write as _;
 use std::fs;
-use std::hash::Hasher;
 use std::io::{Read as _, Write as _};
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
-use integrators::{Film, RenderConfig};
-use scene::Scene;
 
 /// The first bytes of every partial film.
 pub const MAGIC: &[u8; 8] = b"RLTFILM\0";
@@ -52,7 +50,7 @@ pub const EXTENSION: &str = "rltfilm";
 pub struct FilmHeader {
     /// The scene file as given on the command line (for messages only).
     pub scene: String,
-    /// [`scene_hash`] of the loaded scene: films of different scenes never merge.
+    /// A hash of the loaded scene's content: films of different scenes never merge.
     pub scene_hash: u64,
     /// Every resolved render setting (seed included), as one line.
     pub settings: String,
@@ -69,28 +67,6 @@ pub struct FilmHeader {
 }
 
 impl FilmHeader {
-    /// The header of a render of `scene` (loaded from `scene_path`) with
-    /// `config` over iterations `first..=last`.
-    pub fn new(
-        scene_path: &Path,
-        scene: &Scene,
-        config: &RenderConfig,
-        first: u64,
-        last: u64,
-    ) -> Self {
-        let r = scene.camera.resolution;
-        Self {
-            scene: scene_path.display().to_string(),
-            scene_hash: scene_hash(scene),
-            settings: format!("{config:?}"),
-            seed: config.seed,
-            first,
-            last,
-            width: r.x,
-            height: r.y,
-        }
-    }
-
     /// The iteration range as the progress bar counts it, `first..last`.
     pub fn range(&self) -> String {
         format!("{}..{}", self.first, self.last)
@@ -147,13 +123,31 @@ impl FilmHeader {
     }
 }
 
-/// A partial film: the header and the accumulated film.
-#[derive(Clone, Debug)]
+/// A partial film: the header and the film's state.
+#[derive(Clone, Debug, PartialEq)]
 pub struct PartialFilm {
     /// Which render and which iterations.
     pub header: FilmHeader,
-    /// The sums of the estimates of those iterations.
-    pub film: Film,
+    /// Iterations accumulated (the range's length).
+    pub iterations: u64,
+    /// Per pixel, row-major: the sum of the estimates.
+    pub sum: Vec<DVec3>,
+    /// Per pixel: the sum of their squares.
+    pub sum_sq: Vec<DVec3>,
+}
+
+impl PartialFilm {
+    /// Adds `other`'s sums (the next range) to this film's.
+    fn add(&mut self, other: &Self) {
+        for (a, b) in self.sum.iter_mut().zip(&other.sum) {
+            *a += *b;
+        }
+        for (a, b) in self.sum_sq.iter_mut().zip(&other.sum_sq) {
+            *a += *b;
+        }
+        self.iterations += other.iterations;
+        self.header.last = other.header.last;
+    }
 }
 
 /// A partial film could not be read, written or merged.
@@ -178,41 +172,6 @@ pub enum FilmFileError {
     /// The films do not belong to one render, or their ranges do not tile one range.
     #[error("{0}")]
     Mismatch(String),
-}
-
-/// A 64-bit FNV-1a hash of what determines the image: geometry, shading
-/// data, materials, textures, lights and camera (not the file names).
-pub fn scene_hash(scene: &Scene) -> u64 {
-    let mut h = fnv::FnvHasher::default();
-    let floats = |h: &mut fnv::FnvHasher, values: &mut dyn Iterator<Item = f32>| {
-        for v in values {
-            h.write_u32(v.to_bits());
-        }
-    };
-    floats(
-        &mut h,
-        &mut scene.triangles.iter().flatten().flat_map(|v| v.to_array()),
-    );
-    floats(
-        &mut h,
-        &mut scene.normals.iter().flatten().flat_map(|v| v.to_array()),
-    );
-    floats(
-        &mut h,
-        &mut scene.uvs.iter().flatten().flat_map(|v| v.to_array()),
-    );
-    for &m in &scene.triangle_materials {
-        h.write_u32(m);
-    }
-    for t in &scene.textures {
-        h.write_u32(t.width);
-        h.write_u32(t.height);
-        floats(&mut h, &mut t.texels.iter().flat_map(|v| v.to_array()));
-        h.write(format!("{:?}{:?}", t.wrap_u, t.wrap_v).as_bytes());
-    }
-    // Small parts: their Debug form lists every field.
-    h.write(format!("{:?}{:?}{:?}", scene.materials, scene.lights, scene.camera).as_bytes());
-    h.finish()
 }
 
 /// Writes `partial` to `path` through a temporary file in the same folder,
@@ -251,13 +210,13 @@ pub fn read(path: &Path) -> Result<PartialFilm, FilmFileError> {
 
 fn encode(partial: &PartialFilm) -> Vec<u8> {
     let header = partial.header.to_text();
-    let (sum, sum_sq) = partial.film.sums();
+    let (sum, sum_sq) = (&partial.sum, &partial.sum_sq);
     let mut bytes = Vec::with_capacity(PREAMBLE + header.len() + 12 + 48 * sum.len());
     bytes.extend_from_slice(MAGIC);
     bytes.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
     bytes.extend_from_slice(&(header.len() as u32).to_le_bytes());
     bytes.extend_from_slice(header.as_bytes());
-    bytes.extend_from_slice(&partial.film.iterations().to_le_bytes());
+    bytes.extend_from_slice(&partial.iterations.to_le_bytes());
     for v in sum.iter().chain(sum_sq) {
         for c in v.to_array() {
             bytes.extend_from_slice(&c.to_le_bytes());
@@ -319,9 +278,12 @@ fn decode(bytes: &[u8]) -> Result<PartialFilm, String> {
     });
     let sum: Vec<DVec3> = values.by_ref().take(pixels).collect();
     let sum_sq: Vec<DVec3> = values.collect();
-    let film = Film::from_sums(header.width, header.height, iterations, sum, sum_sq)
-        .ok_or("pixel data does not match the size")?;
-    Ok(PartialFilm { header, film })
+    Ok(PartialFilm {
+        header,
+        iterations,
+        sum,
+        sum_sq,
+    })
 }
 
 /// Reads only the header of a partial film (the pixel data is checked when
@@ -372,10 +334,7 @@ pub fn merge(paths: &[PathBuf]) -> Result<PartialFilm, FilmFileError> {
         }
         match &mut merged {
             None => merged = Some(film),
-            Some(m) => {
-                m.film.merge(&film.film);
-                m.header.last = header.last;
-            }
+            Some(m) => m.add(&film),
         }
     }
     merged.ok_or_else(|| FilmFileError::Mismatch("no partial film to merge".to_owned()))
@@ -441,7 +400,6 @@ fn merge_order(headers: &[(PathBuf, FilmHeader)]) -> Result<Vec<usize>, String> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::Vec3;
 
     fn header(first: u64, last: u64) -> FilmHeader {
         FilmHeader {
@@ -457,34 +415,41 @@ mod tests {
     }
 
     /// A film over `first..=last` whose estimates are a function of the
-    /// global iteration index.
+    /// global iteration index, summed one iteration at a time like a render.
     fn partial(first: u64, last: u64) -> PartialFilm {
-        let mut film = Film::new(3, 2);
+        let (mut sum, mut sum_sq) = (vec![DVec3::ZERO; 6], vec![DVec3::ZERO; 6]);
         for n in first..=last {
-            let e: Vec<Vec3> = (0..6)
-                .map(|p| {
-                    Vec3::new(
-                        n as f32 * 0.37 + p as f32,
-                        1.0 / n as f32,
-                        (n * n) as f32 * 1e-3,
-                    )
-                })
-                .collect();
-            film.add_iteration(&e);
+            for p in 0..6 {
+                let x = glam::Vec3::new(
+                    n as f32 * 0.37 + p as f32,
+                    1.0 / n as f32,
+                    (n * n) as f32 * 1e-3,
+                )
+                .as_dvec3();
+                sum[p] += x;
+                sum_sq[p] += x * x;
+            }
         }
         PartialFilm {
             header: header(first, last),
-            film,
+            iterations: last - first + 1,
+            sum,
+            sum_sq,
         }
+    }
+
+    /// The f32 mean image of a film.
+    fn mean(f: &PartialFilm) -> Vec<glam::Vec3> {
+        f.sum
+            .iter()
+            .map(|s| (*s / f.iterations as f64).as_vec3())
+            .collect()
     }
 
     #[test]
     fn a_film_survives_the_round_trip_exactly() {
         let p = partial(5, 9);
-        let q = decode(&encode(&p)).unwrap();
-        assert_eq!(q.header, p.header);
-        assert_eq!(q.film.sums(), p.film.sums());
-        assert_eq!(q.film.iterations(), 5);
+        assert_eq!(decode(&encode(&p)).unwrap(), p);
     }
 
     #[test]
@@ -535,16 +500,15 @@ mod tests {
         );
         let merged = merge(&shards).unwrap();
         assert_eq!(merged.header, header(1, 40));
-        assert_eq!(merged.film.mean(), whole.film.mean());
-        let (a, b) = (merged.film.sums().0, whole.film.sums().0);
-        for (x, y) in a.iter().zip(b) {
+        assert_eq!(mean(&merged), mean(&whole));
+        for (x, y) in merged.sum.iter().zip(&whole.sum) {
             assert!(((*x - *y) / *y).abs().max_element() < 1e-14, "{x} {y}");
         }
         let halves = files("halves", vec![partial(1, 10), partial(11, 20)]);
         let mut half = merge(&halves).unwrap();
         half.header.first = 1;
         let again = files("again", vec![half, partial(21, 40)]);
-        assert_eq!(merge(&again).unwrap().film.mean(), whole.film.mean());
+        assert_eq!(mean(&merge(&again).unwrap()), mean(&whole));
         for path in shards.iter().chain(&halves).chain(&again) {
             let _ = fs::remove_dir_all(path.parent().unwrap());
         }

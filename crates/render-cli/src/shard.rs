@@ -1,0 +1,89 @@
+//! Iteration shards: the partial film of a render over a range of
+//! iterations (`--partial`), in the file format of `image_io::film_file`.
+
+use std::hash::Hasher;
+use std::path::Path;
+
+use image_io::film_file::{FilmHeader, PartialFilm};
+use integrators::{Film, RenderConfig};
+use scene::Scene;
+
+/// The header of a render of `scene` (loaded from `scene_path`) with
+/// `config` over iterations `first..=last`.
+pub fn header(
+    scene_path: &Path,
+    scene: &Scene,
+    config: &RenderConfig,
+    first: u64,
+    last: u64,
+) -> FilmHeader {
+    let r = scene.camera.resolution;
+    FilmHeader {
+        scene: scene_path.display().to_string(),
+        scene_hash: scene_hash(scene),
+        settings: format!("{config:?}"),
+        seed: config.seed,
+        first,
+        last,
+        width: r.x,
+        height: r.y,
+    }
+}
+
+/// The partial film of `film` (rendered over `header`'s range).
+pub fn partial(header: FilmHeader, film: &Film) -> PartialFilm {
+    let (sum, sum_sq) = film.sums();
+    PartialFilm {
+        header,
+        iterations: film.iterations(),
+        sum: sum.to_vec(),
+        sum_sq: sum_sq.to_vec(),
+    }
+}
+
+/// The film of a (merged) partial film; `None` if its data does not match its size.
+pub fn film(partial: PartialFilm) -> Option<Film> {
+    let h = &partial.header;
+    Film::from_sums(
+        h.width,
+        h.height,
+        partial.iterations,
+        partial.sum,
+        partial.sum_sq,
+    )
+}
+
+/// A 64-bit FNV-1a hash of what determines the image: geometry, shading
+/// data, materials, textures, lights and camera (not the file names).
+pub fn scene_hash(scene: &Scene) -> u64 {
+    let mut h = fnv::FnvHasher::default();
+    let floats = |h: &mut fnv::FnvHasher, values: &mut dyn Iterator<Item = f32>| {
+        for v in values {
+            h.write_u32(v.to_bits());
+        }
+    };
+    floats(
+        &mut h,
+        &mut scene.triangles.iter().flatten().flat_map(|v| v.to_array()),
+    );
+    floats(
+        &mut h,
+        &mut scene.normals.iter().flatten().flat_map(|v| v.to_array()),
+    );
+    floats(
+        &mut h,
+        &mut scene.uvs.iter().flatten().flat_map(|v| v.to_array()),
+    );
+    for &m in &scene.triangle_materials {
+        h.write_u32(m);
+    }
+    for t in &scene.textures {
+        h.write_u32(t.width);
+        h.write_u32(t.height);
+        floats(&mut h, &mut t.texels.iter().flat_map(|v| v.to_array()));
+        h.write(format!("{:?}{:?}", t.wrap_u, t.wrap_v).as_bytes());
+    }
+    // Small parts: their Debug form lists every field.
+    h.write(format!("{:?}{:?}{:?}", scene.materials, scene.lights, scene.camera).as_bytes());
+    h.finish()
+}
