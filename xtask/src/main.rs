@@ -13,6 +13,8 @@
 //!   comparisons, charts and a contact sheet (`target/study/<scene>/`).
 //! - `stability [--quick]`: numerical stability sweeps of the math crates
 //!   and the renderer over extreme inputs (`target/stability/`).
+//! - `farm slurm|resume|selftest`: one render as a Slurm job array of
+//!   iteration shards and a dependent merge (`target/farm/`).
 //! - `mitsuba [options]`: renders one scene with our path tracer and with
 //!   Mitsuba 3's (installed on demand into `target/mitsuba/venv`), and
 //!   compares speed and error against one reference (`target/mitsuba/`).
@@ -24,6 +26,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
 mod bench;
+mod farm;
 mod mitsuba;
 mod stability;
 mod study;
@@ -34,8 +37,9 @@ const USAGE_HELP: &str = "  help              print this text";
 
 fn usage() -> String {
     format!(
-        "{USAGE_HEADER}\n{}\n{}\n{}\n{}\n{USAGE_HELP}",
+        "{USAGE_HEADER}\n{}\n{}\n{}\n{}\n{}\n{USAGE_HELP}",
         bench::USAGE,
+        farm::USAGE,
         mitsuba::USAGE,
         study::USAGE,
         stability::USAGE
@@ -48,6 +52,7 @@ fn main() -> ExitCode {
         Some("bench") => bench::run(&workspace_root(), &args[1..]),
         // One run of `bench`, spawned by it; not listed in the usage.
         Some("bench-run") => bench::run_child(&args[1..]),
+        Some("farm") => farm::run(&workspace_root(), &args[1..]),
         Some("mitsuba") => mitsuba::run(&workspace_root(), &args[1..]),
         Some("study") => study::run(&workspace_root(), &args[1..]),
         Some("stability") => stability::run(&workspace_root(), &args[1..]),

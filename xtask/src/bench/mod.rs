@@ -518,7 +518,7 @@ mod tests {
     fn defaults_quick_and_flags() {
         let all = parse(&[]).unwrap();
         assert_eq!(all.scenes, bundled());
-        assert_eq!(all.integrators.len(), 4);
+        assert_eq!(all.integrators.len(), Algorithm::ALL.len());
         assert_eq!(
             (all.resolution, all.iterations, all.repeat),
             ((256, 192), 8, 1)
