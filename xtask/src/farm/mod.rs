@@ -260,6 +260,68 @@ fn print_dry_run(plan: &Plan, tasks: &[usize]) {
     );
 }
 
+/// A film to render on the farm for another task (the study's references).
+pub struct FilmJob<'a> {
+    /// The scene file.
+    pub scene: &'a Path,
+    /// Iterations of the whole render.
+    pub iterations: u64,
+    /// Shards (array tasks).
+    pub shards: u64,
+    /// The render-cli flags of the render.
+    pub render_flags: Vec<String>,
+    /// Batch resources.
+    pub resources: Resources,
+    /// The shared folder (one per film: a second call resumes it).
+    pub folder: PathBuf,
+    /// The `RenderConfig` (Debug) the shards must have used.
+    pub settings: String,
+}
+
+/// Renders `job` on the Slurm cluster, or completes an earlier submission
+/// of it, waits for the merge, and returns the merged film with the
+/// seconds from submission to the merged film.
+pub fn render_film(root: &Path, job: &FilmJob<'_>) -> Result<(integrators::Film, f64), String> {
+    let start = std::time::Instant::now();
+    let plan = Plan {
+        scene: std::path::absolute(job.scene).map_err(|e| e.to_string())?,
+        iterations: job.iterations,
+        ranges: shard_ranges(job.iterations, job.shards)?,
+        render_flags: job.render_flags.clone(),
+        render_cli: root.join("target/release/render-cli"),
+        folder: std::path::absolute(&job.folder).map_err(|e| e.to_string())?,
+        resources: job.resources.clone(),
+    };
+    if !plan.film_file().is_file() {
+        crate::cargo(root, &["build", "--release", "--quiet", "-p", "render-cli"])?;
+        submit_and_record(&plan, &plan.missing_shards(), true)?;
+    }
+    let partial = image_io::film_file::read(&plan.film_file()).map_err(|e| e.to_string())?;
+    if partial.header.settings != job.settings {
+        return Err(format!(
+            "{}: rendered with other settings than asked:\n  {}\n  {}",
+            plan.film_file().display(),
+            partial.header.settings,
+            job.settings
+        ));
+    }
+    let h = &partial.header;
+    let film = integrators::Film::from_sums(
+        h.width,
+        h.height,
+        partial.iterations,
+        partial.sum,
+        partial.sum_sq,
+    )
+    .ok_or_else(|| {
+        format!(
+            "{}: pixel data does not match its size",
+            plan.film_file().display()
+        )
+    })?;
+    Ok((film, start.elapsed().as_secs_f64()))
+}
+
 /// `farm resume --folder DIR [--dry-run] [--wait]`.
 fn resume(args: &[String]) -> Result<(), String> {
     let (mut folder, mut dry_run, mut wait) = (None, false, false);

@@ -44,6 +44,14 @@ options:
   --out DIR             output folder [default: target/study/<scene name>]
   --rerender-reference  render the reference(s) even when cached (and update
                         the cache)
+  --farm slurm          render uncached references on a Slurm cluster as
+                        `cargo xtask farm slurm` does (shards, a merge), and
+                        wait for them; their noise is not measured (a partial
+                        film keeps RGB sums, not luminance)
+  --farm-shards K       shards of each farm reference [default: 4]
+  --farm-partition P, --farm-time T, --farm-mem M, --farm-cpus-per-task C
+                        Slurm resources of the farm jobs (see `cargo xtask
+                        farm help`)
   -h, --help            print this text
 
 Timings are wall-clock seconds of rendering only (scene setup and metrics
@@ -150,6 +158,8 @@ pub(super) struct Options {
     pub(super) tau0: Option<f64>,
     pub(super) out: PathBuf,
     pub(super) rerender: bool,
+    /// `--farm slurm`: shards per reference and the jobs' resources.
+    pub(super) farm: Option<(u64, crate::farm::Resources)>,
 }
 
 /// What the command line asks for.
@@ -240,6 +250,16 @@ impl Options {
                 "--seed" => flags.seed = parse_seed(&value)?,
                 "--tau0" => flags.tau0 = Some(parse_tau0(&value)?),
                 "--out" => flags.out = Some(PathBuf::from(value)),
+                "--farm" if value == "slurm" => flags.farm = true,
+                "--farm" => return Err(format!("--farm: expected slurm, got '{value}'")),
+                "--farm-shards" => flags.farm_shards = positive(flag, &value)?,
+                "--farm-partition" => flags.farm_resources.partition = Some(value),
+                "--farm-time" => flags.farm_resources.time = Some(value),
+                "--farm-mem" => flags.farm_resources.mem = Some(value),
+                "--farm-cpus-per-task" => {
+                    flags.farm_resources.cpus_per_task = u32::try_from(positive(flag, &value)?)
+                        .map_err(|_| format!("{flag}: too large"))?;
+                }
                 _ => {
                     return Err(format!(
                         "unknown option '{arg}' (see `cargo xtask study --help`)"
@@ -265,6 +285,9 @@ struct Flags {
     tau0: Option<f64>,
     out: Option<PathBuf>,
     rerender: bool,
+    farm: bool,
+    farm_shards: u64,
+    farm_resources: crate::farm::Resources,
 }
 
 impl Default for Flags {
@@ -281,9 +304,18 @@ impl Default for Flags {
             tau0: None,
             out: None,
             rerender: false,
+            farm: false,
+            farm_shards: DEFAULT_FARM_SHARDS,
+            farm_resources: crate::farm::Resources {
+                cpus_per_task: 1,
+                ..Default::default()
+            },
         }
     }
 }
+
+/// Shards per reference with `--farm slurm`.
+const DEFAULT_FARM_SHARDS: u64 = 4;
 
 impl Flags {
     /// The options: the scene resolved, the budget's defaults filled in.
@@ -319,6 +351,7 @@ impl Flags {
             tau0: self.tau0,
             out,
             rerender: self.rerender,
+            farm: self.farm.then_some((self.farm_shards, self.farm_resources)),
         })
     }
 }

@@ -192,6 +192,8 @@ fn run_with_cache(root: &Path, args: &[String], cache_dir: &Path) -> Result<(), 
         scene_hash,
         renderer_version: &renderer_version,
         cache_dir,
+        root,
+        farm: options.farm.as_ref(),
     };
     let cached = look_up_cache(&specs, &context, &options, &settings);
     // Reference iterations count towards the progress only when rendered.
@@ -478,6 +480,9 @@ struct ReferenceContext<'a> {
     scene_hash: u64,
     renderer_version: &'a str,
     cache_dir: &'a Path,
+    root: &'a Path,
+    /// `--farm slurm`: shards per reference and the jobs' resources.
+    farm: Option<&'a (u64, crate::farm::Resources)>,
 }
 
 impl Reference {
@@ -541,14 +546,47 @@ fn render_reference(
         cache_file,
     } = job;
     let render_config = config.render_config(spec.seed, spec.max_depth, spec.tau0)?;
-    let t = Instant::now();
-    let renderer = Renderer::new(context.scene.clone(), render_config);
-    let setup_seconds = t.elapsed().as_secs_f64();
-    let label = format!("{role} {config}");
-    let rendered = render(&renderer, spec.iterations, &[], progress, &label, |_| {});
+    let (rendered, noise, setup_seconds, invalid_samples) = match context.farm {
+        Some((shards, resources)) => {
+            let flags = farm_flags(&render_config, &spec, config.regularized);
+            let job = crate::farm::FilmJob {
+                scene: context.scene_file,
+                iterations: spec.iterations,
+                shards: *shards,
+                render_flags: flags,
+                resources: resources.clone(),
+                folder: context
+                    .root
+                    .join("target/farm")
+                    .join(format!("study-{key}")),
+                settings: format!("{render_config:?}"),
+            };
+            progress.println(&format!(
+                "{role}: {config} on the farm ({})",
+                job.folder.display()
+            ));
+            let (film, seconds) = crate::farm::render_film(context.root, &job)?;
+            let rendered = Rendered {
+                iteration: spec.iterations,
+                seconds,
+                cpu_seconds: None,
+                luminance: Film::new(film.width(), film.height()),
+                film,
+            };
+            // A partial film keeps RGB sums, not the luminance's.
+            (rendered, None, 0.0, 0)
+        }
+        None => {
+            let t = Instant::now();
+            let renderer = Renderer::new(context.scene.clone(), render_config);
+            let setup_seconds = t.elapsed().as_secs_f64();
+            let label = format!("{role} {config}");
+            let rendered = render(&renderer, spec.iterations, &[], progress, &label, |_| {});
+            let noise = metrics::noise(&rendered.luminance_variance(), spec.iterations);
+            (rendered, noise, setup_seconds, renderer.invalid_samples())
+        }
+    };
     let image = rendered.film.mean();
-    let noise = metrics::noise(&rendered.luminance_variance(), spec.iterations);
-    let invalid_samples = renderer.invalid_samples();
     let meta = json!({
         "key": key,
         "role": role,
@@ -597,6 +635,42 @@ fn render_reference(
         image,
         spec,
     })
+}
+
+/// The render-cli flags that give `render_config` (the farm renders
+/// references with render-cli; `farm::render_film` checks that the shards'
+/// settings are `render_config`'s).
+fn farm_flags(
+    render_config: &integrators::RenderConfig,
+    spec: &ReferenceSpec,
+    regularized: bool,
+) -> Vec<String> {
+    let c = render_config;
+    let mode = if regularized {
+        c.regularization.mode.name()
+    } else {
+        "off"
+    };
+    [
+        "--integrator",
+        c.algorithm.name(),
+        "--regularize",
+        mode,
+        "--tau0",
+        &c.regularization.schedule.tau_0().to_string(),
+        "--max-depth",
+        &c.max_depth.to_string(),
+        "--seed",
+        &c.seed.to_string(),
+        "--resolution",
+        &format!("{}x{}", spec.width, spec.height),
+        "--radius",
+        &c.radius_factor.to_string(),
+        "--shadow-roulette",
+        &c.shadow_roulette.to_string(),
+    ]
+    .map(str::to_owned)
+    .to_vec()
 }
 
 /// CPU time of this process so far, in seconds: the sum over its threads
