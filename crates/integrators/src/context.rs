@@ -17,6 +17,7 @@ use crate::geometry::{BoundingSphere, SurfacePoint};
 use crate::lights::Lights;
 use crate::merge_radius::{MergeRadius, pixel_footprint};
 use crate::sampler::Sampler;
+use crate::walk::Walk;
 
 thread_local! {
     /// Rays traced by this thread since its count was last added to a
@@ -86,13 +87,20 @@ impl SceneContext {
     }
 
     /// The camera subpath of pixel (`x`, `y`) in iteration `n`: its random
-    /// stream and its first ray.
+    /// stream and its walk from the camera.
     #[inline]
-    pub fn camera_path(&self, n: u64, x: u32, y: u32) -> (Sampler, Vec3, Vec3) {
+    pub fn camera_path(&self, n: u64, x: u32, y: u32) -> (Sampler, Walk) {
         let pixel = u64::from(y) * u64::from(self.scene.camera.resolution.x) + u64::from(x);
         let mut sampler = Sampler::new(self.config.seed, n, pixel);
         let (origin, direction) = self.camera.ray(x, y, sampler.pixel_position());
-        (sampler, origin, direction)
+        (sampler, Walk::new(origin, direction))
+    }
+
+    /// [`SceneContext::camera_path`] of pixel `index` (row-major).
+    #[inline]
+    pub fn camera_path_of(&self, n: u64, index: usize) -> (Sampler, Walk) {
+        let width = self.scene.camera.resolution.x as usize;
+        self.camera_path(n, (index % width) as u32, (index / width) as u32)
     }
 
     /// Closest hit along `origin + t direction`, t in (0, t_max): every

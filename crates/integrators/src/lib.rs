@@ -27,6 +27,7 @@ pub mod render;
 pub mod roulette;
 pub mod sampler;
 pub mod vertex;
+pub mod walk;
 
 pub use config::{
     Algorithm, ConfigError, DEFAULT_MAX_DEPTH, DEFAULT_RADIUS_ALPHA, DEFAULT_RADIUS_FACTOR,

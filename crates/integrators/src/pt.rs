@@ -12,9 +12,10 @@ use regularization::{PathRegularization, Subpath};
 use crate::config::Strategies;
 use crate::context::SceneContext;
 use crate::integrator::Integrator;
+use crate::nee;
 use crate::sampler::{CameraVertexSamples, Sampler};
 use crate::vertex::PathVertex;
-use crate::{nee, roulette};
+use crate::walk::Walk;
 
 /// Pixels per image side, and paths per pixel, of the preview that
 /// estimates the mean pixel value (4096 paths whatever the resolution:
@@ -58,8 +59,8 @@ impl Integrator for PathTracer {
             .enumerate()
             .for_each(|(y, row)| {
                 for (x, out) in row.iter_mut().enumerate() {
-                    let (mut sampler, o, d) = ctx.camera_path(n, x as u32, y as u32);
-                    *out = self.trace_path(ctx, o, d, &mut sampler, tau_n);
+                    let (mut sampler, walk) = ctx.camera_path(n, x as u32, y as u32);
+                    *out = self.trace_path(ctx, walk, &mut sampler, tau_n);
                 }
                 ctx.flush_ray_count();
             });
@@ -94,7 +95,7 @@ impl PathTracer {
                     let pixel = u64::from(y) * u64::from(res.x) + u64::from(x);
                     let mut sampler = Sampler::new(ctx.config.seed, 0, pixel * PREVIEW_PATHS + k);
                     let (o, d) = ctx.camera.ray(x, y, sampler.pixel_position());
-                    let l = self.trace_path(ctx, o, d, &mut sampler, tau_1);
+                    let l = self.trace_path(ctx, Walk::new(o, d), &mut sampler, tau_1);
                     sum += f64::from(l.max_element());
                 }
             }
@@ -107,67 +108,58 @@ impl PathTracer {
         }
     }
 
-    /// One path-traced radiance estimate for the camera ray (`origin`, `direction`).
+    /// One path-traced radiance estimate of the camera walk `walk`.
     fn trace_path(
         &self,
         ctx: &SceneContext,
-        mut origin: Vec3,
-        mut direction: Vec3,
+        mut walk: Walk,
         sampler: &mut Sampler,
         tau_n: f64,
     ) -> Vec3 {
         let mut radiance = Vec3::ZERO;
-        let mut throughput = Vec3::ONE;
         let mut regularization =
             PathRegularization::new(ctx.effective_mode(tau_n), Subpath::Camera, tau_n);
         let mut bounce = Bounce {
             specular: true,
             mis_pdf: 0.0,
-            from: origin,
+            from: walk.origin,
         };
 
         for depth in 1..=ctx.config.max_depth {
-            let Some(hit) = ctx.intersect(origin, direction, f32::INFINITY) else {
+            let Some(hit) = ctx.intersect(walk.origin, walk.direction, f32::INFINITY) else {
                 if let Some(le) = ctx.lights.environment() {
                     let weight = self.emitter_hit_weight(&bounce, || ctx.lights.environment_pdf());
-                    radiance += throughput * le * weight;
+                    radiance += walk.throughput * le * weight;
                 }
                 break;
             };
             let point = ctx.surface_point(&hit);
-            let wi = -direction;
+            let wi = -walk.direction;
             if let Some(emission) = ctx.emitted(&point, wi) {
                 let weight = self.emitter_hit_weight(&bounce, || {
                     ctx.lights
                         .area_pdf_w(point.triangle, bounce.from, point.p, point.n_winding)
                 });
-                radiance += throughput * emission * weight;
+                radiance += walk.throughput * emission * weight;
             }
             if depth == ctx.config.max_depth {
                 break;
             }
 
-            let vertex = PathVertex::new(&ctx.scene, point, wi, throughput, regularization);
+            let vertex = PathVertex::new(&ctx.scene, point, wi, walk.throughput, regularization);
             regularization = vertex.regularization;
             let u = sampler.camera_vertex(depth);
             if self.use_nee && !vertex.is_specular() {
-                radiance += throughput * self.next_event(ctx, &vertex, &u);
+                radiance += walk.throughput * self.next_event(ctx, &vertex, &u);
             }
-
-            let Some(s) = vertex.sample(u.u_lobe, u.uv_bsdf, TransportMode::Radiance) else {
+            let Some(s) = walk.step(&vertex, depth, u.step, TransportMode::Radiance, 1.0) else {
                 break;
             };
-            throughput *= s.weight;
             bounce = Bounce {
                 specular: s.is_specular,
                 mis_pdf: s.mis_pdf,
                 from: point.p,
             };
-            origin = point.spawn_origin(s.wo);
-            direction = s.wo;
-            if !roulette::survives(depth, &mut throughput, 1.0, u.u_roulette) {
-                break;
-            }
         }
         radiance
     }

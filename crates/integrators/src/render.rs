@@ -2,8 +2,8 @@
 //! integrator of the configuration, rendering iterations into a film.
 //!
 //! Modules depend downwards only: `render` -> `bidir` -> `pt` -> `nee`,
-//! `roulette`, `vertex` -> `context` -> `lights`, `camera`, `geometry`,
-//! `sampler`; each integrator implements [`Integrator`].
+//! `walk` -> `roulette`, `vertex` -> `context` -> `lights`, `camera`,
+//! `geometry`, `sampler`; each integrator implements [`Integrator`].
 
 use std::sync::atomic::{AtomicU64, Ordering};
 

@@ -44,14 +44,10 @@ const EMISSION_DIMENSIONS: u32 = 5;
 /// 4-dimension Sobol set (with a camera vertex's stride of 7, two).
 const LIGHT_VERTEX_DIMENSIONS: u32 = 4;
 
-/// The random numbers of one camera subpath vertex: next-event estimation,
-/// BSDF sampling, Russian roulette.
+/// The random numbers of one step of a walk: BSDF sampling and Russian
+/// roulette (all a light subpath vertex draws).
 #[derive(Clone, Copy, Debug)]
-pub struct CameraVertexSamples {
-    /// Light choice.
-    pub u_light: f32,
-    /// Point on the light.
-    pub uv_light: Vec2,
+pub struct StepSamples {
     /// BSDF lobe choice.
     pub u_lobe: f32,
     /// BSDF direction.
@@ -60,16 +56,16 @@ pub struct CameraVertexSamples {
     pub u_roulette: f32,
 }
 
-/// The random numbers of one light subpath vertex: BSDF sampling and
-/// Russian roulette.
+/// The random numbers of one camera subpath vertex: next-event estimation,
+/// then the step.
 #[derive(Clone, Copy, Debug)]
-pub struct LightVertexSamples {
-    /// BSDF lobe choice.
-    pub u_lobe: f32,
-    /// BSDF direction.
-    pub uv_bsdf: Vec2,
-    /// Russian roulette.
-    pub u_roulette: f32,
+pub struct CameraVertexSamples {
+    /// Light choice.
+    pub u_light: f32,
+    /// Point on the light.
+    pub uv_light: Vec2,
+    /// BSDF sampling and roulette.
+    pub step: StepSamples,
 }
 
 /// splitmix64's finaliser (Steele et al. 2014): a bijective 64-bit mix.
@@ -137,13 +133,10 @@ impl Sampler {
     pub fn camera_vertex(&mut self, depth: u32) -> CameraVertexSamples {
         self.set_dimension(PIXEL_DIMENSIONS + (depth - 1) * CAMERA_VERTEX_DIMENSIONS);
         let (u_light, uv_light) = (self.next_1d(), self.next_2d());
-        let (u_lobe, uv_bsdf) = (self.next_1d(), self.next_2d());
         CameraVertexSamples {
             u_light,
             uv_light,
-            u_lobe,
-            uv_bsdf,
-            u_roulette: self.next_1d(),
+            step: self.step(),
         }
     }
 
@@ -154,10 +147,15 @@ impl Sampler {
     }
 
     /// The numbers of light subpath vertex `length` (1: the first hit).
-    pub fn light_vertex(&mut self, length: u32) -> LightVertexSamples {
+    pub fn light_vertex(&mut self, length: u32) -> StepSamples {
         self.set_dimension(EMISSION_DIMENSIONS + (length - 1) * LIGHT_VERTEX_DIMENSIONS);
+        self.step()
+    }
+
+    /// A step's numbers from the current dimension on.
+    fn step(&mut self) -> StepSamples {
         let (u_lobe, uv_bsdf) = (self.next_1d(), self.next_2d());
-        LightVertexSamples {
+        StepSamples {
             u_lobe,
             uv_bsdf,
             u_roulette: self.next_1d(),

@@ -76,22 +76,7 @@ pub fn submit(plan: &Plan, tasks: &[usize]) -> Result<(Option<String>, String), 
 
 /// Whether job `id` (or any task of an array) is still in the queue.
 pub fn in_queue(id: &str) -> Result<bool, String> {
-    let out = slurm(
-        "squeue",
-        &[
-            "-h".into(),
-            "-j".into(),
-            id.into(),
-            "-o".into(),
-            "%i".into(),
-        ],
-    );
-    match out {
-        Ok(text) => Ok(!text.is_empty()),
-        // squeue refuses ids it has forgotten: not in the queue.
-        Err(e) if e.contains("Invalid job id") => Ok(false),
-        Err(e) => Err(e),
-    }
+    Ok(state(id)?.is_some())
 }
 
 /// Waits until job `id` has left the queue, at most `limit`.
@@ -115,17 +100,14 @@ pub fn cancel(id: &str, signal: &str) -> Result<(), String> {
     .map(|_| ())
 }
 
-/// The state (`PENDING`, `RUNNING`, ...) of job `id`, if it is queued.
+/// The state (`PENDING`, `RUNNING`, ...) of job `id` (of an array's first
+/// queued task), if it is queued.
 pub fn state(id: &str) -> Result<Option<String>, String> {
-    let out = slurm(
-        "squeue",
-        &[
-            "-h".into(),
-            "-j".into(),
-            id.into(),
-            "-o".into(),
-            "%T".into(),
-        ],
-    )?;
-    Ok(out.lines().next().map(str::to_owned))
+    let args = ["-h", "-j", id, "-o", "%T"].map(str::to_owned);
+    match slurm("squeue", &args) {
+        Ok(text) => Ok(text.lines().next().map(str::to_owned)),
+        // squeue refuses ids it has forgotten: not in the queue.
+        Err(e) if e.contains("Invalid job id") => Ok(None),
+        Err(e) => Err(e),
+    }
 }

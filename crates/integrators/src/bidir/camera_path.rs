@@ -1,16 +1,16 @@
 //! Camera subpaths of the bidirectional core with all their techniques:
 //! emitter hits, next-event estimation, vertex connections and merges.
 
-use glam::{UVec2, Vec3};
+use glam::Vec3;
 use microfacet::TransportMode;
 use mis::{SubpathRay, SubpathState};
 use regularization::{PathRegularization, Subpath};
 
 use super::light_path::LightVertex;
 use super::{Iteration, PhotonMap};
+use crate::nee;
 use crate::sampler::CameraVertexSamples;
 use crate::vertex::PathVertex;
-use crate::{nee, roulette};
 
 impl Iteration<'_> {
     /// The camera subpath of pixel `index` (row-major) with all its
@@ -25,37 +25,31 @@ impl Iteration<'_> {
     ) -> Vec3 {
         let ctx = self.ctx;
         let max_depth = ctx.config.max_depth;
-        let width = ctx.scene.camera.resolution.x as usize;
-        let pixel = UVec2::new((index % width) as u32, (index / width) as u32);
-        let (mut sampler, mut origin, mut direction) = ctx.camera_path(self.n, pixel.x, pixel.y);
-        let mut ray = SubpathRay::from_camera(&self.mis, f64::from(ctx.camera.pdf_w(direction)));
+        let (mut sampler, mut walk) = ctx.camera_path_of(self.n, index);
+        let mut ray =
+            SubpathRay::from_camera(&self.mis, f64::from(ctx.camera.pdf_w(walk.direction)));
         let mut regularization = PathRegularization::new(self.mode, Subpath::Camera, self.tau_n);
-        let mut throughput = Vec3::ONE;
         let mut radiance = Vec3::ZERO;
         for length in 1..=max_depth {
-            let Some(hit) = ctx.intersect(origin, direction, f32::INFINITY) else {
+            let Some(hit) = ctx.intersect(walk.origin, walk.direction, f32::INFINITY) else {
                 if let Some(le) = ctx.lights.environment() {
                     let hit = ctx.lights.environment_pdfs().hit();
                     let w = self.mis.environment_hit_weight(&ray, &hit);
-                    radiance += throughput * le * w as f32;
+                    radiance += walk.throughput * le * w as f32;
                 }
                 break;
             };
             let point = ctx.surface_point(&hit);
-            let wi = -direction;
-            let vertex = PathVertex::new(&ctx.scene, point, wi, throughput, regularization);
+            let wi = -walk.direction;
+            let vertex = PathVertex::new(&ctx.scene, point, wi, walk.throughput, regularization);
             regularization = vertex.regularization;
-            let state = ray.arrive(
-                &self.mis,
-                f64::from(hit.t),
-                f64::from(vertex.cos(direction)),
-            );
+            let state = ray.arrive(&self.mis, f64::from(hit.t), f64::from(vertex.cos(wi)));
             if let Some(emission) = ctx.emitted(&point, wi) {
                 let pdfs = ctx
                     .lights
                     .area_pdfs(point.triangle, point.n_winding.dot(wi));
                 let w = self.mis.emitter_hit_weight(&state, &pdfs.hit());
-                radiance += throughput * emission * w as f32;
+                radiance += walk.throughput * emission * w as f32;
             }
             if length >= max_depth {
                 break;
@@ -75,20 +69,14 @@ impl Iteration<'_> {
                     }
                 }
                 if let Some(photon_map) = photon_map {
-                    radiance += throughput * self.merge(&vertex, &state, length, photon_map);
+                    radiance += walk.throughput * self.merge(&vertex, &state, length, photon_map);
                 }
             }
 
-            let Some(s) = vertex.sample(u.u_lobe, u.uv_bsdf, TransportMode::Radiance) else {
+            let Some(s) = walk.step(&vertex, length, u.step, TransportMode::Radiance, 1.0) else {
                 break;
             };
             ray = state.scatter(&self.mis, &vertex.scatter_event(&s));
-            throughput *= s.weight;
-            origin = point.spawn_origin(s.wo);
-            direction = s.wo;
-            if !roulette::survives(length, &mut throughput, 1.0, u.u_roulette) {
-                break;
-            }
         }
         radiance
     }

@@ -10,9 +10,9 @@ use scene::Scene;
 use super::Iteration;
 use crate::film::Splats;
 use crate::geometry::SurfacePoint;
-use crate::roulette;
 use crate::sampler::{LIGHT_STREAM, Sampler};
 use crate::vertex::PathVertex;
+use crate::walk::Walk;
 
 /// What a light subpath leaves at a non-specular vertex: enough to rebuild
 /// its [`PathVertex`] with the regularization a technique needs, and its MIS
@@ -90,20 +90,20 @@ impl Iteration<'_> {
         };
         let mut ray = SubpathRay::from_light(&self.mis, &emission.mis.emission());
         let regularization = PathRegularization::new(self.mode, Subpath::Light, self.tau_n);
-        let (mut origin, mut direction) = (emission.origin, emission.direction);
-        let mut throughput = emission.throughput;
-        let emitted = throughput.max_element();
+        let mut walk = Walk {
+            origin: emission.origin,
+            direction: emission.direction,
+            throughput: emission.throughput,
+        };
+        let emitted = walk.throughput.max_element();
         for length in 1..=max_depth {
-            let Some(hit) = ctx.intersect(origin, direction, f32::INFINITY) else {
+            let Some(hit) = ctx.intersect(walk.origin, walk.direction, f32::INFINITY) else {
                 break;
             };
             let point = ctx.surface_point(&hit);
-            let vertex = PathVertex::new(&ctx.scene, point, -direction, throughput, regularization);
-            let state = ray.arrive(
-                &self.mis,
-                f64::from(hit.t),
-                f64::from(vertex.cos(direction)),
-            );
+            let wi = -walk.direction;
+            let vertex = PathVertex::new(&ctx.scene, point, wi, walk.throughput, regularization);
+            let state = ray.arrive(&self.mis, f64::from(hit.t), f64::from(vertex.cos(wi)));
             if !vertex.is_specular() {
                 vertices.push(LightVertex::new(&vertex, state, length));
             }
@@ -116,16 +116,10 @@ impl Iteration<'_> {
                 break;
             }
             let u = sampler.light_vertex(length);
-            let Some(s) = vertex.sample(u.u_lobe, u.uv_bsdf, TransportMode::Importance) else {
+            let Some(s) = walk.step(&vertex, length, u, TransportMode::Importance, emitted) else {
                 break;
             };
             ray = state.scatter(&self.mis, &vertex.scatter_event(&s));
-            throughput *= s.weight;
-            origin = point.spawn_origin(s.wo);
-            direction = s.wo;
-            if !roulette::survives(length, &mut throughput, emitted, u.u_roulette) {
-                break;
-            }
         }
     }
 

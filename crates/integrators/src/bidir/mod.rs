@@ -257,20 +257,25 @@ impl Iteration<'_> {
     fn render_with_photon_map(&self, estimates: &mut [Vec3]) {
         let (paths, splats) = self.trace_light_paths(estimates.len());
         let photon_map = PhotonMap::new(&paths, self.radius, estimates.len());
+        self.camera_pass(estimates, |index| {
+            self.trace_camera_path(index, paths.path(index), Some(&photon_map))
+        });
+        for s in &splats {
+            s.add_to(estimates);
+        }
+    }
 
+    /// One camera subpath per pixel, `trace(pixel index)`, in parallel blocks.
+    fn camera_pass(&self, estimates: &mut [Vec3], trace: impl Fn(usize) -> Vec3 + Sync) {
         estimates
             .par_chunks_mut(LIGHT_BLOCK)
             .enumerate()
             .for_each(|(block, chunk)| {
                 for (k, out) in chunk.iter_mut().enumerate() {
-                    let index = block * LIGHT_BLOCK + k;
-                    *out = self.trace_camera_path(index, paths.path(index), Some(&photon_map));
+                    *out = trace(block * LIGHT_BLOCK + k);
                 }
                 self.ctx.flush_ray_count();
             });
-        for s in &splats {
-            s.add_to(estimates);
-        }
     }
 
     /// Every light subpath of the iteration, traced in fixed blocks, with

@@ -7,15 +7,13 @@
 //! everywhere: a near-specular vertex that alpha-hat blurs is non-specular
 //! and merges.
 
-use glam::{UVec2, Vec3};
+use glam::Vec3;
 use microfacet::TransportMode;
-use rayon::prelude::*;
 use regularization::{PathRegularization, Subpath};
 
-use super::{Bidirectional, Iteration, LIGHT_BLOCK, PhotonMap};
+use super::{Bidirectional, Iteration, PhotonMap};
 use crate::context::SceneContext;
 use crate::integrator::Integrator;
-use crate::roulette;
 use crate::vertex::PathVertex;
 
 /// The progressive photon mapper.
@@ -40,15 +38,7 @@ impl Integrator for ProgressivePhotonMapper {
         // Without connections the light pass records no splats.
         let (paths, _) = it.trace_light_paths(estimates.len());
         let photon_map = PhotonMap::new(&paths, it.radius, estimates.len());
-        estimates
-            .par_chunks_mut(LIGHT_BLOCK)
-            .enumerate()
-            .for_each(|(block, chunk)| {
-                for (k, out) in chunk.iter_mut().enumerate() {
-                    *out = it.trace_gather_path(block * LIGHT_BLOCK + k, &photon_map);
-                }
-                ctx.flush_ray_count();
-            });
+        it.camera_pass(estimates, |index| it.trace_gather_path(index, &photon_map));
     }
 }
 
@@ -59,41 +49,36 @@ impl Iteration<'_> {
     fn trace_gather_path(&self, index: usize, photon_map: &PhotonMap<'_>) -> Vec3 {
         let ctx = self.ctx;
         let max_depth = ctx.config.max_depth;
-        let width = ctx.scene.camera.resolution.x as usize;
-        let pixel = UVec2::new((index % width) as u32, (index / width) as u32);
-        let (mut sampler, mut origin, mut direction) = ctx.camera_path(self.n, pixel.x, pixel.y);
+        let (mut sampler, mut walk) = ctx.camera_path_of(self.n, index);
         let mut regularization = PathRegularization::new(self.mode, Subpath::Camera, self.tau_n);
-        let mut throughput = Vec3::ONE;
         let mut radiance = Vec3::ZERO;
         for length in 1..=max_depth {
-            let Some(hit) = ctx.intersect(origin, direction, f32::INFINITY) else {
+            let Some(hit) = ctx.intersect(walk.origin, walk.direction, f32::INFINITY) else {
                 if let Some(le) = ctx.lights.environment() {
-                    radiance += throughput * le;
+                    radiance += walk.throughput * le;
                 }
                 break;
             };
             let point = ctx.surface_point(&hit);
-            let wi = -direction;
+            let wi = -walk.direction;
             if let Some(emission) = ctx.emitted(&point, wi) {
-                radiance += throughput * emission;
+                radiance += walk.throughput * emission;
             }
             if length >= max_depth {
                 break;
             }
-            let vertex = PathVertex::new(&ctx.scene, point, wi, throughput, regularization);
+            let vertex = PathVertex::new(&ctx.scene, point, wi, walk.throughput, regularization);
             regularization = vertex.regularization;
             if !vertex.is_specular() {
-                radiance += throughput * photon_map.gather(&vertex, length, max_depth, |_| 1.0);
+                let gathered = photon_map.gather(&vertex, length, max_depth, |_| 1.0);
+                radiance += walk.throughput * gathered;
                 break;
             }
-            let u = sampler.camera_vertex(length);
-            let Some(s) = vertex.sample(u.u_lobe, u.uv_bsdf, TransportMode::Radiance) else {
-                break;
-            };
-            throughput *= s.weight;
-            origin = point.spawn_origin(s.wo);
-            direction = s.wo;
-            if !roulette::survives(length, &mut throughput, 1.0, u.u_roulette) {
+            let u = sampler.camera_vertex(length).step;
+            if walk
+                .step(&vertex, length, u, TransportMode::Radiance, 1.0)
+                .is_none()
+            {
                 break;
             }
         }

@@ -134,9 +134,9 @@ struct CompletePath {
 /// The complete paths that the camera subpath of pixel `index` builds.
 fn complete_paths(it: &Iteration, index: usize) -> Vec<CompletePath> {
     let r = it.ctx;
-    let width = r.scene.camera.resolution.x as usize;
-    let pixel = UVec2::new((index % width) as u32, (index / width) as u32);
-    let (mut sampler, mut origin, mut direction) = r.camera_path(it.n, pixel.x, pixel.y);
+    let (mut sampler, walk) = r.camera_path_of(it.n, index);
+    // The paths' vertices only: no throughput, no roulette.
+    let (mut origin, mut direction) = (walk.origin, walk.direction);
     let mut regularization = PathRegularization::new(it.mode, Subpath::Camera, it.tau_n);
     let mut camera: Vec<SurfacePoint> = Vec::new();
     let mut paths = Vec::new();
@@ -186,7 +186,7 @@ fn complete_paths(it: &Iteration, index: usize) -> Vec<CompletePath> {
                 },
             });
         }
-        let Some(s) = vertex.sample(u.u_lobe, u.uv_bsdf, TransportMode::Radiance) else {
+        let Some(s) = vertex.sample(u.step.u_lobe, u.step.uv_bsdf, TransportMode::Radiance) else {
             break;
         };
         // The recursion below takes a vertex's pdfs towards fixed
