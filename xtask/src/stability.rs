@@ -1,4 +1,4 @@
-//! `cargo xtask stability [--quick]`: numerical stability sweeps (issue 7).
+//! `cargo xtask stability [--quick]`: numerical stability sweeps.
 //!
 //! Every sweep evaluates library functions over extreme inputs (alpha
 //! 1e-8..10, cosines 1e-9..1 on both sides, eta 1 + 1e-7..10 and inverses,

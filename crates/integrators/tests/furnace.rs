@@ -1,4 +1,4 @@
-//! Furnace test (issue 5): inside a closed sphere of albedo a and uniform
+//! Furnace test: inside a closed sphere of albedo a and uniform
 //! emission Le, radiance is Le (1 + a + a^2 + ...) = Le / (1 - a) everywhere.
 //! Every PT variant must converge to it, within a tolerance derived from
 //! the measured variance.

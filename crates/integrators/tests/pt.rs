@@ -1,4 +1,4 @@
-//! Path tracer cross-checks (issue 5): the MIS path tracer agrees with its
+//! Path tracer cross-checks: the MIS path tracer agrees with its
 //! single-technique variants; regularization shows the caustic that PT
 //! cannot otherwise find and changes nothing where nothing is sharp;
 //! images are independent of the thread count.

@@ -1,4 +1,4 @@
-//! ns per call of `eval` and `sample` for each lobe (issue 2).
+//! ns per call of `eval` and `sample` for each lobe.
 //!
 //! Inputs are pre-generated so that the loop measures the lobe, not the RNG;
 //! each iteration processes one (wi, wo) pair or one sample.

@@ -1,4 +1,4 @@
-//! Bounds (issue 2, SPEC §4): sampled maxima of D never exceed `d_max`
+//! Bounds (SPEC §4): sampled maxima of D never exceed `d_max`
 //! (relative 1e-5), G1/cos never exceeds its supremum, refraction Jacobians
 //! never exceed theirs, and each bound is attained (so none is trivially loose).
 

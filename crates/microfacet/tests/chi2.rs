@@ -1,4 +1,4 @@
-//! Chi-square goodness of fit of every sampler against its pdf (issue 2),
+//! Chi-square goodness of fit of every sampler against its pdf,
 //! after pbrt-v4's `bsdfs_test.cpp`: a (theta, phi) histogram over the
 //! sphere, the pdf integrated per cell, low-count cells pooled, significance
 //! 0.01 with a Sidak correction over all tests of this file.

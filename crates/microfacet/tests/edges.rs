@@ -1,4 +1,4 @@
-//! Edge sweeps (issue 2): alpha from 1e-7 to 10, cosines down to 1e-8 and
+//! Edge sweeps: alpha from 1e-7 to 10, cosines down to 1e-8 and
 //! exactly 0, eta from 1 + 1e-6 to 4 and its inverse, wi = wo, wi = -wo,
 //! directions below the surface. Every value must be finite and non-negative,
 //! and `sample` returns `None` rather than a NaN direction.

@@ -1,4 +1,4 @@
-//! Energy (issue 2): the directional albedo of a lossless lobe,
+//! Energy: the directional albedo of a lossless lobe,
 //! int f(wi, wo) |<wo,n>| dwo, never exceeds 1 + 1e-3.
 //!
 //! Estimated by importance sampling with `eval` and `pdf` called separately

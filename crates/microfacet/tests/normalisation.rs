@@ -1,4 +1,4 @@
-//! Normalisation (issue 2, SPEC §1): the integral of D(h)<h,n> is 1, and so is
+//! Normalisation (SPEC §1): the integral of D(h)<h,n> is 1, and so is
 //! the integral of the density of every microfacet-normal sampler, within
 //! 1e-3 for alpha from 0.01 to 1 (Beckmann and GGX also at 2 and 5).
 

@@ -1,4 +1,4 @@
-//! Reciprocity and the adjoint rule (issue 2, SPEC §0 and §3):
+//! Reciprocity and the adjoint rule (SPEC §0 and §3):
 //! - reflection: f(wi, wo) = f(wo, wi) in both transport modes;
 //! - refraction: f_Radiance(wi, wo) = f_Importance(wo, wi) (the adjoint BSDF)
 //!   and f_Radiance(wi, wo) = f_Importance(wi, wo) (eta_i/eta_t)^2;

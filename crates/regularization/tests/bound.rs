@@ -1,4 +1,4 @@
-//! The regularized density never exceeds its bound (issue 3, SPEC §5).
+//! The regularized density never exceeds its bound (SPEC §5).
 //!
 //! For random alpha in [1e-6, 2], tau in (1/(2 pi), 1e6] and directions down
 //! to grazing, the bounded quantity -- D(h)/4 for reflection, D(h) J for

@@ -1,6 +1,6 @@
 //! p-hat = (rho-hat / rho) p (paper eq. 13), checked numerically against the
 //! ratio definition for V-cavity and Smith and every NDF, on random
-//! reflection and refraction configurations (issue 3, supp. §4, SPEC §6).
+//! reflection and refraction configurations (supp. §4, SPEC §6).
 
 use glam::Vec3;
 use microfacet::{

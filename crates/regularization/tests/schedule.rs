@@ -1,4 +1,4 @@
-//! The progressive schedule (issue 3, supp. §5 and §7, SPEC §5).
+//! The progressive schedule (supp. §5 and §7, SPEC §5).
 
 use std::f64::consts::PI;
 

@@ -1,4 +1,4 @@
-//! Stiff inputs (issue 3): every public function returns finite values or a
+//! Stiff inputs: every public function returns finite values or a
 //! typed error for alpha 0 and 1e3, tau at 1/(2 pi) + 1e-12 and 1e15,
 //! eta 1 + 1e-9, N = 1 and 1e15.
 

@@ -1,5 +1,5 @@
 //! Bad input gets a typed error naming the file and the element, never a
-//! panic (issue 4): a table of broken files, and random bytes and random
+//! panic: a table of broken files, and random bytes and random
 //! mutations of valid files fed to every loader (proptest).
 
 use std::path::{Path, PathBuf};

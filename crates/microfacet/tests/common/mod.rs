@@ -12,7 +12,7 @@ pub const NDFS: [NdfKind; 3] = [NdfKind::Ggx, NdfKind::Beckmann, NdfKind::BlinnP
 /// Every shadowing model.
 pub const SHADOWINGS: [Shadowing; 2] = [Shadowing::Smith, Shadowing::VCavity];
 
-/// The roughnesses of the statistical tests (issue 2).
+/// The roughnesses of the statistical tests.
 pub const ALPHAS: [f32; 4] = [0.05, 0.2, 0.6, 1.0];
 
 /// The relative indices of the transmission tests: into glass and out of it.
