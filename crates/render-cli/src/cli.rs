@@ -19,7 +19,7 @@ const AFTER_LONG_HELP: &str = "\
 Settings are taken from the flags, else from the scene manifest's [render] table, else from the \
 defaults above; --explain shows where each one came from. The table's keys are the flags' names \
 with underscores: integrator, iterations, max_depth, regularize, tau0, seed, radius, \
-shadow_roulette, and virtual_merges (true or false).
+shadow_roulette, and progressive and virtual_merges (true or false).
 
 Progress goes to stderr (a bar on a terminal); the last line is always a summary such as
   rendered 64 iterations of 256x256 in 3.21 s (19.9 it/s, 1.30 Msamples/s) -> render.exr, render.png
@@ -114,9 +114,18 @@ pub struct Cli {
 
     /// Keep tau at tau_0 in every iteration: a fixed blur, biased and not consistent. By default
     /// tau grows with the iteration count N (tau_N, cone radius ~ N^(-1/6)), so the blur vanishes
-    /// as the render converges.
+    /// as the render converges. [default: the manifest's `progressive`, else progressive]
     #[arg(long, help_heading = "Regularization")]
     pub no_progressive: bool,
+
+    /// Let tau grow with the iteration count (the default), even where the manifest says
+    /// `progressive = false`.
+    #[arg(
+        long,
+        conflicts_with = "no_progressive",
+        help_heading = "Regularization"
+    )]
+    pub progressive: bool,
 
     /// Virtual merges (supp. §6) for bpt and vcm with regularization: a connection through a
     /// regularized vertex also counts as a merge inside the vertex's blur cone, which keeps

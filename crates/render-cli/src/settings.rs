@@ -132,8 +132,12 @@ impl Settings {
         let tau0 = pick(cli.tau0, manifest.tau0, DEFAULT_TAU_0, |t| {
             check_tau0(t).map_err(key("tau0", "--tau0"))
         })?;
-        // No manifest key: progressive unless --no-progressive.
-        let progressive = pick(cli.no_progressive.then_some(false), None, true, Ok)?;
+        let flag = match (cli.progressive, cli.no_progressive) {
+            (true, _) => Some(true),
+            (_, true) => Some(false),
+            _ => None,
+        };
+        let progressive = pick(flag, manifest.progressive, true, Ok)?;
         let max_depth = pick(cli.max_depth, manifest.max_depth, DEFAULT_MAX_DEPTH, |d| {
             at_least_one(u64::from(d))
                 .map(|_| d)
@@ -274,6 +278,7 @@ mod tests {
             max_depth: Some(5),
             regularize: Some("uniform".into()),
             tau0: Some(30.0),
+            progressive: Some(false),
             seed: Some(7),
             radius: Some(0.01),
             shadow_roulette: Some(0.0),
@@ -289,7 +294,7 @@ mod tests {
         assert_eq!((c.algorithm, c.max_depth, c.seed), (Algorithm::Pt, 5, 7));
         assert_eq!(c.regularization.mode, Mode::Uniform);
         assert_eq!(c.regularization.schedule.tau_0(), 30.0);
-        assert!(c.regularization.progressive);
+        assert!(!c.regularization.progressive);
         assert_eq!((c.radius_factor, c.shadow_roulette), (0.01, 0.0));
         assert_eq!(c.virtual_merges, Some(false));
         let origins = [
@@ -301,9 +306,9 @@ mod tests {
             s.radius,
             s.shadow_roulette,
             s.virtual_merges,
+            s.progressive,
         ];
         assert!(origins.iter().all(|o| *o == Origin::Manifest), "{s:?}");
-        assert_eq!(s.progressive, Origin::Default);
     }
 
     #[test]
@@ -314,7 +319,7 @@ mod tests {
             "--regularize=off",
             "--tau0=8",
             "--seed=1",
-            "--no-progressive",
+            "--progressive",
             "--radius=0.02",
             "--shadow-roulette=0.5",
             "--virtual-merges=on",
@@ -325,7 +330,7 @@ mod tests {
         assert_eq!((c.max_depth, c.seed), (2, 1));
         assert_eq!(c.regularization.mode, Mode::Off);
         assert_eq!(c.regularization.schedule.tau_0(), 8.0);
-        assert!(!c.regularization.progressive);
+        assert!(c.regularization.progressive);
         assert_eq!((c.radius_factor, c.shadow_roulette), (0.02, 0.5));
         assert_eq!(c.virtual_merges, Some(true));
         let origins = [

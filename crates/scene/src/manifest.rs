@@ -16,6 +16,7 @@
 //! max_depth = 16
 //! regularize = "selective"      # off | uniform | selective
 //! tau0 = 7.5                    # > 1/(2 pi)
+//! progressive = true            # false: tau stays tau0 (a fixed blur)
 //! seed = 0
 //! radius = 0.003                # first merge radius (ppm, bpm, vcm), fraction of the scene radius, > 0
 //! shadow_roulette = 0.1         # shadow-ray roulette (bpt, vcm), fraction of the mean pixel, >= 0
@@ -95,6 +96,7 @@ struct RenderSection {
     max_depth: Option<u32>,
     regularize: Option<String>,
     tau0: Option<f64>,
+    progressive: Option<bool>,
     seed: Option<u64>,
     radius: Option<f32>,
     shadow_roulette: Option<f32>,
@@ -227,6 +229,7 @@ pub fn load(path: &Path, camera_name: Option<&str>) -> Result<LoadedManifest, Sc
             max_depth: r.max_depth,
             regularize: r.regularize,
             tau0: r.tau0,
+            progressive: r.progressive,
             seed: r.seed,
             radius: r.radius,
             shadow_roulette: r.shadow_roulette,

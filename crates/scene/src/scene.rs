@@ -25,6 +25,8 @@ pub struct RenderSettings {
     pub regularize: Option<String>,
     /// Initial regularization bound tau_0.
     pub tau0: Option<f64>,
+    /// Whether tau grows with the iteration count (false: tau stays tau_0).
+    pub progressive: Option<bool>,
     /// Random seed.
     pub seed: Option<u64>,
     /// First merge radius of PPM, BPM and VCM, as a fraction of the scene's bounding-sphere radius.

@@ -148,7 +148,7 @@ fn with_render_table(name: &str, render: &str) -> Result<scene::Scene, SceneErro
 fn render_table_keys_are_read() {
     let s = with_render_table(
         "render-keys",
-        "integrator = \"vcm\"\niterations = 8\nmax_depth = 5\nregularize = \"uniform\"\ntau0 = 30\nseed = 7\nradius = 0.01\nshadow_roulette = 0\nvirtual_merges = false\n",
+        "integrator = \"vcm\"\niterations = 8\nmax_depth = 5\nregularize = \"uniform\"\ntau0 = 30\nprogressive = false\nseed = 7\nradius = 0.01\nshadow_roulette = 0\nvirtual_merges = false\n",
     )
     .unwrap();
     let r = &s.render;
@@ -161,8 +161,8 @@ fn render_table_keys_are_read() {
         (Some("uniform"), Some(30.0), Some(7))
     );
     assert_eq!(
-        (r.radius, r.shadow_roulette, r.virtual_merges),
-        (Some(0.01), Some(0.0), Some(false))
+        (r.radius, r.shadow_roulette, r.virtual_merges, r.progressive),
+        (Some(0.01), Some(0.0), Some(false), Some(false))
     );
     // Keys left out stay unset: the command line's defaults apply.
     let s = with_render_table("render-empty", "").unwrap();
