@@ -156,6 +156,13 @@ pub struct Cli {
     #[arg(long, value_name = "WxH", value_parser = parse_resolution, help_heading = "Camera")]
     pub resolution: Option<UVec2>,
 
+    /// Let the scene's file references (models, material libraries, textures, glTF buffers and
+    /// images) point outside the scene file's folder. By default such a reference (`..`, an
+    /// absolute path, a symlink out) is refused, so that a scene from elsewhere cannot make
+    /// the renderer read other files.
+    #[arg(long, help_heading = "Scene")]
+    pub allow_outside_paths: bool,
+
     /// Use the glTF camera of this name. [default: the file's first camera]
     #[arg(
         long,

@@ -47,6 +47,7 @@ impl Cli {
         Ok(LoadOptions {
             camera_name: self.camera.clone(),
             resolution: self.resolution,
+            allow_outside_paths: self.allow_outside_paths,
         })
     }
 

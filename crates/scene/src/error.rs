@@ -4,6 +4,26 @@ use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
+/// Longest quoted value in a message, in characters: an OBJ token of 20 MB
+/// must not make a 20 MB error line.
+pub const MAX_QUOTED: usize = 60;
+
+/// `value` in double quotes for a message, cut to [`MAX_QUOTED`] characters
+/// (saying how long it was) and with control characters escaped.
+pub fn quoted(value: &str) -> String {
+    let count = value.chars().count();
+    let shown: String = value
+        .chars()
+        .take(MAX_QUOTED)
+        .flat_map(char::escape_default)
+        .collect();
+    if count > MAX_QUOTED {
+        format!("\"{shown}...\" ({count} characters)")
+    } else {
+        format!("\"{shown}\"")
+    }
+}
+
 /// Why a scene could not be loaded. `Display` is one line that names the file
 /// and the element (node, mesh, material, line, field) at fault.
 #[derive(Debug, Error)]
@@ -76,5 +96,19 @@ impl SceneError {
             path: path.to_path_buf(),
             source,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quoted_values_are_short_and_escaped() {
+        assert_eq!(quoted("a.mtl"), "\"a.mtl\"");
+        assert_eq!(quoted("a\nb"), "\"a\\nb\"");
+        let long = "x".repeat(20_000_000);
+        let q = quoted(&long);
+        assert!(q.len() < 100 && q.ends_with("(20000000 characters)"), "{q}");
     }
 }

@@ -28,7 +28,11 @@ pub struct GltfScene {
 
 /// Loads `path`; `camera_name` chooses a camera by name (default: the first
 /// camera met walking the scene's nodes).
-pub fn load(path: &Path, camera_name: Option<&str>) -> Result<GltfScene, SceneError> {
+pub fn load(
+    path: &Path,
+    camera_name: Option<&str>,
+    _policy: &crate::paths::ReferencePolicy,
+) -> Result<GltfScene, SceneError> {
     let bytes = std::fs::read(path).map_err(|e| SceneError::io(path, e))?;
     let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| map_error(path, e))?;
     // gltf-json 1.4.1's validation indexes the POSITION accessor without a

@@ -15,6 +15,7 @@ pub mod light;
 pub mod manifest;
 pub mod material;
 pub mod obj;
+pub mod paths;
 pub mod scene;
 pub mod shapes;
 pub mod texture;
@@ -47,6 +48,9 @@ pub struct LoadOptions {
     pub camera_name: Option<String>,
     /// Image resolution, overriding the manifest's.
     pub resolution: Option<UVec2>,
+    /// Let file references leave the scene file's folder
+    /// (`--allow-outside-paths`; see [`paths`]).
+    pub allow_outside_paths: bool,
 }
 
 /// Loads a scene from a manifest (`.toml`), glTF (`.gltf`, `.glb`) or OBJ (`.obj`) file.
@@ -55,11 +59,12 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
+    let policy = paths::ReferencePolicy::new(path, options.allow_outside_paths);
     let (builder, camera, resolution, render) = if extension.as_deref() == Some("toml") {
-        let m = manifest::load(path, options.camera_name.as_deref())?;
+        let m = manifest::load(path, options.camera_name.as_deref(), &policy)?;
         (m.builder, m.camera, m.resolution, m.render)
     } else {
-        let (mut builder, camera) = load_model(path, options.camera_name.as_deref())?;
+        let (mut builder, camera) = load_model(path, options.camera_name.as_deref(), &policy)?;
         let has_emission = builder.materials.iter().any(Material::is_emissive);
         if builder.lights.is_empty() && !has_emission {
             builder.lights.push(Light::Environment {
@@ -95,6 +100,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
 pub(crate) fn load_model(
     path: &Path,
     camera_name: Option<&str>,
+    policy: &paths::ReferencePolicy,
 ) -> Result<(scene::SceneBuilder, Option<CameraSpec>), SceneError> {
     match path
         .extension()
@@ -102,9 +108,9 @@ pub(crate) fn load_model(
         .map(str::to_ascii_lowercase)
         .as_deref()
     {
-        Some("obj") => Ok((obj::load(path)?, None)),
+        Some("obj") => Ok((obj::load(path, policy)?, None)),
         Some("gltf" | "glb") => {
-            let g = gltf::load(path, camera_name)?;
+            let g = gltf::load(path, camera_name, policy)?;
             Ok((g.builder, g.camera))
         }
         _ => Err(SceneError::unsupported(

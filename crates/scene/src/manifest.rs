@@ -58,6 +58,7 @@ use crate::camera::CameraSpec;
 use crate::error::SceneError;
 use crate::light::Light;
 use crate::material::{Material, Surface};
+use crate::paths::ReferencePolicy;
 use crate::scene::{RenderSettings, SceneBuilder};
 use crate::shapes;
 
@@ -170,17 +171,20 @@ pub struct LoadedManifest {
 }
 
 /// Loads `path` and everything it references.
-pub fn load(path: &Path, camera_name: Option<&str>) -> Result<LoadedManifest, SceneError> {
+pub fn load(
+    path: &Path,
+    camera_name: Option<&str>,
+    policy: &ReferencePolicy,
+) -> Result<LoadedManifest, SceneError> {
     let text = std::fs::read_to_string(path).map_err(|e| SceneError::io(path, e))?;
     let manifest: Manifest =
         toml::from_str(&text).map_err(|e| SceneError::malformed(path, toml_message(&text, &e)))?;
-    let directory = path.parent().unwrap_or(Path::new("."));
     let mut builder = SceneBuilder::default();
     let mut camera = None;
     let camera_name = camera_name.or(manifest.camera.as_ref().and_then(|c| c.name.as_deref()));
-    for model in &manifest.models {
-        let file = directory.join(&model.file);
-        let (part, model_camera) = crate::load_model(&file, camera_name)?;
+    for (i, model) in manifest.models.iter().enumerate() {
+        let file = policy.resolve(path, &format!("[[model]] {i} file"), &model.file)?;
+        let (part, model_camera) = crate::load_model(&file, camera_name, policy)?;
         camera = camera.or(model_camera);
         builder.append(part);
     }

@@ -26,7 +26,10 @@ fn default_material() -> Material {
 }
 
 /// Loads an OBJ file and the MTL files it references.
-pub fn load(path: &Path) -> Result<SceneBuilder, SceneError> {
+pub fn load(
+    path: &Path,
+    _policy: &crate::paths::ReferencePolicy,
+) -> Result<SceneBuilder, SceneError> {
     let text = std::fs::read(path).map_err(|e| SceneError::io(path, e))?;
     check_lines(path, &text)?;
     let options = tobj::LoadOptions {

@@ -130,7 +130,7 @@ fn cases() -> Vec<Case> {
         ("glTF unknown NDF in extras", vec![("a.gltf", gltf_triangle(r#","extras":{"ndf":"phong"}"#, UNIT, [0, 1, 2]).into_bytes())], invalid, "ndf"),
         ("glTF unknown required extension", vec![("a.gltf", s(r#"{"asset":{"version":"2.0"},"extensionsUsed":["EXT_magic"],"extensionsRequired":["EXT_magic"]}"#))], unsupported, "EXT_magic"),
         ("manifest unknown field", vec![("s.toml", s("resolution = [4, 4]\n\n[camera]\nfrom = [0, 0, 1]\nat = [0, 0, 0]\nfov = 40\nzoom = 2\n"))], malformed, "line 7"),
-        ("manifest missing model", vec![("s.toml", s("[[model]]\nfile = \"nothing.obj\"\n"))], io, "nothing.obj"),
+        ("manifest missing model", vec![("s.toml", s("[[model]]\nfile = \"nothing.obj\"\n"))], invalid, "nothing.obj"),
         ("manifest negative alpha", vec![("s.toml", s("[[material]]\nname = \"m\"\ntype = \"conductor\"\nalpha = -0.1\n"))], invalid, "material \"m\""),
         ("manifest undefined shape material", vec![("s.toml", s("[[shape]]\ntype = \"sphere\"\nmaterial = \"nope\"\ncenter = [0, 0, 0]\nradius = 1\n"))], invalid, "shape 1"),
         ("manifest zero resolution", vec![("s.toml", s("resolution = [0, 10]\n"))], invalid, "resolution"),

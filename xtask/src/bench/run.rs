@@ -38,8 +38,8 @@ pub fn child(args: &[String]) -> Result<(), String> {
     // Build: scene load and Renderer::new (BVH, lights).
     let started = Instant::now();
     let options = LoadOptions {
-        camera_name: None,
         resolution: Some(UVec2::new(w, h)),
+        ..Default::default()
     };
     let scene = scene::load(Path::new(scene_file), &options).map_err(|e| e.to_string())?;
     let config = render_config(&scene.render, algorithm)?;

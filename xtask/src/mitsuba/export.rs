@@ -271,8 +271,8 @@ mod tests {
         let scene = scene::load(
             &Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell-box/scene.toml"),
             &LoadOptions {
-                camera_name: None,
                 resolution: Some(UVec2::new(8, 8)),
+                ..Default::default()
             },
         )
         .unwrap();
@@ -292,8 +292,8 @@ mod tests {
         let scene = scene::load(
             &options.scene,
             &LoadOptions {
-                camera_name: None,
                 resolution: Some(UVec2::new(8, 8)),
+                ..Default::default()
             },
         )
         .unwrap();

@@ -203,8 +203,8 @@ fn load_scene(options: &Options) -> Result<(Scene, f64), String> {
     let scene = scene::load(
         &options.scene,
         &LoadOptions {
-            camera_name: None,
             resolution: Some(UVec2::new(options.width, options.height)),
+            ..Default::default()
         },
     )
     .map_err(|e| format!("cannot load the scene: {e}"))?;

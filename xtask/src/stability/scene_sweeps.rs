@@ -173,8 +173,8 @@ fn write_scaled(dir: &Path, factor: f64, out: &Path) -> Result<PathBuf, String> 
 /// Loads `manifest` at `size`, counting a panic; a typed error is returned.
 fn load(t: &mut Tally, manifest: &Path, size: UVec2) -> Option<Result<Scene, String>> {
     let options = LoadOptions {
-        camera_name: None,
         resolution: Some(size),
+        ..Default::default()
     };
     t.guard(
         || format!("scene::load({:?})", manifest.display()),

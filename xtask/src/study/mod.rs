@@ -279,8 +279,8 @@ fn load_scene(options: &Options) -> Result<(scene::Scene, Settings), String> {
     let scene = scene::load(
         &options.scene_file,
         &LoadOptions {
-            camera_name: None,
             resolution: options.resolution,
+            ..Default::default()
         },
     )
     .map_err(|e| format!("--scene: {e}"))?;

@@ -355,8 +355,8 @@ fn context(scene: &str, algorithm: Algorithm, mode: Mode, virtual_merges: bool) 
         .join(scene)
         .join("scene.toml");
     let options = scene::LoadOptions {
-        camera_name: None,
         resolution: Some(UVec2::new(48, 36)),
+        ..Default::default()
     };
     let scene = scene::load(&path, &options).expect("bundled scene loads");
     let config = RenderConfig {

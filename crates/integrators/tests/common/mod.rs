@@ -21,8 +21,8 @@ pub fn load(path: &Path, width: u32, height: u32) -> scene::Scene {
     scene::load(
         path,
         &scene::LoadOptions {
-            camera_name: None,
             resolution: Some(UVec2::new(width, height)),
+            ..Default::default()
         },
     )
     .unwrap_or_else(|e| panic!("{e}"))
