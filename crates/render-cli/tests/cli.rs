@@ -118,6 +118,21 @@ fn a_bad_manifest_value_says_it_came_from_the_manifest() {
     let exr = dir.path().join("out.exr");
     let mut args = vec![scene.to_str().unwrap(), "-o", exr.to_str().unwrap()];
     args.extend(TINY);
+    // The model is the bundled one, outside the temporary folder: refused
+    // unless allowed.
+    let outside = render_cli(&args);
+    assert_fails_cleanly(
+        &outside,
+        &[
+            "scene.toml",
+            "[[model]] 0 file",
+            "cornell-box.obj",
+            "outside",
+            "--allow-outside-paths",
+        ],
+        dir.path(),
+    );
+    args.push("--allow-outside-paths");
     let output = render_cli(&args);
     assert_fails_cleanly(
         &output,

@@ -82,6 +82,8 @@ fn overrides_change_a_model_material_by_name() {
         &write_manifest("override", &text),
         &LoadOptions {
             resolution: Some(UVec2::new(32, 16)),
+            // The model is the bundled one, outside the test's folder.
+            allow_outside_paths: true,
             ..Default::default()
         },
     )
@@ -102,7 +104,10 @@ fn overrides_change_a_model_material_by_name() {
     );
     let err = load(
         &write_manifest("diffuse-roughness", &bad),
-        &LoadOptions::default(),
+        &LoadOptions {
+            allow_outside_paths: true,
+            ..Default::default()
+        },
     )
     .unwrap_err();
     assert!(
