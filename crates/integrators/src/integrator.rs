@@ -2,9 +2,33 @@
 //! dispatches to the configured one with a `match` over an enum
 //! ([`crate::render`]), not through a trait object.
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use glam::Vec3;
 
 use crate::context::SceneContext;
+
+/// A request to abandon an iteration, checked before every block of work
+/// (an image row, a block of subpaths): at 4K an iteration can take a
+/// minute, and an interrupt must act within about a second.
+#[derive(Clone, Copy, Debug)]
+pub struct Stop<'a>(Option<&'a AtomicBool>);
+
+impl<'a> Stop<'a> {
+    /// No request can come.
+    pub const NEVER: Stop<'static> = Stop(None);
+
+    /// Stop when `flag` is set.
+    pub fn when(flag: &'a AtomicBool) -> Self {
+        Self(Some(flag))
+    }
+
+    /// Whether the iteration is to be abandoned.
+    #[inline]
+    pub fn requested(self) -> bool {
+        self.0.is_some_and(|flag| flag.load(Ordering::Relaxed))
+    }
+}
 
 /// A light-transport algorithm over a prepared scene.
 pub trait Integrator {
@@ -13,5 +37,7 @@ pub trait Integrator {
     /// pixel, row-major, light-tracing splats included. Parallel on the
     /// current rayon pool; the result does not depend on the number of
     /// threads. Estimates may be NaN or infinite; the caller counts them.
-    fn render_iteration(&self, ctx: &SceneContext, n: u64, estimates: &mut [Vec3]);
+    /// When `stop` is requested, remaining blocks are skipped and the
+    /// estimates are incomplete (the caller discards them).
+    fn render_iteration(&self, ctx: &SceneContext, n: u64, estimates: &mut [Vec3], stop: Stop<'_>);
 }

@@ -11,7 +11,7 @@ use regularization::{PathRegularization, Subpath};
 
 use crate::config::Strategies;
 use crate::context::SceneContext;
-use crate::integrator::Integrator;
+use crate::integrator::{Integrator, Stop};
 use crate::nee;
 use crate::sampler::{CameraVertexSamples, Sampler};
 use crate::vertex::PathVertex;
@@ -51,13 +51,16 @@ struct Bounce {
 }
 
 impl Integrator for PathTracer {
-    fn render_iteration(&self, ctx: &SceneContext, n: u64, estimates: &mut [Vec3]) {
+    fn render_iteration(&self, ctx: &SceneContext, n: u64, estimates: &mut [Vec3], stop: Stop<'_>) {
         let width = ctx.resolution().0 as usize;
         let tau_n = ctx.tau_at(n);
         estimates
             .par_chunks_mut(width)
             .enumerate()
             .for_each(|(y, row)| {
+                if stop.requested() {
+                    return;
+                }
                 for (x, out) in row.iter_mut().enumerate() {
                     let (mut sampler, walk) = ctx.camera_path(n, x as u32, y as u32);
                     *out = self.trace_path(ctx, walk, &mut sampler, tau_n);

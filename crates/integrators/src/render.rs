@@ -5,7 +5,7 @@
 //! `walk` -> `roulette`, `vertex` -> `context` -> `lights`, `camera`,
 //! `geometry`, `sampler`; each integrator implements [`Integrator`].
 
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use glam::Vec3;
 use mis::Techniques;
@@ -15,7 +15,7 @@ use crate::bidir::{Bidirectional, ProgressivePhotonMapper};
 use crate::config::{Algorithm, RenderConfig};
 use crate::context::SceneContext;
 use crate::film::Film;
-use crate::integrator::Integrator;
+use crate::integrator::{Integrator, Stop};
 use crate::merge_radius::MergeRadius;
 use crate::pt::PathTracer;
 
@@ -45,11 +45,11 @@ impl AnyIntegrator {
 }
 
 impl Integrator for AnyIntegrator {
-    fn render_iteration(&self, ctx: &SceneContext, n: u64, estimates: &mut [Vec3]) {
+    fn render_iteration(&self, ctx: &SceneContext, n: u64, estimates: &mut [Vec3], stop: Stop<'_>) {
         match self {
-            Self::PathTracer(pt) => pt.render_iteration(ctx, n, estimates),
-            Self::Bidirectional(bidir) => bidir.render_iteration(ctx, n, estimates),
-            Self::ProgressivePhotonMapper(ppm) => ppm.render_iteration(ctx, n, estimates),
+            Self::PathTracer(pt) => pt.render_iteration(ctx, n, estimates, stop),
+            Self::Bidirectional(bidir) => bidir.render_iteration(ctx, n, estimates, stop),
+            Self::ProgressivePhotonMapper(ppm) => ppm.render_iteration(ctx, n, estimates, stop),
         }
     }
 }
@@ -83,10 +83,35 @@ impl Renderer {
     /// # Panics
     /// If `estimates` does not have one entry per pixel.
     pub fn render_iteration(&self, iteration: u64, estimates: &mut [Vec3]) {
+        self.render_iteration_unless(iteration, estimates, Stop::NEVER);
+    }
+
+    /// [`Renderer::render_iteration`], abandoned within about one block of
+    /// work (an image row, 256 subpaths) once `stop` is set: returns false
+    /// when the iteration did not complete, and `estimates` must then be
+    /// discarded. For interrupts: at 4K one iteration can take a minute.
+    pub fn render_iteration_until(
+        &self,
+        iteration: u64,
+        estimates: &mut [Vec3],
+        stop: &AtomicBool,
+    ) -> bool {
+        self.render_iteration_unless(iteration, estimates, Stop::when(stop))
+    }
+
+    fn render_iteration_unless(
+        &self,
+        iteration: u64,
+        estimates: &mut [Vec3],
+        stop: Stop<'_>,
+    ) -> bool {
         let (width, height) = self.resolution();
         assert_eq!(estimates.len(), width as usize * height as usize);
         self.integrator
-            .render_iteration(&self.ctx, iteration, estimates);
+            .render_iteration(&self.ctx, iteration, estimates, stop);
+        if stop.requested() {
+            return false;
+        }
         let mut invalid = 0;
         for e in estimates.iter_mut().filter(|e| !e.is_finite()) {
             *e = Vec3::ZERO;
@@ -95,6 +120,7 @@ impl Renderer {
         if invalid > 0 {
             self.invalid_samples.fetch_add(invalid, Ordering::Relaxed);
         }
+        true
     }
 
     /// Renders iterations `first..first + count` into `film`.

@@ -5,7 +5,7 @@
 
 mod common;
 
-use integrators::{Mode, Renderer, Strategies};
+use integrators::{Mode, RenderConfig, Renderer, Strategies};
 
 /// MIS, NEE-only and BSDF-only path tracing estimate the same image.
 fn agreement(scene_name: &str, width: u32, height: u32, iterations: u64) {
@@ -186,5 +186,40 @@ fn rays_traced_counts_every_ray() {
         let one = count(algorithm, 1);
         assert!(one > 2 * 16 * 12, "{algorithm}: {one}");
         assert_eq!(one, count(algorithm, 2), "{algorithm}");
+    }
+}
+
+/// An interrupt abandons an iteration between blocks of work: with the
+/// stop flag already set, no block starts (no ray is traced) and the
+/// iteration reports that it did not complete; unset, the iteration equals
+/// `render_iteration`'s.
+#[test]
+fn a_stop_request_abandons_the_iteration_between_blocks() {
+    use std::sync::atomic::AtomicBool;
+    for algorithm in integrators::Algorithm::ALL.map(|(a, _)| a) {
+        let config = RenderConfig {
+            algorithm,
+            shadow_roulette: 0.0,
+            ..common::config(Strategies::Mis, Mode::Selective, 8)
+        };
+        let renderer = Renderer::new(
+            common::load(&common::bundled("caustic-glass"), 24, 16),
+            config,
+        );
+        let mut estimates = vec![glam::Vec3::ZERO; 24 * 16];
+        let stop = AtomicBool::new(true);
+        assert!(
+            !renderer.render_iteration_until(1, &mut estimates, &stop),
+            "{algorithm}"
+        );
+        assert_eq!(renderer.rays_traced(), 0, "{algorithm}");
+        stop.store(false, std::sync::atomic::Ordering::Relaxed);
+        assert!(
+            renderer.render_iteration_until(1, &mut estimates, &stop),
+            "{algorithm}"
+        );
+        let mut plain = vec![glam::Vec3::ZERO; 24 * 16];
+        renderer.render_iteration(1, &mut plain);
+        assert_eq!(estimates, plain, "{algorithm}");
     }
 }

@@ -24,8 +24,9 @@ shadow_roulette, and progressive and virtual_merges (true or false).
 Progress goes to stderr (a bar on a terminal); the last line is always a summary such as
   rendered 64 iterations of 256x256 in 3.21 s (19.9 it/s, 1.30 Msamples/s) -> render.exr, render.png
 
-Once rendering has started, Ctrl-C (or SIGTERM) stops after the current iteration and writes the \
-mean of the iterations done so far; a second Ctrl-C quits at once without writing.
+Once rendering has started, Ctrl-C (or SIGTERM) stops within about a second, dropping the \
+iteration in progress, and writes the mean of the iterations completed so far; a second Ctrl-C \
+quits at once without writing.
 
 Shards: --iteration-range A..B --partial shard.rltfilm renders iterations A..B of a longer render (with their global indices) into a partial film; `render-cli merge a.rltfilm b.rltfilm ... -o image.exr` sums partial films of one render into its image (`render-cli merge --help`).
 

@@ -39,8 +39,8 @@ pub fn install_interrupt_handler() {
                 ""
             };
             eprintln!(
-                "{newline}interrupt: finishing the current iteration, then writing the image \
-                 (interrupt again to quit without writing)"
+                "{newline}interrupt: dropping the iteration in progress, then writing the image of \
+                 the completed ones (interrupt again to quit without writing)"
             );
         } else if !WRITING.load(Ordering::SeqCst) {
             std::process::exit(i32::from(INTERRUPTED_EXIT_CODE));
@@ -68,9 +68,10 @@ pub struct Outcome {
 }
 
 /// Renders iterations `first`, `first` + 1, ... (global indices) into
-/// `film` until `budget` is spent or an interrupt is requested (checked
-/// before each iteration, so an iteration that has started is always
-/// completed and kept).
+/// `film` until `budget` is spent or an interrupt is requested: the
+/// iteration in progress is then abandoned within about a second (it
+/// checks between rows and blocks of subpaths) and the film keeps the
+/// completed ones.
 pub fn progressive(renderer: &Renderer, film: &mut Film, budget: Budget, first: u64) -> Outcome {
     let pixels = film.width() as usize * film.height() as usize;
     let mut estimates = vec![Vec3::ZERO; pixels];
@@ -89,7 +90,11 @@ pub fn progressive(renderer: &Renderer, film: &mut Film, budget: Budget, first: 
         if INTERRUPT_REQUESTED.load(Ordering::SeqCst) {
             break true;
         }
-        renderer.render_iteration(first + n, &mut estimates);
+        // An interrupt abandons the iteration in progress (within a block
+        // of work); the completed ones are kept.
+        if !renderer.render_iteration_until(first + n, &mut estimates, &INTERRUPT_REQUESTED) {
+            break true;
+        }
         n += 1;
         film.add_iteration(&estimates);
         match budget {

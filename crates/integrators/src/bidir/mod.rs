@@ -29,7 +29,7 @@ use regularization::Mode;
 use crate::config::Algorithm;
 use crate::context::SceneContext;
 use crate::film::Splats;
-use crate::integrator::Integrator;
+use crate::integrator::{Integrator, Stop};
 use crate::pt::PathTracer;
 use crate::roulette::ShadowRoulette;
 use crate::vertex::PathVertex;
@@ -90,7 +90,7 @@ impl Bidirectional {
     }
 
     /// The settings of iteration `n`.
-    fn iteration<'a>(&self, ctx: &'a SceneContext, n: u64) -> Iteration<'a> {
+    fn iteration<'a>(&self, ctx: &'a SceneContext, n: u64, stop: Stop<'a>) -> Iteration<'a> {
         let (w, h) = ctx.resolution();
         let light_paths = u64::from(w) * u64::from(h);
         let radius = if self.techniques.merging {
@@ -108,6 +108,7 @@ impl Bidirectional {
         let tau_n = ctx.tau_at(n);
         Iteration {
             ctx,
+            stop,
             n,
             mis,
             mode: ctx.effective_mode(tau_n),
@@ -121,8 +122,8 @@ impl Bidirectional {
 }
 
 impl Integrator for Bidirectional {
-    fn render_iteration(&self, ctx: &SceneContext, n: u64, estimates: &mut [Vec3]) {
-        let it = self.iteration(ctx, n);
+    fn render_iteration(&self, ctx: &SceneContext, n: u64, estimates: &mut [Vec3], stop: Stop<'_>) {
+        let it = self.iteration(ctx, n, stop);
         if self.techniques.merging {
             it.render_with_photon_map(estimates);
         } else {
@@ -135,6 +136,8 @@ impl Integrator for Bidirectional {
 /// the iteration number. The subpath code is its methods.
 struct Iteration<'a> {
     ctx: &'a SceneContext,
+    /// Blocks of work start only while no stop is requested.
+    stop: Stop<'a>,
     n: u64,
     mis: MisConfig,
     mode: Mode,
@@ -236,6 +239,9 @@ impl Iteration<'_> {
             .map(|(block, chunk)| {
                 let mut vertices = Vec::new();
                 let mut splats = Splats::default();
+                if self.stop.requested() {
+                    return splats;
+                }
                 for (k, out) in chunk.iter_mut().enumerate() {
                     let index = block * LIGHT_BLOCK + k;
                     vertices.clear();
@@ -256,6 +262,9 @@ impl Iteration<'_> {
     /// hash grid (the photon map, freed at the end of the iteration).
     fn render_with_photon_map(&self, estimates: &mut [Vec3]) {
         let (paths, splats) = self.trace_light_paths(estimates.len());
+        if self.stop.requested() {
+            return;
+        }
         let photon_map = PhotonMap::new(&paths, self.radius, estimates.len());
         self.camera_pass(estimates, |index| {
             self.trace_camera_path(index, paths.path(index), Some(&photon_map))
@@ -271,6 +280,9 @@ impl Iteration<'_> {
             .par_chunks_mut(LIGHT_BLOCK)
             .enumerate()
             .for_each(|(block, chunk)| {
+                if self.stop.requested() {
+                    return;
+                }
                 for (k, out) in chunk.iter_mut().enumerate() {
                     *out = trace(block * LIGHT_BLOCK + k);
                 }
@@ -288,7 +300,12 @@ impl Iteration<'_> {
                 let mut vertices = Vec::new();
                 let mut ends = Vec::with_capacity(LIGHT_BLOCK);
                 let mut splats = Splats::default();
-                for i in first..(first + LIGHT_BLOCK).min(light_paths) {
+                let end = if self.stop.requested() {
+                    first
+                } else {
+                    (first + LIGHT_BLOCK).min(light_paths)
+                };
+                for i in first..end {
                     self.trace_light_path(i as u64, &mut vertices, &mut splats);
                     ends.push(vertices.len());
                 }

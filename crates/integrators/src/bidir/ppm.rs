@@ -13,7 +13,7 @@ use regularization::{PathRegularization, Subpath};
 
 use super::{Bidirectional, Iteration, PhotonMap};
 use crate::context::SceneContext;
-use crate::integrator::Integrator;
+use crate::integrator::{Integrator, Stop};
 use crate::vertex::PathVertex;
 
 /// The progressive photon mapper.
@@ -33,10 +33,13 @@ impl ProgressivePhotonMapper {
 }
 
 impl Integrator for ProgressivePhotonMapper {
-    fn render_iteration(&self, ctx: &SceneContext, n: u64, estimates: &mut [Vec3]) {
-        let it = self.core.iteration(ctx, n);
+    fn render_iteration(&self, ctx: &SceneContext, n: u64, estimates: &mut [Vec3], stop: Stop<'_>) {
+        let it = self.core.iteration(ctx, n, stop);
         // Without connections the light pass records no splats.
         let (paths, _) = it.trace_light_paths(estimates.len());
+        if stop.requested() {
+            return;
+        }
         let photon_map = PhotonMap::new(&paths, it.radius, estimates.len());
         it.camera_pass(estimates, |index| it.trace_gather_path(index, &photon_map));
     }

@@ -30,6 +30,7 @@ use super::{Bidirectional, Iteration};
 use crate::config::{Algorithm, Regularization, RenderConfig};
 use crate::context::SceneContext;
 use crate::geometry::SurfacePoint;
+use crate::integrator::Stop;
 use crate::lights::EmitterPdfs;
 use crate::nee;
 use crate::vertex::PathVertex;
@@ -51,7 +52,7 @@ fn sphere_directions(n: u32) -> impl Iterator<Item = Vec3> {
 #[test]
 fn light_vertex_bound_holds_towards_every_direction() {
     let r = context("glossy-caustic", Algorithm::Bpt, Mode::Off, false);
-    let it = Bidirectional::new(&r).iteration(&r, 1);
+    let it = Bidirectional::new(&r).iteration(&r, 1, Stop::NEVER);
     let material = |diffuse: bool| {
         r.scene
             .materials
@@ -374,7 +375,7 @@ fn context(scene: &str, algorithm: Algorithm, mode: Mode, virtual_merges: bool) 
 /// Over the complete paths of every pixel: the largest |sum - 1|, the
 /// number of paths, and how many had a regularized vertex.
 fn worst_partition(ctx: &SceneContext) -> (f64, usize, usize) {
-    let it = Bidirectional::new(ctx).iteration(ctx, 1);
+    let it = Bidirectional::new(ctx).iteration(ctx, 1, Stop::NEVER);
     let (w, h) = ctx.resolution();
     let (mut worst, mut paths, mut regularized) = (0.0f64, 0, 0);
     for index in 0..(w * h) as usize {
