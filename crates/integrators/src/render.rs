@@ -182,6 +182,16 @@ impl Renderer {
         }
     }
 
+    /// An estimate of the photon map's memory in one iteration, in bytes
+    /// (from a few pilot light subpaths; 0 for integrators without one).
+    pub fn photon_map_bytes(&self) -> u64 {
+        match &self.integrator {
+            AnyIntegrator::Bidirectional(core) => core.photon_map_bytes(&self.ctx),
+            AnyIntegrator::ProgressivePhotonMapper(ppm) => ppm.photon_map_bytes(&self.ctx),
+            AnyIntegrator::PathTracer(_) => 0,
+        }
+    }
+
     /// The merge-radius rule, fixed when the renderer is made.
     pub fn merge_radius_rule(&self) -> &MergeRadius {
         &self.ctx.merge_radius

@@ -429,3 +429,29 @@ origin = [1.2, 0.3, -0.4]
 u = [0, 0, 0.8]
 v = [0, 0.8, 0]
 "#;
+
+/// The photon map's size estimate: zero without merging, and in
+/// proportion to the pixel count (one light subpath per pixel).
+#[test]
+fn photon_map_estimate_follows_the_pixel_count() {
+    let estimate = |algorithm, (w, h)| {
+        let renderer = Renderer::new(
+            common::load(&common::bundled("cornell-box"), w, h),
+            config(algorithm, Mode::Off, 1),
+        );
+        renderer.photon_map_bytes()
+    };
+    assert_eq!(estimate(Algorithm::Pt, (64, 64)), 0);
+    assert_eq!(estimate(Algorithm::Bpt, (64, 64)), 0);
+    for algorithm in [Algorithm::Ppm, Algorithm::Bpm] {
+        let (small, large) = (
+            estimate(algorithm, (64, 64)),
+            estimate(algorithm, (128, 128)),
+        );
+        eprintln!("{algorithm}: {small} bytes at 64x64, {large} at 128x128");
+        assert!(small > 64 * 64 * 100, "{algorithm}: {small}");
+        // Same pilot paths at both sizes (1024 of them, spread out): 4x.
+        let ratio = large as f64 / small as f64;
+        assert!((ratio - 4.0).abs() < 0.4, "{algorithm}: ratio {ratio}");
+    }
+}

@@ -40,6 +40,15 @@ pub use ppm::ProgressivePhotonMapper;
 /// splats are added in the same order whatever the thread count.
 const LIGHT_BLOCK: usize = 256;
 
+/// Light subpaths traced to estimate the photon map's size (a few
+/// milliseconds; spread over the image's light-subpath indices).
+const PILOT_PATHS: usize = 1024;
+
+/// Bytes per photon besides its light vertex: its reference in the photon
+/// list (8) and the hash grid's sort key (8), position copy (12) and bucket
+/// start (at most 8: buckets are the next power of two of the count).
+const GRID_BYTES_PER_PHOTON: usize = 36;
+
 /// BPT, BPM or VCM: the techniques of the configured algorithm on this
 /// scene, and the scale of the shadow-ray roulette.
 #[derive(Clone, Copy, Debug)]
@@ -81,6 +90,30 @@ impl Bidirectional {
     /// The MIS techniques switched on.
     pub fn techniques(&self) -> Techniques {
         self.techniques
+    }
+
+    /// An estimate of the photon map's memory (bytes) in one iteration: the
+    /// light vertices that pilot subpaths of iteration 1 store, scaled to
+    /// one subpath per pixel; 0 without merging. For refusing a render the
+    /// machine cannot hold before it starts.
+    pub fn photon_map_bytes(&self, ctx: &SceneContext) -> u64 {
+        if !self.techniques.merging {
+            return 0;
+        }
+        let it = self.iteration(ctx, 1, Stop::NEVER);
+        let (w, h) = ctx.resolution();
+        let pixels = w as usize * h as usize;
+        let pilot = PILOT_PATHS.min(pixels);
+        let (mut vertices, mut splats) = (Vec::new(), Splats::default());
+        ctx.uncounted(|| {
+            for k in 0..pilot {
+                let index = (k * (pixels / pilot)) as u64;
+                it.trace_light_path(index, &mut vertices, &mut splats);
+            }
+        });
+        let per_path = vertices.len() as f64 / pilot as f64;
+        let per_vertex = std::mem::size_of::<LightVertex>() + GRID_BYTES_PER_PHOTON;
+        (per_path * pixels as f64 * per_vertex as f64) as u64
     }
 
     /// The scale of the shadow-ray roulette threshold (see

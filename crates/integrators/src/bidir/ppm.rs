@@ -24,6 +24,11 @@ pub struct ProgressivePhotonMapper {
 }
 
 impl ProgressivePhotonMapper {
+    /// See [`Bidirectional::photon_map_bytes`].
+    pub fn photon_map_bytes(&self, ctx: &SceneContext) -> u64 {
+        self.core.photon_map_bytes(ctx)
+    }
+
     /// The photon mapper for `ctx` (its algorithm must be [`crate::Algorithm::Ppm`]).
     pub fn new(ctx: &SceneContext) -> Self {
         Self {
