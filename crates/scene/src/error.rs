@@ -109,6 +109,9 @@ mod tests {
         assert_eq!(quoted("a\nb"), "\"a\\nb\"");
         let long = "x".repeat(20_000_000);
         let q = quoted(&long);
-        assert!(q.len() <= MAX_QUOTED + 30 && q.ends_with("(20000000 characters)"), "{q}");
+        assert!(
+            q.len() <= MAX_QUOTED + 30 && q.ends_with("(20000000 characters)"),
+            "{q}"
+        );
     }
 }
