@@ -927,6 +927,9 @@ fn map_error(path: &Path, e: gltf::Error) -> SceneError {
                 SceneError::malformed(path, format!("invalid glTF: {text}{more}"))
             }
         }
+        gltf::Error::Deserialize(e) => {
+            SceneError::malformed(path, format!("invalid glTF JSON: {e}"))
+        }
         other => SceneError::malformed(path, other.to_string()),
     }
 }
