@@ -43,10 +43,12 @@ pub fn load(
     camera_name: Option<&str>,
     policy: &crate::paths::ReferencePolicy,
 ) -> Result<GltfScene, SceneError> {
-    let guarded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        load_unguarded(path, camera_name, policy)
-    }));
-    guarded.unwrap_or_else(|payload| {
+    guarded(path, || load_unguarded(path, camera_name, policy))
+}
+
+/// `load` with a panic turned into a [`SceneError`] naming `path`.
+fn guarded<T>(path: &Path, load: impl FnOnce() -> Result<T, SceneError>) -> Result<T, SceneError> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(load)).unwrap_or_else(|payload| {
         let why = payload
             .downcast_ref::<&str>()
             .map(|s| (*s).to_string())
@@ -75,6 +77,7 @@ fn load_unguarded(
     // gltf-json 1.4.1's validation indexes the POSITION accessor without a
     // bounds check (a panic on malformed files): check it first, then validate.
     check_position_accessors(path, gltf.document.as_json())?;
+    check_cameras(path, gltf.document.as_json())?;
     let document =
         gltf::Document::from_json(gltf.document.into_json()).map_err(|e| map_error(path, e))?;
     let buffers = load_buffers(path, &document, gltf.blob, policy)?;
@@ -470,10 +473,11 @@ impl Loader<'_> {
                 .as_ref()
                 .map(|ns| ns.iter().map(|&n| normal_matrix * n).collect());
             self.check_finite(&accessors.position.1, &raw_positions, &positions, &indices)?;
-            if let (Some((_, label)), Some(raw), Some(ns)) =
-                (&accessors.normal, &raw_normals, &normals)
-            {
-                self.check_finite(label, raw, ns, &indices)?;
+            if let (Some((_, label)), Some(raw)) = (&accessors.normal, &raw_normals) {
+                // World-space normals are not checked: a singular transform
+                // (a scale of 0 hides a node) makes them NaN, and the scene
+                // builder replaces those with the geometric normal.
+                self.check_finite(label, raw, raw, &indices)?;
             }
             for (t, tri) in indices.chunks_exact(3).enumerate() {
                 let mut ids = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
@@ -812,6 +816,27 @@ fn check_position_accessors(path: &Path, root: &gltf::json::Root) -> Result<(), 
     Ok(())
 }
 
+/// A camera's `type` names the projection object it has (the `gltf` crate
+/// checks only that one of the two exists, then unwraps the one named).
+fn check_cameras(path: &Path, root: &gltf::json::Root) -> Result<(), SceneError> {
+    use gltf::json::camera::Type;
+    use gltf::json::validation::Checked;
+    for (i, camera) in root.cameras.iter().enumerate() {
+        let missing = match camera.type_ {
+            Checked::Valid(Type::Perspective) => camera.perspective.is_none(),
+            Checked::Valid(Type::Orthographic) => camera.orthographic.is_none(),
+            Checked::Invalid => false,
+        };
+        if missing {
+            return Err(SceneError::malformed(
+                path,
+                format!("camera {i}: its type has no matching projection object"),
+            ));
+        }
+    }
+    Ok(())
+}
+
 fn wrap(mode: gltf::texture::WrappingMode) -> Wrap {
     match mode {
         gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
@@ -912,11 +937,11 @@ fn map_error(path: &Path, e: gltf::Error) -> SceneError {
         gltf::Error::Validation(errors) => {
             let list: Vec<String> = errors
                 .iter()
-                .take(5)
+                .take(3)
                 .map(|(p, e)| format!("{p}: {e}"))
                 .collect();
-            let more = if errors.len() > 5 {
-                format!(" (and {} more)", errors.len() - 5)
+            let more = if errors.len() > 3 {
+                format!(" (and {} more)", errors.len() - 3)
             } else {
                 String::new()
             };
@@ -931,5 +956,30 @@ fn map_error(path: &Path, e: gltf::Error) -> SceneError {
             SceneError::malformed(path, format!("invalid glTF JSON: {e}"))
         }
         other => SceneError::malformed(path, other.to_string()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_panic_becomes_an_error_naming_the_file() {
+        let path = Path::new("model.gltf");
+        let result: Result<(), SceneError> = guarded(path, || panic!("index out of bounds\nmore"));
+        let message = result.unwrap_err().to_string();
+        assert_eq!(
+            message,
+            "model.gltf: the glTF reader failed on this file (internal error \"index out of bounds\")"
+        );
+        assert!(guarded(path, || Ok(3)).is_ok_and(|v| v == 3));
+    }
+
+    #[test]
+    fn percent_decoding_matches_the_gltf_crate() {
+        assert_eq!(percent_decode("a%20b.bin").as_deref(), Some("a b.bin"));
+        assert_eq!(percent_decode("%2E%2E/x").as_deref(), Some("../x"));
+        assert_eq!(percent_decode("100%").as_deref(), Some("100%"));
+        assert_eq!(percent_decode("%FF"), None);
     }
 }

@@ -435,6 +435,51 @@ fn out_of_range_light_values_are_refused() {
     );
 }
 
+#[test]
+fn a_camera_without_its_projection_is_refused() {
+    // The gltf crate checks that one projection exists, then unwraps the
+    // one `type` names: this used to panic.
+    let g = edited(|g| {
+        g["cameras"] = json!([{"type": "perspective", "orthographic": {"xmag": 1, "ymag": 1, "zfar": 10, "znear": 0.1}}]);
+        g["nodes"] = json!([{"mesh": 0}, {"camera": 0}]);
+        g["scenes"] = json!([{"nodes": [0, 1]}]);
+    });
+    assert_error(load_gltf(&g, &valid_bin()), malformed, &["camera 0"]);
+}
+
+#[test]
+fn huge_sparse_only_accessors_are_refused() {
+    let (g, bin) = sparse_triangle(1, [2.0, 0.0, 0.0]);
+    let g = {
+        let mut g = g;
+        g["accessors"][0]
+            .as_object_mut()
+            .unwrap()
+            .remove("bufferView");
+        g["accessors"][0]["count"] = json!(4_000_000_000u64);
+        g
+    };
+    assert_error(
+        load_gltf(&g, &bin),
+        malformed,
+        &[
+            "accessor 0 (mesh 0 primitive 0 POSITION)",
+            "count 4000000000 without a bufferView",
+        ],
+    );
+}
+
+#[test]
+fn a_node_scaled_to_zero_still_loads() {
+    // Its normal matrix is NaN; that is not the file's fault.
+    let g = edited(|g| {
+        g["nodes"] = json!([{"mesh": 0, "scale": [0, 0, 0]}, {"mesh": 0}]);
+        g["scenes"] = json!([{"nodes": [0, 1]}]);
+    });
+    let s = load_gltf(&g, &valid_bin()).unwrap();
+    assert_eq!((s.triangles.len(), s.report.degenerate_triangles), (1, 1));
+}
+
 // --- Misleading messages ----------------------------------------------------
 
 #[test]
@@ -783,6 +828,8 @@ proptest! {
                 let message = e.to_string();
                 prop_assert!(!message.contains('\n'), "not one line: {}", message);
                 prop_assert!(!message.contains("internal error"), "a panic was caught: {}", message);
+                let (_, after_path) = message.rsplit_once("model.gl").unwrap_or(("", &message));
+                prop_assert!(after_path.len() <= 300, "too long: {}", message);
             }
         }
     }

@@ -15,6 +15,11 @@ use crate::error::SceneError;
 /// Largest `byteStride` the glTF 2.0 spec allows.
 pub(super) const MAX_STRIDE: usize = 252;
 
+/// Largest `count` of an accessor without a bufferView: its size is not
+/// bounded by any data in the file (a 30-byte JSON edit could ask for
+/// billions of zero vertices).
+pub(super) const MAX_ZERO_COUNT: usize = 1 << 24;
+
 /// What an accessor feeds, and so which component types and shapes it may have.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Semantic {
@@ -190,6 +195,11 @@ pub(super) fn check_accessor(
                 path,
                 format!("{label}: no bufferView and no sparse values (all zeros)"),
             ));
+        }
+        None if count > MAX_ZERO_COUNT => {
+            return Err(fail(format!(
+                "count {count} without a bufferView (all zeros but the sparse values) exceeds {MAX_ZERO_COUNT}"
+            )));
         }
         None => {}
     }
