@@ -3,6 +3,14 @@
 //!
 //! Photometric light units are read as radiometric ones: a point or spot
 //! light of I candela becomes I W/sr, a directional light of E lux E W/m^2.
+//!
+//! Hostile files: the `gltf` crate's readers trust the file, so every
+//! accessor a triangle primitive reads is checked first (`validate`:
+//! component type and shape per semantic, count, offsets, strides, bounds,
+//! sparse indices), then index values, finite positions and normals, and the
+//! numeric factors of materials and lights. Buffer and image files go through
+//! the [`ReferencePolicy`](crate::paths::ReferencePolicy); a panic that still
+//! escapes the crate becomes a [`SceneError`].
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};

@@ -135,8 +135,8 @@ pub(super) fn check_accessor(
             Dimensions::Vec2,
         ),
         Semantic::Indices => (
-            matches!(ty, DataType::U8 | DataType::U16 | DataType::U32) && !accessor.normalized(),
-            "UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT (not normalized)",
+            matches!(ty, DataType::U8 | DataType::U16 | DataType::U32),
+            "UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT",
             Dimensions::Scalar,
         ),
     };
