@@ -613,8 +613,10 @@ impl Loader<'_> {
                 "KHR_materials_transmission transmissionFactor must be in [0, 1], got {transmission}"
             )));
         }
+        // KHR_materials_ior allows 0 as a special value; it is refused only
+        // where the IOR is used, by a transmissive material.
         let ior = m.ior().unwrap_or(1.5);
-        if !(ior > 0.0 && ior.is_finite()) {
+        if !(ior.is_finite() && (ior > 0.0 || (ior == 0.0 && transmission == 0.0))) {
             return Err(invalid(format!(
                 "KHR_materials_ior ior must be finite and > 0, got {ior}"
             )));

@@ -410,6 +410,16 @@ fn out_of_range_material_factors_are_refused() {
             &["material 0 (\"m\")", needle],
         );
     }
+    // ior 0 is the extension's special value: refused only when transmissive.
+    let g = edited(|g| g["materials"][0]["extensions"] = json!({"KHR_materials_ior": {"ior": 0}}));
+    assert!(load_gltf(&g, &valid_bin()).is_ok());
+    let g = edited(|g| {
+        g["materials"][0]["extensions"] = json!({
+            "KHR_materials_ior": {"ior": 0},
+            "KHR_materials_transmission": {"transmissionFactor": 0.5}
+        })
+    });
+    assert_error(load_gltf(&g, &valid_bin()), invalid, &["material 0", "ior"]);
     let g = edited(|g| g["materials"][0]["emissiveFactor"] = json!([1e39, 0, 0]));
     assert_error(
         load_gltf(&g, &valid_bin()),
