@@ -111,6 +111,7 @@ fn load_unguarded(
         materials: HashMap::new(),
         textures: HashMap::new(),
         cameras: Vec::new(),
+        visited: vec![false; document.nodes().len()],
     };
     let scene = document
         .default_scene()
@@ -334,6 +335,10 @@ struct Loader<'a> {
     textures: HashMap<(usize, bool), usize>,
     /// Cameras met: (name, node index, camera, world transform).
     cameras: Vec<(Option<String>, usize, Result<CameraSpec, String>)>,
+    /// Nodes met so far: a node reached twice (two parents, or a root that
+    /// is also a child) is refused, or a chain of nodes each listing the next
+    /// twice would make 2^depth visits.
+    visited: Vec<bool>,
 }
 
 impl Loader<'_> {
@@ -346,6 +351,18 @@ impl Loader<'_> {
                     node.index()
                 ),
             ));
+        }
+        match self.visited.get_mut(node.index()) {
+            Some(seen) if !*seen => *seen = true,
+            _ => {
+                return Err(SceneError::malformed(
+                    self.path,
+                    format!(
+                        "node {}: reached twice in the scene's hierarchy (a node has one parent at most)",
+                        node.index()
+                    ),
+                ));
+            }
         }
         let local = Mat4::from_cols_array_2d(&node.transform().matrix());
         let world = parent * local;

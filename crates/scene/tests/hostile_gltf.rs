@@ -490,6 +490,23 @@ fn a_node_scaled_to_zero_still_loads() {
     assert_eq!((s.triangles.len(), s.report.degenerate_triangles), (1, 1));
 }
 
+#[test]
+fn a_node_with_two_parents_is_refused() {
+    // Each node lists the next twice: 2^40 paths to the mesh if walked as a tree.
+    let g = edited(|g| {
+        let mut nodes: Vec<Value> = (1..=40).map(|i| json!({"children": [i, i]})).collect();
+        nodes.push(json!({"mesh": 0}));
+        g["nodes"] = Value::Array(nodes);
+    });
+    let start = std::time::Instant::now();
+    assert_error(
+        load_gltf(&g, &valid_bin()),
+        malformed,
+        &["node 40", "reached twice"],
+    );
+    assert!(start.elapsed().as_secs() < 5);
+}
+
 // --- Misleading messages ----------------------------------------------------
 
 #[test]
