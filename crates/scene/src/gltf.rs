@@ -3,20 +3,32 @@
 //!
 //! Photometric light units are read as radiometric ones: a point or spot
 //! light of I candela becomes I W/sr, a directional light of E lux E W/m^2.
+//!
+//! Hostile files: the `gltf` crate's readers trust the file, so every
+//! accessor a triangle primitive reads is checked first (`validate`:
+//! component type and shape per semantic, count, offsets, strides, bounds,
+//! sparse indices), then index values, finite positions and normals, and the
+//! numeric factors of materials and lights. Buffer and image files go through
+//! the [`ReferencePolicy`](crate::paths::ReferencePolicy); a panic that still
+//! escapes the crate becomes a [`SceneError`].
 
 use std::collections::HashMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use gltf::khr_lights_punctual::Kind;
 use microfacet::{MicrofacetModel, NdfKind, Shadowing};
 
 use crate::camera::CameraSpec;
-use crate::error::SceneError;
+use crate::error::{SceneError, quoted};
 use crate::light::Light;
 use crate::material::{Material, Surface, TexturedPbr, metal_rough_surface};
 use crate::scene::SceneBuilder;
 use crate::texture::{Texture, Wrap};
+
+mod validate;
+
+use validate::Semantic;
 
 /// What a glTF file contributes: geometry, materials, lights and its camera.
 pub struct GltfScene {
@@ -27,23 +39,57 @@ pub struct GltfScene {
 }
 
 /// Loads `path`; `camera_name` chooses a camera by name (default: the first
-/// camera met walking the scene's nodes).
+/// camera met walking the scene's nodes). Buffer and image files are
+/// resolved through `policy`.
+///
+/// A panic inside the `gltf` crate (which trusts the file in places this
+/// loader's checks may not cover) becomes a [`SceneError`] naming the file.
+/// The default panic hook still prints its message to stderr: silencing it
+/// would mean swapping the process-wide hook, which races with other threads.
 pub fn load(
     path: &Path,
     camera_name: Option<&str>,
-    _policy: &crate::paths::ReferencePolicy,
+    policy: &crate::paths::ReferencePolicy,
+) -> Result<GltfScene, SceneError> {
+    guarded(path, || load_unguarded(path, camera_name, policy))
+}
+
+/// `load` with a panic turned into a [`SceneError`] naming `path`.
+fn guarded<T>(path: &Path, load: impl FnOnce() -> Result<T, SceneError>) -> Result<T, SceneError> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(load)).unwrap_or_else(|payload| {
+        let why = payload
+            .downcast_ref::<&str>()
+            .map(|s| (*s).to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_default();
+        let why = why.lines().next().unwrap_or_default().to_string();
+        Err(SceneError::malformed(
+            path,
+            format!(
+                "the glTF reader failed on this file (internal error {})",
+                quoted(&why)
+            ),
+        ))
+    })
+}
+
+fn load_unguarded(
+    path: &Path,
+    camera_name: Option<&str>,
+    policy: &crate::paths::ReferencePolicy,
 ) -> Result<GltfScene, SceneError> {
     let bytes = std::fs::read(path).map_err(|e| SceneError::io(path, e))?;
+    check_glb_lengths(path, &bytes)?;
     let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| map_error(path, e))?;
+    drop(bytes);
     // gltf-json 1.4.1's validation indexes the POSITION accessor without a
     // bounds check (a panic on malformed files): check it first, then validate.
     check_position_accessors(path, gltf.document.as_json())?;
+    check_cameras(path, gltf.document.as_json())?;
     let document =
         gltf::Document::from_json(gltf.document.into_json()).map_err(|e| map_error(path, e))?;
-    let directory = path.parent().unwrap_or(Path::new("."));
-    check_external_files(path, directory, &document)?;
-    let buffers = gltf::import_buffers(&document, Some(directory), gltf.blob)
-        .map_err(|e| map_error(path, e))?;
+    let buffers = load_buffers(path, &document, gltf.blob, policy)?;
+    validate::check_views(path, &document, &buffers)?;
     let uses_textures = document.materials().any(|m| {
         m.pbr_metallic_roughness().base_color_texture().is_some()
             || m.pbr_metallic_roughness()
@@ -51,7 +97,7 @@ pub fn load(
                 .is_some()
     });
     let images = if uses_textures {
-        gltf::import_images(&document, Some(directory), &buffers).map_err(|e| map_error(path, e))?
+        load_images(path, &document, &buffers, policy)?
     } else {
         Vec::new()
     };
@@ -65,6 +111,7 @@ pub fn load(
         materials: HashMap::new(),
         textures: HashMap::new(),
         cameras: Vec::new(),
+        visited: vec![false; document.nodes().len()],
     };
     let scene = document
         .default_scene()
@@ -76,6 +123,201 @@ pub fn load(
     let cameras = std::mem::take(&mut loader.cameras);
     let camera = choose_camera(path, cameras, camera_name)?;
     Ok(GltfScene { builder, camera })
+}
+
+/// A binary glTF whose header or chunks declare more bytes than the file has
+/// is truncated (the `gltf` crate only says "could not completely read the object").
+fn check_glb_lengths(path: &Path, bytes: &[u8]) -> Result<(), SceneError> {
+    if !bytes.starts_with(b"glTF") {
+        return Ok(());
+    }
+    let truncated = |what: String| SceneError::malformed(path, format!("truncated .glb: {what}"));
+    let len = bytes.len() as u64;
+    let word = |at: u64| -> Option<u64> {
+        let at = usize::try_from(at).ok()?;
+        let b = bytes.get(at..at.checked_add(4)?)?;
+        Some(u64::from(u32::from_le_bytes([b[0], b[1], b[2], b[3]])))
+    };
+    let Some(declared) = word(8) else {
+        return Err(truncated(format!(
+            "{len} bytes, shorter than the 12-byte header"
+        )));
+    };
+    if declared > len {
+        return Err(truncated(format!(
+            "the header declares {declared} bytes, the file has {len}"
+        )));
+    }
+    let mut offset = 12;
+    while offset < declared {
+        let Some(chunk) = word(offset) else {
+            return Err(truncated(format!(
+                "the chunk header at byte {offset} is cut (the file has {len} bytes)"
+            )));
+        };
+        if offset + 8 + chunk > len {
+            return Err(truncated(format!(
+                "the chunk at byte {offset} declares {chunk} bytes, {} remain",
+                len.saturating_sub(offset + 8)
+            )));
+        }
+        offset += 8 + chunk;
+    }
+    Ok(())
+}
+
+/// The file a buffer's or image's relative `uri` names, through the
+/// reference policy (percent-decoded as the `gltf` crate would, whose own
+/// decoding panics on invalid UTF-8). Other schemes than `data:` are refused.
+fn referenced_file(
+    path: &Path,
+    element: &str,
+    uri: &str,
+    policy: &crate::paths::ReferencePolicy,
+) -> Result<PathBuf, SceneError> {
+    if uri.contains(':') {
+        return Err(SceneError::unsupported(
+            path,
+            format!(
+                "{element}: URI {}: only relative paths and data: URIs are read",
+                quoted(uri)
+            ),
+        ));
+    }
+    let decoded = percent_decode(uri).ok_or_else(|| {
+        SceneError::malformed(
+            path,
+            format!(
+                "{element}: URI {} is not valid percent-encoded UTF-8",
+                quoted(uri)
+            ),
+        )
+    })?;
+    let folder = path.parent().unwrap_or(Path::new("."));
+    if std::fs::symlink_metadata(folder.join(&decoded)).is_err() {
+        return Err(SceneError::malformed(
+            path,
+            format!(
+                "{element}: file {} not found next to the glTF file",
+                quoted(&decoded)
+            ),
+        ));
+    }
+    policy.resolve(path, element, &decoded)
+}
+
+/// `%XX` escapes decoded (others kept as written); `None` if the result is not UTF-8.
+fn percent_decode(uri: &str) -> Option<String> {
+    let bytes = uri.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        let hex = |b: u8| (b as char).to_digit(16);
+        if bytes[i] == b'%'
+            && let (Some(h), Some(l)) = (
+                bytes.get(i + 1).and_then(|&b| hex(b)),
+                bytes.get(i + 2).and_then(|&b| hex(b)),
+            )
+        {
+            out.push((h * 16 + l) as u8);
+            i += 3;
+        } else {
+            out.push(bytes[i]);
+            i += 1;
+        }
+    }
+    String::from_utf8(out).ok()
+}
+
+/// Every buffer: the GLB binary chunk, a data: URI, or a file through the policy.
+fn load_buffers(
+    path: &Path,
+    document: &gltf::Document,
+    mut blob: Option<Vec<u8>>,
+    policy: &crate::paths::ReferencePolicy,
+) -> Result<Vec<gltf::buffer::Data>, SceneError> {
+    let mut buffers = Vec::new();
+    for buffer in document.buffers() {
+        let element = format!("buffer {}", buffer.index());
+        let data = match buffer.source() {
+            gltf::buffer::Source::Uri(uri) if !uri.starts_with("data:") => {
+                let file = referenced_file(path, &element, uri, policy)?;
+                let bytes = std::fs::read(&file).map_err(|e| {
+                    SceneError::malformed(
+                        path,
+                        format!("{element}: cannot read {}: {e}", quoted(uri)),
+                    )
+                })?;
+                gltf::buffer::Data(bytes)
+            }
+            source => gltf::buffer::Data::from_source_and_blob(source, None, &mut blob)
+                .map_err(|e| SceneError::malformed(path, format!("{element}: {e}")))?,
+        };
+        if data.0.len() < buffer.length() {
+            return Err(SceneError::malformed(
+                path,
+                format!(
+                    "{element}: byteLength {} but only {} bytes of data",
+                    buffer.length(),
+                    data.0.len()
+                ),
+            ));
+        }
+        let mut data = data;
+        while !data.0.len().is_multiple_of(4) {
+            data.0.push(0);
+        }
+        buffers.push(data);
+    }
+    Ok(buffers)
+}
+
+/// Every image decoded; a failure names the image (index and URI or bufferView).
+fn load_images(
+    path: &Path,
+    document: &gltf::Document,
+    buffers: &[gltf::buffer::Data],
+    policy: &crate::paths::ReferencePolicy,
+) -> Result<Vec<gltf::image::Data>, SceneError> {
+    let directory = path.parent().unwrap_or(Path::new("."));
+    document
+        .images()
+        .map(|image| {
+            let label = match image.source() {
+                gltf::image::Source::Uri { uri, .. } if uri.starts_with("data:") => {
+                    format!("image {} (data: URI)", image.index())
+                }
+                gltf::image::Source::Uri { uri, .. } => {
+                    format!("image {} ({})", image.index(), quoted(uri))
+                }
+                gltf::image::Source::View { view, .. } => {
+                    format!("image {} (bufferView {})", image.index(), view.index())
+                }
+            };
+            if let gltf::image::Source::Uri { uri, .. } = image.source()
+                && !uri.starts_with("data:")
+            {
+                referenced_file(path, &format!("image {}", image.index()), uri, policy)?;
+            }
+            gltf::image::Data::from_source(image.source(), Some(directory), buffers).map_err(|e| {
+                let why = e.to_string();
+                SceneError::malformed(path, format!("{label}: cannot decode: {}", quoted(&why)))
+            })
+        })
+        .collect()
+}
+
+/// The accessors a triangle primitive reads: (index, label for messages).
+struct PrimitiveAccessors {
+    position: (usize, String),
+    normal: Option<(usize, String)>,
+    tex_coord: Option<(usize, String)>,
+    indices: Option<(usize, String)>,
+}
+
+/// `(NaN, 0, 1) ` for a message.
+fn fmt_vec(v: Vec3) -> String {
+    format!("({}, {}, {}) ", v.x, v.y, v.z)
 }
 
 /// Nodes deeper than this are refused: glTF forbids cycles, but a malformed
@@ -93,6 +335,10 @@ struct Loader<'a> {
     textures: HashMap<(usize, bool), usize>,
     /// Cameras met: (name, node index, camera, world transform).
     cameras: Vec<(Option<String>, usize, Result<CameraSpec, String>)>,
+    /// Nodes met so far: a node reached twice (two parents, or a root that
+    /// is also a child) is refused, or a chain of nodes each listing the next
+    /// twice would make 2^depth visits.
+    visited: Vec<bool>,
 }
 
 impl Loader<'_> {
@@ -105,6 +351,18 @@ impl Loader<'_> {
                     node.index()
                 ),
             ));
+        }
+        match self.visited.get_mut(node.index()) {
+            Some(seen) if !*seen => *seen = true,
+            _ => {
+                return Err(SceneError::malformed(
+                    self.path,
+                    format!(
+                        "node {}: reached twice in the scene's hierarchy (a node has one parent at most)",
+                        node.index()
+                    ),
+                ));
+            }
         }
         let local = Mat4::from_cols_array_2d(&node.transform().matrix());
         let world = parent * local;
@@ -124,7 +382,7 @@ impl Loader<'_> {
                 .push((camera.name().map(str::to_string), node.index(), spec));
         }
         if let Some(light) = node.light() {
-            self.add_light(&light, world);
+            self.add_light(&light, world)?;
         }
         for child in node.children() {
             self.visit(&child, world, depth + 1)?;
@@ -137,9 +395,9 @@ impl Loader<'_> {
         let flips = Mat3::from_mat4(world).determinant() < 0.0;
         for primitive in mesh.primitives() {
             let element = format!(
-                "mesh {} (\"{}\"), primitive {}",
+                "mesh {} ({}), primitive {}",
                 mesh.index(),
-                mesh.name().unwrap_or(""),
+                quoted(mesh.name().unwrap_or("")),
                 primitive.index()
             );
             if primitive.mode() != gltf::mesh::Mode::Triangles {
@@ -151,23 +409,47 @@ impl Loader<'_> {
                 continue;
             }
             let material = self.material(&primitive.material())?;
+            let accessors = self.check_primitive(mesh.index(), &primitive, &element)?;
             let reader = primitive.reader(|b| self.buffers.get(b.index()).map(|d| &d.0[..]));
-            let positions: Vec<Vec3> = reader
+            let unreadable = |(index, label): &(usize, String)| {
+                SceneError::malformed(
+                    self.path,
+                    format!("{label}: accessor {index} could not be read"),
+                )
+            };
+            let raw_positions: Vec<Vec3> = reader
                 .read_positions()
-                .ok_or_else(|| {
-                    SceneError::malformed(self.path, format!("{element}: no POSITION attribute"))
-                })?
-                .map(|p| world.transform_point3(Vec3::from_array(p)))
+                .ok_or_else(|| unreadable(&accessors.position))?
+                .map(Vec3::from_array)
                 .collect();
-            let normals: Option<Vec<Vec3>> = reader
-                .read_normals()
-                .map(|it| it.map(|n| normal_matrix * Vec3::from_array(n)).collect());
-            let uvs: Option<Vec<Vec2>> = reader
-                .read_tex_coords(0)
-                .map(|t| t.into_f32().map(Vec2::from_array).collect());
-            let indices: Vec<u32> = match reader.read_indices() {
-                Some(i) => i.into_u32().collect(),
-                None => (0..positions.len() as u32).collect(),
+            let raw_normals: Option<Vec<Vec3>> = match &accessors.normal {
+                Some(a) => Some(
+                    reader
+                        .read_normals()
+                        .ok_or_else(|| unreadable(a))?
+                        .map(Vec3::from_array)
+                        .collect(),
+                ),
+                None => None,
+            };
+            let uvs: Option<Vec<Vec2>> = match &accessors.tex_coord {
+                Some(a) => Some(
+                    reader
+                        .read_tex_coords(0)
+                        .ok_or_else(|| unreadable(a))?
+                        .into_f32()
+                        .map(Vec2::from_array)
+                        .collect(),
+                ),
+                None => None,
+            };
+            let indices: Vec<u32> = match &accessors.indices {
+                Some(a) => reader
+                    .read_indices()
+                    .ok_or_else(|| unreadable(a))?
+                    .into_u32()
+                    .collect(),
+                None => (0..raw_positions.len() as u32).collect(),
             };
             if !indices.len().is_multiple_of(3) {
                 return Err(SceneError::malformed(
@@ -178,33 +460,54 @@ impl Loader<'_> {
                     ),
                 ));
             }
-            for attribute in [normals.as_ref().map(Vec::len), uvs.as_ref().map(Vec::len)]
-                .into_iter()
-                .flatten()
+            for attribute in [
+                raw_normals.as_ref().map(Vec::len),
+                uvs.as_ref().map(Vec::len),
+            ]
+            .into_iter()
+            .flatten()
             {
-                if attribute != positions.len() {
+                if attribute != raw_positions.len() {
                     return Err(SceneError::malformed(
                         self.path,
                         format!(
                             "{element}: attribute count {attribute} differs from {} positions",
-                            positions.len()
+                            raw_positions.len()
                         ),
                     ));
                 }
+            }
+            let vertex_count = raw_positions.len();
+            if let Some(k) = indices.iter().position(|&i| i as usize >= vertex_count) {
+                let label = accessors.indices.as_ref().map_or(&element, |(_, l)| l);
+                return Err(SceneError::malformed(
+                    self.path,
+                    format!(
+                        "{label}: index {k} (triangle {}) uses vertex {}, but {} has {vertex_count}",
+                        k / 3,
+                        indices[k],
+                        accessors.position.1
+                    ),
+                ));
+            }
+            let positions: Vec<Vec3> = raw_positions
+                .iter()
+                .map(|&p| world.transform_point3(p))
+                .collect();
+            let normals: Option<Vec<Vec3>> = raw_normals
+                .as_ref()
+                .map(|ns| ns.iter().map(|&n| normal_matrix * n).collect());
+            self.check_finite(&accessors.position.1, &raw_positions, &positions, &indices)?;
+            if let (Some((_, label)), Some(raw)) = (&accessors.normal, &raw_normals) {
+                // World-space normals are not checked: a singular transform
+                // (a scale of 0 hides a node) makes them NaN, and the scene
+                // builder replaces those with the geometric normal.
+                self.check_finite(label, raw, raw, &indices)?;
             }
             for (t, tri) in indices.chunks_exact(3).enumerate() {
                 let mut ids = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
                 if flips {
                     ids.swap(1, 2);
-                }
-                if let Some(&bad) = ids.iter().find(|&&i| i >= positions.len()) {
-                    return Err(SceneError::malformed(
-                        self.path,
-                        format!(
-                            "{element}: triangle {t} uses vertex {bad}, but there are {}",
-                            positions.len()
-                        ),
-                    ));
                 }
                 let element = || format!("{element}, triangle {t}");
                 let p = ids.map(|i| positions[i]);
@@ -215,6 +518,86 @@ impl Loader<'_> {
             }
         }
         Ok(())
+    }
+
+    /// Checks every accessor `primitive` reads (see [`validate`]) and returns
+    /// them with their labels.
+    fn check_primitive(
+        &self,
+        mesh: usize,
+        primitive: &gltf::Primitive,
+        element: &str,
+    ) -> Result<PrimitiveAccessors, SceneError> {
+        use gltf::mesh::Semantic as S;
+        let check = |accessor: Option<gltf::Accessor>, semantic: Semantic| {
+            accessor
+                .map(|a| {
+                    let label =
+                        validate::accessor_label(a.index(), mesh, primitive.index(), semantic);
+                    validate::check_accessor(self.path, &label, &a, semantic, self.buffers)
+                        .map(|()| (a.index(), label, a.count()))
+                })
+                .transpose()
+        };
+        let position =
+            check(primitive.get(&S::Positions), Semantic::Position)?.ok_or_else(|| {
+                SceneError::malformed(self.path, format!("{element}: no POSITION attribute"))
+            })?;
+        let normal = check(primitive.get(&S::Normals), Semantic::Normal)?;
+        let tex_coord = check(primitive.get(&S::TexCoords(0)), Semantic::TexCoord)?;
+        let indices = check(primitive.indices(), Semantic::Indices)?;
+        for (index, label, count) in [&normal, &tex_coord].into_iter().flatten() {
+            if *count != position.2 {
+                return Err(SceneError::malformed(
+                    self.path,
+                    format!(
+                        "{label}: count {count} differs from POSITION accessor {}'s {}",
+                        position.0, position.2
+                    ),
+                ));
+            }
+            let _ = index;
+        }
+        let strip = |a: Option<(usize, String, usize)>| a.map(|(i, l, _)| (i, l));
+        Ok(PrimitiveAccessors {
+            position: (position.0, position.1),
+            normal: strip(normal),
+            tex_coord: strip(tex_coord),
+            indices: strip(indices),
+        })
+    }
+
+    /// Refuses a NaN or infinite vertex attribute (as read, or once
+    /// transformed to world space), naming the accessor, the vertex and the
+    /// first triangle that uses it.
+    fn check_finite(
+        &self,
+        label: &str,
+        raw: &[Vec3],
+        world: &[Vec3],
+        indices: &[u32],
+    ) -> Result<(), SceneError> {
+        let Some(bad) = raw
+            .iter()
+            .zip(world)
+            .position(|(r, w)| !r.is_finite() || !w.is_finite())
+        else {
+            return Ok(());
+        };
+        let used = indices.iter().position(|&i| i as usize == bad).map_or_else(
+            || "unused".to_string(),
+            |k| format!("used by triangle {}", k / 3),
+        );
+        let what = if raw[bad].is_finite() {
+            "becomes infinite in world space"
+        } else {
+            "is not finite"
+        };
+        Err(SceneError::invalid(
+            self.path,
+            label,
+            format!("vertex {bad} {}{what} ({used})", fmt_vec(raw[bad])),
+        ))
     }
 
     fn material(&mut self, m: &gltf::Material) -> Result<u32, SceneError> {
@@ -242,11 +625,26 @@ impl Loader<'_> {
         }
         let (ndf, shadowing) = microfacet_choice(m).map_err(invalid)?;
         let transmission = m.transmission().map_or(0.0, |t| t.transmission_factor());
+        if !(0.0..=1.0).contains(&transmission) {
+            return Err(invalid(format!(
+                "KHR_materials_transmission transmissionFactor must be in [0, 1], got {transmission}"
+            )));
+        }
+        // KHR_materials_ior allows 0 as a special value; it is refused only
+        // where the IOR is used, by a transmissive material.
+        let ior = m.ior().unwrap_or(1.5);
+        if !(ior.is_finite() && (ior > 0.0 || (ior == 0.0 && transmission == 0.0))) {
+            return Err(invalid(format!(
+                "KHR_materials_ior ior must be finite and > 0, got {ior}"
+            )));
+        }
+        let strength = m.emissive_strength().unwrap_or(1.0);
+        if !(strength >= 0.0 && strength.is_finite()) {
+            return Err(invalid(format!(
+                "KHR_materials_emissive_strength must be finite and >= 0, got {strength}"
+            )));
+        }
         let surface = if transmission > 0.0 {
-            let ior = m.ior().unwrap_or(1.5);
-            if !(ior > 0.0 && ior.is_finite()) {
-                return Err(invalid(format!("KHR_materials_ior must be > 0, got {ior}")));
-            }
             Surface::Dielectric {
                 model: MicrofacetModel::new(ndf, roughness * roughness, shadowing),
                 ior,
@@ -274,10 +672,16 @@ impl Loader<'_> {
                 metal_rough_surface(base, metallic, roughness, ndf, shadowing)
             }
         };
-        let emission = Vec3::from_array(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0);
-        if !emission.is_finite() || emission.min_element() < 0.0 {
+        let factor = Vec3::from_array(m.emissive_factor());
+        if !factor.is_finite() || factor.min_element() < 0.0 {
             return Err(invalid(format!(
-                "emission must be finite and non-negative, got {emission}"
+                "emissiveFactor must be finite and non-negative, got {factor}"
+            )));
+        }
+        let emission = factor * strength;
+        if !emission.is_finite() {
+            return Err(invalid(format!(
+                "emission (emissiveFactor x emissiveStrength) overflows, got {emission}"
             )));
         }
         let name = m.name().map_or_else(|| element.clone(), str::to_string);
@@ -339,8 +743,53 @@ impl Loader<'_> {
         Ok(id)
     }
 
-    fn add_light(&mut self, light: &gltf::khr_lights_punctual::Light, world: Mat4) {
-        let color = Vec3::from_array(light.color()) * light.intensity();
+    fn add_light(
+        &mut self,
+        light: &gltf::khr_lights_punctual::Light,
+        world: Mat4,
+    ) -> Result<(), SceneError> {
+        let invalid = |message: String| {
+            SceneError::invalid(
+                self.path,
+                format!(
+                    "light {} ({})",
+                    light.index(),
+                    quoted(light.name().unwrap_or(""))
+                ),
+                message,
+            )
+        };
+        let (color, intensity) = (Vec3::from_array(light.color()), light.intensity());
+        if !color.is_finite() || color.min_element() < 0.0 {
+            return Err(invalid(format!(
+                "color must be finite and non-negative, got {}",
+                fmt_vec(color).trim_end()
+            )));
+        }
+        if !(intensity >= 0.0 && intensity.is_finite()) {
+            return Err(invalid(format!(
+                "intensity must be finite and >= 0, got {intensity}"
+            )));
+        }
+        if let Kind::Spot {
+            inner_cone_angle,
+            outer_cone_angle,
+        } = light.kind()
+            && !(0.0 <= inner_cone_angle
+                && inner_cone_angle <= outer_cone_angle
+                && outer_cone_angle <= std::f32::consts::FRAC_PI_2 + 1e-6)
+        {
+            return Err(invalid(format!(
+                "spot cone angles must satisfy 0 <= inner <= outer <= pi/2, got inner {inner_cone_angle}, outer {outer_cone_angle}"
+            )));
+        }
+        let color = color * intensity;
+        if !color.is_finite() {
+            return Err(invalid(format!(
+                "color x intensity overflows, got {}",
+                fmt_vec(color).trim_end()
+            )));
+        }
         let position = world.transform_point3(Vec3::ZERO);
         let direction = world
             .transform_vector3(Vec3::NEG_Z)
@@ -366,6 +815,7 @@ impl Loader<'_> {
             },
         };
         self.builder.lights.push(l);
+        Ok(())
     }
 }
 
@@ -393,37 +843,21 @@ fn check_position_accessors(path: &Path, root: &gltf::json::Root) -> Result<(), 
     Ok(())
 }
 
-/// Names a missing external buffer or image file (the `gltf` crate's own
-/// error only says "No such file or directory").
-fn check_external_files(
-    path: &Path,
-    directory: &Path,
-    document: &gltf::Document,
-) -> Result<(), SceneError> {
-    let external = |uri: &str| !uri.starts_with("data:") && !directory.join(uri).is_file();
-    for buffer in document.buffers() {
-        if let gltf::buffer::Source::Uri(uri) = buffer.source()
-            && external(uri)
-        {
+/// A camera's `type` names the projection object it has (the `gltf` crate
+/// checks only that one of the two exists, then unwraps the one named).
+fn check_cameras(path: &Path, root: &gltf::json::Root) -> Result<(), SceneError> {
+    use gltf::json::camera::Type;
+    use gltf::json::validation::Checked;
+    for (i, camera) in root.cameras.iter().enumerate() {
+        let missing = match camera.type_ {
+            Checked::Valid(Type::Perspective) => camera.perspective.is_none(),
+            Checked::Valid(Type::Orthographic) => camera.orthographic.is_none(),
+            Checked::Invalid => false,
+        };
+        if missing {
             return Err(SceneError::malformed(
                 path,
-                format!(
-                    "buffer {}: file \"{uri}\" not found next to the glTF file",
-                    buffer.index()
-                ),
-            ));
-        }
-    }
-    for image in document.images() {
-        if let gltf::image::Source::Uri { uri, .. } = image.source()
-            && external(uri)
-        {
-            return Err(SceneError::malformed(
-                path,
-                format!(
-                    "image {}: file \"{uri}\" not found next to the glTF file",
-                    image.index()
-                ),
+                format!("camera {i}: its type has no matching projection object"),
             ));
         }
     }
@@ -530,11 +964,11 @@ fn map_error(path: &Path, e: gltf::Error) -> SceneError {
         gltf::Error::Validation(errors) => {
             let list: Vec<String> = errors
                 .iter()
-                .take(5)
+                .take(3)
                 .map(|(p, e)| format!("{p}: {e}"))
                 .collect();
-            let more = if errors.len() > 5 {
-                format!(" (and {} more)", errors.len() - 5)
+            let more = if errors.len() > 3 {
+                format!(" (and {} more)", errors.len() - 3)
             } else {
                 String::new()
             };
@@ -545,6 +979,34 @@ fn map_error(path: &Path, e: gltf::Error) -> SceneError {
                 SceneError::malformed(path, format!("invalid glTF: {text}{more}"))
             }
         }
+        gltf::Error::Deserialize(e) => {
+            SceneError::malformed(path, format!("invalid glTF JSON: {e}"))
+        }
         other => SceneError::malformed(path, other.to_string()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_panic_becomes_an_error_naming_the_file() {
+        let path = Path::new("model.gltf");
+        let result: Result<(), SceneError> = guarded(path, || panic!("index out of bounds\nmore"));
+        let message = result.unwrap_err().to_string();
+        assert_eq!(
+            message,
+            "model.gltf: the glTF reader failed on this file (internal error \"index out of bounds\")"
+        );
+        assert!(guarded(path, || Ok(3)).is_ok_and(|v| v == 3));
+    }
+
+    #[test]
+    fn percent_decoding_matches_the_gltf_crate() {
+        assert_eq!(percent_decode("a%20b.bin").as_deref(), Some("a b.bin"));
+        assert_eq!(percent_decode("%2E%2E/x").as_deref(), Some("../x"));
+        assert_eq!(percent_decode("100%").as_deref(), Some("100%"));
+        assert_eq!(percent_decode("%FF"), None);
     }
 }
