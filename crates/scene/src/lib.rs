@@ -19,6 +19,7 @@ pub mod paths;
 pub mod scene;
 pub mod shapes;
 pub mod texture;
+pub mod validate;
 
 use std::path::Path;
 
@@ -51,9 +52,13 @@ pub struct LoadOptions {
     /// Let file references leave the scene file's folder
     /// (`--allow-outside-paths`; see [`paths`]).
     pub allow_outside_paths: bool,
+    /// Accept a scene with no geometry, or with no light and no environment
+    /// (`--allow-empty`): a warning instead of an error (see [`validate`]).
+    pub allow_empty: bool,
 }
 
-/// Loads a scene from a manifest (`.toml`), glTF (`.gltf`, `.glb`) or OBJ (`.obj`) file.
+/// Loads a scene from a manifest (`.toml`), glTF (`.gltf`, `.glb`) or OBJ (`.obj`) file,
+/// and checks it against the input rule ([`validate`]) whatever its format.
 pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
     let extension = path
         .extension()
@@ -93,7 +98,15 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
                 .map_err(|e| SceneError::invalid(path, "camera", e))
         })
         .transpose()?;
-    Ok(builder.finish(camera, resolution, render))
+    let mut scene = builder.finish(camera, resolution, render);
+    validate::validate(
+        &mut scene,
+        path,
+        validate::Allow {
+            empty: options.allow_empty,
+        },
+    )?;
+    Ok(scene)
 }
 
 /// One model file (OBJ or glTF) and the camera it carries, if any.

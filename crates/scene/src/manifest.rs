@@ -188,6 +188,25 @@ pub fn load(
         camera = camera.or(model_camera);
         builder.append(part);
     }
+    if let Some(name) = camera_name
+        && camera.is_none()
+    {
+        // glTF models refuse a name they lack; OBJ models have no cameras at all.
+        let key = if manifest.camera.as_ref().and_then(|c| c.name.as_deref()) == Some(name) {
+            "[camera] name"
+        } else {
+            "--camera"
+        };
+        return Err(SceneError::invalid(
+            path,
+            key,
+            format!(
+                "no model of this manifest has a camera named {} (OBJ files have no cameras; \
+                 give `from`, `at` and `fov` instead)",
+                crate::error::quoted(name)
+            ),
+        ));
+    }
     apply_materials(path, &manifest.materials, &mut builder)?;
     add_shapes(path, &manifest.shapes, &mut builder)?;
     for (i, light) in manifest.lights.iter().enumerate() {
@@ -248,8 +267,10 @@ pub fn load(
     })
 }
 
-/// Largest image side a manifest may ask for (a 64k x 64k RGB f64 film is 100 GB).
-pub const MAX_RESOLUTION: u32 = 65_536;
+/// Largest image side a manifest may ask for: the same as `--resolution`'s
+/// (a 64k x 64k film took 100 GB and aborted the process); render-cli
+/// further checks that the film fits in the available memory.
+pub const MAX_RESOLUTION: u32 = 16_384;
 
 /// toml's message with the line of the error and, for a bad value, its key
 /// (toml names the expected type but not the key).
