@@ -47,7 +47,11 @@ pub fn load(
     let origins: RefCell<Origins> = RefCell::new(HashMap::new());
     let loader = |reference: &Path| -> tobj::MTLLoadResult {
         match load_mtl(path, reference, policy) {
-            Ok((file, materials, lines)) => {
+            Ok(LoadedMtl {
+                file,
+                materials,
+                lines,
+            }) => {
                 let mut origins = origins.borrow_mut();
                 for (name, line) in lines {
                     origins.entry(name).or_insert((file.clone(), line));
@@ -155,6 +159,13 @@ pub fn load(
 /// What tobj reads from one MTL file.
 type MtlMaterials = <tobj::MTLLoadResult as IntoIterator>::Item;
 
+/// One MTL file as read: where it is, tobj's materials, the line of each `newmtl`.
+struct LoadedMtl {
+    file: PathBuf,
+    materials: MtlMaterials,
+    lines: Vec<(String, usize)>,
+}
+
 /// One `mtllib`: resolved through `policy` (inside the scene's folder, a
 /// file and not a folder), its values checked line by line ([`check_mtl`]),
 /// then parsed by tobj. Returns the file, tobj's result and the line of each
@@ -163,14 +174,18 @@ fn load_mtl(
     obj: &Path,
     reference: &Path,
     policy: &crate::paths::ReferencePolicy,
-) -> Result<(PathBuf, MtlMaterials, Vec<(String, usize)>), SceneError> {
+) -> Result<LoadedMtl, SceneError> {
     let written = reference.to_string_lossy();
     let file = policy.resolve(obj, "mtllib", &written)?;
     let text = std::fs::read(&file).map_err(|e| SceneError::io(&file, e))?;
     let lines = check_mtl(&file, &text)?;
     let materials = tobj::load_mtl_buf(&mut text.as_slice())
         .map_err(|e| SceneError::malformed(&file, describe(&e)))?;
-    Ok((file, materials, lines))
+    Ok(LoadedMtl {
+        file,
+        materials,
+        lines,
+    })
 }
 
 /// The value checks of an MTL file, before tobj reads it (tobj reads `nan`

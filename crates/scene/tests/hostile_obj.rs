@@ -343,10 +343,8 @@ fn edit(text: &str, edits: &[(usize, usize, usize)]) -> String {
                 let copy = lines[line].clone();
                 lines.insert(line, copy);
             }
-            2 => {
-                if !words.is_empty() {
-                    words.remove(w);
-                }
+            2 if !words.is_empty() => {
+                words.remove(w);
             }
             3 => words.push(HOSTILE[action / 8 % HOSTILE.len()].to_owned()),
             _ if !words.is_empty() => words[w] = HOSTILE[action / 8 % HOSTILE.len()].to_owned(),
@@ -360,7 +358,7 @@ fn hostile_config() -> Config {
     Config {
         cases: 300,
         failure_persistence: None,
-        rng_seed: RngSeed::Fixed(0x5eed_0b1),
+        rng_seed: RngSeed::Fixed(0x05ee_d0b1),
         ..Config::default()
     }
 }

@@ -110,7 +110,6 @@ fn cases() -> Vec<Case> {
     let malformed: fn(&SceneError) -> bool = |e| matches!(e, SceneError::Malformed { .. });
     let invalid: fn(&SceneError) -> bool = |e| matches!(e, SceneError::Invalid { .. });
     let unsupported: fn(&SceneError) -> bool = |e| matches!(e, SceneError::Unsupported { .. });
-    let io: fn(&SceneError) -> bool = |e| matches!(e, SceneError::Io { .. });
     vec![
         ("OBJ face index out of range", vec![("a.obj", s("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"))], invalid, "line 4"),
         ("OBJ NaN position", vec![("a.obj", s("v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n"))], invalid, "line 2"),
