@@ -24,6 +24,8 @@ pub mod validate;
 use std::path::Path;
 
 use glam::{UVec2, Vec3};
+
+use crate::error::quoted;
 use microfacet::{NdfKind, Shadowing};
 
 pub use camera::{Camera, CameraSpec};
@@ -140,7 +142,8 @@ pub fn parse_ndf(name: &str) -> Result<NdfKind, String> {
         "beckmann" => Ok(NdfKind::Beckmann),
         "blinn-phong" => Ok(NdfKind::BlinnPhong),
         other => Err(format!(
-            "unknown NDF \"{other}\" (expected ggx, beckmann or blinn-phong)"
+            "unknown NDF {} (expected ggx, beckmann or blinn-phong)",
+            quoted(other)
         )),
     }
 }
@@ -151,7 +154,8 @@ pub fn parse_shadowing(name: &str) -> Result<Shadowing, String> {
         "smith" => Ok(Shadowing::Smith),
         "v-cavity" => Ok(Shadowing::VCavity),
         other => Err(format!(
-            "unknown shadowing \"{other}\" (expected smith or v-cavity)"
+            "unknown shadowing {} (expected smith or v-cavity)",
+            quoted(other)
         )),
     }
 }

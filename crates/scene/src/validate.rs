@@ -144,7 +144,8 @@ fn light_value(name: &str, value: Vec3) -> Result<(), String> {
     }
     if value.max_element() > MAX_LIGHT_VALUE {
         return Err(format!(
-            "{name} {value} exceeds {MAX_LIGHT_VALUE:e}: its power would overflow f32 arithmetic"
+            "{name} [{:e}, {:e}, {:e}] exceeds {MAX_LIGHT_VALUE:e}: its power would overflow f32 arithmetic",
+            value.x, value.y, value.z
         ));
     }
     Ok(())
