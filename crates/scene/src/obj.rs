@@ -83,6 +83,14 @@ pub fn load(
     };
     let origins = origins.into_inner();
     let mut builder = SceneBuilder::default();
+    for (line, name) in undefined_materials(&text, &mtl_materials) {
+        builder.report.warnings.push(format!(
+            "{}: line {line}: usemtl {} names no material of its MTL files: the default \
+             material (diffuse 0.8) is used",
+            path.display(),
+            quoted(&name)
+        ));
+    }
     let mut texture_cache: HashMap<PathBuf, usize> = HashMap::new();
     let mut material_ids = Vec::with_capacity(mtl_materials.len());
     for m in &mtl_materials {
@@ -363,6 +371,26 @@ fn check_face_vertex(word: &str, counts: &[usize; 3], totals: &[usize; 3]) -> Re
     Ok(())
 }
 
+/// The first `usemtl` line of each material name that no MTL file defines.
+fn undefined_materials(text: &[u8], materials: &[tobj::Material]) -> Vec<(usize, String)> {
+    let text = String::from_utf8_lossy(text);
+    let mut missing: Vec<(usize, String)> = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.split_whitespace().next() != Some("usemtl") {
+            continue;
+        }
+        let name = line["usemtl".len()..].trim();
+        if !name.is_empty()
+            && !materials.iter().any(|m| m.name == name)
+            && !missing.iter().any(|(_, m)| m == name)
+        {
+            missing.push((n + 1, name.to_owned()));
+        }
+    }
+    missing
+}
+
 fn describe(e: &tobj::LoadError) -> String {
     use tobj::LoadError::*;
     match e {
@@ -428,6 +456,15 @@ fn map_material(
                 path,
                 element(),
                 format!("{name} must be finite and non-negative, got {c}"),
+            ));
+        }
+    }
+    for (name, c) in [("Kd", kd), ("Ks", ks)] {
+        if c.max_element() > 1.0 {
+            builder.report.warnings.push(format!(
+                "{}: {}: {name} {c} is above 1 and is clamped to 1",
+                path.display(),
+                element()
             ));
         }
     }

@@ -406,3 +406,22 @@ fn the_valid_fixture_loads() {
     assert_finite(&scene);
     assert_eq!(scene.triangles.len(), 2);
 }
+
+#[test]
+fn what_a_renderer_can_go_on_with_is_a_warning() {
+    let files = [
+        (
+            "a.obj",
+            format!("mtllib a.mtl\nusemtl nosuch\n{TRIANGLE}").into_bytes(),
+        ),
+        ("a.mtl", b"newmtl m\nKd 2 1 1\n".to_vec()),
+    ];
+    let (result, dir) = load_in(&borrowed(&files), &LoadOptions::default());
+    let _ = std::fs::remove_dir_all(dir);
+    let warnings = result.unwrap().report.warnings.join("\n");
+    assert!(warnings.contains("line 2: usemtl \"nosuch\""), "{warnings}");
+    assert!(
+        warnings.contains("a.mtl: material \"m\" (line 1): Kd"),
+        "{warnings}"
+    );
+}
