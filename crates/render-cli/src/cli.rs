@@ -164,6 +164,12 @@ pub struct Cli {
     #[arg(long, help_heading = "Scene")]
     pub allow_outside_paths: bool,
 
+    /// Render a scene that has no geometry, or no light and no environment (its image is
+    /// black or empty). By default such a scene is an error, since it is almost always a
+    /// mistake: an empty or truncated file, a wrong path, a model without its lights.
+    #[arg(long, help_heading = "Scene")]
+    pub allow_empty: bool,
+
     /// Use the glTF camera of this name. [default: the file's first camera]
     #[arg(
         long,

@@ -54,6 +54,9 @@ enum Error {
     InterruptedPartial(u64),
     #[error(transparent)]
     Film(#[from] image_io::film_file::FilmFileError),
+    /// The film would not fit in the available memory.
+    #[error("{0}")]
+    Memory(String),
 }
 
 fn main() -> ExitCode {
@@ -102,6 +105,23 @@ fn run(cli: &Cli) -> Result<ExitCode, Error> {
     if let Some(camera) = camera {
         scene.camera = camera.camera(scene.camera.resolution)?;
     }
+
+    // A film allocation that fails aborts the process: check before taking it.
+    let resolution = scene.camera.resolution;
+    let source = if cli.resolution.is_some() {
+        "--resolution".to_owned()
+    } else if (cli.scene.extension()).is_some_and(|e| e.eq_ignore_ascii_case("toml")) {
+        format!("{}: resolution", cli.scene.display())
+    } else {
+        "the default resolution".to_owned()
+    };
+    settings::check_film_memory(
+        resolution.x,
+        resolution.y,
+        &source,
+        settings::available_memory(),
+    )
+    .map_err(Error::Memory)?;
 
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(cli.threads.unwrap_or(0))

@@ -48,6 +48,7 @@ impl Cli {
             camera_name: self.camera.clone(),
             resolution: self.resolution,
             allow_outside_paths: self.allow_outside_paths,
+            allow_empty: self.allow_empty,
         })
     }
 

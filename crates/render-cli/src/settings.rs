@@ -261,8 +261,65 @@ fn pick<T, M>(
     })
 }
 
+/// Bytes a render of `width` x `height` pixels needs, estimated: the film's
+/// sums and squared sums (two f64 RGB triples, 48 bytes a pixel) plus one
+/// f32 RGB estimate a pixel (the iteration's image, or the mean written out:
+/// 12 bytes), doubled as a margin for the integrator's per-thread buffers,
+/// the PNG and allocator slack. The scene and its BVH are not counted: they
+/// are already loaded when this is checked.
+pub fn film_bytes(width: u32, height: u32) -> u64 {
+    u64::from(width) * u64::from(height) * (48 + 12) * 2
+}
+
+/// `MemAvailable` of /proc/meminfo in bytes; `None` where it cannot be read
+/// (not Linux, a sandbox): the memory check is then skipped.
+pub fn available_memory() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    kib.checked_mul(1024)
+}
+
+/// Refuses a film that does not fit in `available` bytes (skipped when
+/// `None`), before anything is allocated: an allocation that fails aborts the
+/// process. `source` says where the resolution came from (flag or manifest key).
+pub fn check_film_memory(
+    width: u32,
+    height: u32,
+    source: &str,
+    available: Option<u64>,
+) -> Result<(), String> {
+    let needed = film_bytes(width, height);
+    match available {
+        Some(available) if needed > available => Err(format!(
+            "{source}: {width}x{height} needs about {} of memory for the film \
+             (60 bytes a pixel, doubled as a margin) but only {} is available; \
+             lower the resolution",
+            gib(needed),
+            gib(available)
+        )),
+        _ => Ok(()),
+    }
+}
+
+fn gib(bytes: u64) -> String {
+    format!("{:.1} GiB", bytes as f64 / f64::from(1u32 << 30))
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn a_film_larger_than_the_memory_is_refused() {
+        assert_eq!(super::film_bytes(10, 10), 12_000);
+        let e = super::check_film_memory(30000, 30000, "--resolution", Some(8 << 30)).unwrap_err();
+        assert!(
+            e.starts_with("--resolution: 30000x30000 needs about 100.6 GiB"),
+            "{e}"
+        );
+        assert!(super::check_film_memory(30000, 30000, "--resolution", None).is_ok());
+        assert!(super::check_film_memory(512, 512, "--resolution", Some(8 << 30)).is_ok());
+    }
+
     use super::*;
     use crate::values::{parse_radius, parse_shadow_roulette};
 

@@ -224,6 +224,7 @@ fn help_mentions_every_flag() {
         "--radius",
         "--shadow-roulette",
         "--virtual-merges",
+        "--allow-empty",
         "D/4 for reflection",
         "shadow_roulette",
     ] {
@@ -472,4 +473,179 @@ fn shards_merge_into_the_single_process_render() {
     data.truncate(data.len() - 10);
     std::fs::write(&damaged, data).unwrap();
     refused(&[&a, &damaged, &c], &["damaged.rltfilm", "truncated"]);
+}
+
+/// Writes `files` under `dir/in/` and renders the first at tiny settings
+/// (plus `extra`) into `dir/out.exr`.
+fn render_files(dir: &Path, files: &[(&str, &[u8])], extra: &[&str]) -> Output {
+    let input = dir.join("in");
+    for (name, content) in files {
+        let path = input.join(name);
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(path, content).unwrap();
+    }
+    let scene = input.join(files[0].0);
+    let exr = dir.join("out.exr");
+    let mut args = vec![scene.to_str().unwrap(), "-o", exr.to_str().unwrap()];
+    args.extend(["--iterations", "1"]);
+    args.extend(extra);
+    render_cli(&args)
+}
+
+/// Hostile input (ARCHITECTURE.md, "Input rules"): exit 1, one short line
+/// naming the file and element, no image written.
+fn assert_refused(files: &[(&str, &[u8])], extra: &[&str], names: &[&str]) {
+    let dir = tempfile::tempdir().unwrap();
+    let output = render_files(dir.path(), files, extra);
+    assert_eq!(output.status.code(), Some(1), "{}", stderr(&output));
+    assert_fails_cleanly(&output, names, dir.path());
+    let line = stderr(&output);
+    let limit = 200 + 2 * dir.path().display().to_string().len() + 80;
+    assert!(line.len() <= limit, "too long ({}): {line}", line.len());
+}
+
+const QUAD_MATERIAL: &str = "[[material]]\nname = \"m\"\ntype = \"diffuse\"\n[[shape]]\ntype = \"quad\"\nmaterial = \"m\"\norigin = [-1, -1, 0]\nu = [2, 0, 0]\nv = [0, 2, 0]\n";
+const TRIANGLE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+
+#[test]
+fn a_manifest_resolution_above_the_flags_limit_is_refused() {
+    let toml = format!("resolution = [65536, 65536]\n{QUAD_MATERIAL}");
+    assert_refused(
+        &[("scene.toml", toml.as_bytes())],
+        &[],
+        &["scene.toml", "resolution", "16384"],
+    );
+}
+
+#[test]
+fn a_film_larger_than_the_available_memory_is_refused_before_allocating() {
+    // 16384 x 16384 needs 16384^2 x 120 bytes = 30 GiB by the estimate.
+    let needed = 16384u64 * 16384 * 120;
+    let available = std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|t| {
+            let line = t
+                .lines()
+                .find(|l| l.starts_with("MemAvailable:"))?
+                .to_owned();
+            line.split_whitespace().nth(1)?.parse::<u64>().ok()
+        })
+        .map(|kib| kib * 1024);
+    if available.is_none_or(|a| a >= needed) {
+        eprintln!("skipped: {available:?} bytes available, the film fits");
+        return;
+    }
+    let toml = format!(
+        "resolution = [16384, 16384]\n{QUAD_MATERIAL}[[light]]\ntype = \"environment\"\nintensity = [1, 1, 1]\n"
+    );
+    assert_refused(
+        &[("scene.toml", toml.as_bytes())],
+        &[],
+        &["scene.toml: resolution", "16384x16384", "memory"],
+    );
+    assert_refused(
+        &[("scene.toml", toml.as_bytes())],
+        &["--resolution", "16384x16384"],
+        &["--resolution", "16384x16384", "memory"],
+    );
+}
+
+#[test]
+fn a_point_light_whose_power_overflows_is_refused() {
+    let toml = format!(
+        "{QUAD_MATERIAL}[[light]]\ntype = \"point\"\nposition = [0, 0, 1]\nintensity = [3e38, 3e38, 3e38]\n"
+    );
+    assert_refused(
+        &[("scene.toml", toml.as_bytes())],
+        &[],
+        &["scene.toml", "light 1 (point)", "intensity"],
+    );
+}
+
+#[test]
+fn a_camera_name_with_an_obj_model_is_refused() {
+    let toml = "[[model]]\nfile = \"a.obj\"\n[camera]\nname = \"nosuch\"\n";
+    assert_refused(
+        &[
+            ("scene.toml", toml.as_bytes()),
+            ("a.obj", TRIANGLE_OBJ.as_bytes()),
+        ],
+        &[],
+        &["scene.toml", "[camera] name", "nosuch"],
+    );
+}
+
+#[test]
+fn mtl_nan_values_are_refused_naming_file_material_and_line() {
+    let obj = format!("mtllib a.mtl\nusemtl m\n{TRIANGLE_OBJ}");
+    for (mtl, key) in [("newmtl m\nNs nan\n", "Ns"), ("newmtl m\nd nan\n", "d")] {
+        assert_refused(
+            &[("a.obj", obj.as_bytes()), ("a.mtl", mtl.as_bytes())],
+            &[],
+            &["a.mtl", "material \"m\", line 2", key],
+        );
+    }
+}
+
+#[test]
+fn empty_files_are_errors_unless_allow_empty() {
+    for name in ["empty.obj", "scene.toml"] {
+        assert_refused(&[(name, b"")], &[], &[name, "no geometry", "--allow-empty"]);
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let output = render_files(
+        dir.path(),
+        &[("empty.obj", b"")],
+        &["--allow-empty", "--resolution", "4x4"],
+    );
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(stderr(&output).contains("warning: "));
+    assert!(dir.path().join("out.exr").is_file());
+}
+
+#[test]
+fn a_huge_obj_token_is_quoted_in_one_short_line() {
+    let obj = format!("v 0 0 {}\n{TRIANGLE_OBJ}", "7".repeat(20_000_000));
+    assert_refused(
+        &[("big.obj", obj.as_bytes())],
+        &[],
+        &["big.obj", "line 1", "(20000000 characters)"],
+    );
+}
+
+#[test]
+fn a_referenced_folder_is_called_a_folder() {
+    let obj = format!("mtllib lib\n{TRIANGLE_OBJ}");
+    assert_refused(
+        &[("a.obj", obj.as_bytes()), ("lib/x.mtl", b"")],
+        &[],
+        &["a.obj", "mtllib", "is a folder"],
+    );
+}
+
+#[test]
+fn an_out_of_range_face_index_names_its_line() {
+    let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n";
+    assert_refused(
+        &[("a.obj", obj.as_bytes())],
+        &[],
+        &["a.obj", "line 4", "vertex index 4"],
+    );
+}
+
+#[test]
+fn mtllib_and_textures_outside_the_scene_folder_are_refused() {
+    let obj = format!("mtllib ../../../../etc/passwd\n{TRIANGLE_OBJ}");
+    assert_refused(
+        &[("a.obj", obj.as_bytes())],
+        &[],
+        &["a.obj", "mtllib", "outside", "--allow-outside-paths"],
+    );
+    let obj = format!("mtllib a.mtl\nusemtl m\n{TRIANGLE_OBJ}");
+    let mtl = "newmtl m\nKd 1 1 1\nmap_Kd ../../../../etc/passwd\n";
+    assert_refused(
+        &[("a.obj", obj.as_bytes()), ("a.mtl", mtl.as_bytes())],
+        &[],
+        &["a.mtl", "map_Kd", "outside"],
+    );
 }

@@ -19,10 +19,13 @@ pub mod paths;
 pub mod scene;
 pub mod shapes;
 pub mod texture;
+pub mod validate;
 
 use std::path::Path;
 
 use glam::{UVec2, Vec3};
+
+use crate::error::quoted;
 use microfacet::{NdfKind, Shadowing};
 
 pub use camera::{Camera, CameraSpec};
@@ -51,9 +54,13 @@ pub struct LoadOptions {
     /// Let file references leave the scene file's folder
     /// (`--allow-outside-paths`; see [`paths`]).
     pub allow_outside_paths: bool,
+    /// Accept a scene with no geometry, or with no light and no environment
+    /// (`--allow-empty`): a warning instead of an error (see [`validate`]).
+    pub allow_empty: bool,
 }
 
-/// Loads a scene from a manifest (`.toml`), glTF (`.gltf`, `.glb`) or OBJ (`.obj`) file.
+/// Loads a scene from a manifest (`.toml`), glTF (`.gltf`, `.glb`) or OBJ (`.obj`) file,
+/// and checks it against the input rule ([`validate`]) whatever its format.
 pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
     let extension = path
         .extension()
@@ -93,7 +100,15 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
                 .map_err(|e| SceneError::invalid(path, "camera", e))
         })
         .transpose()?;
-    Ok(builder.finish(camera, resolution, render))
+    let mut scene = builder.finish(camera, resolution, render);
+    validate::validate(
+        &mut scene,
+        path,
+        validate::Allow {
+            empty: options.allow_empty,
+        },
+    )?;
+    Ok(scene)
 }
 
 /// One model file (OBJ or glTF) and the camera it carries, if any.
@@ -127,7 +142,8 @@ pub fn parse_ndf(name: &str) -> Result<NdfKind, String> {
         "beckmann" => Ok(NdfKind::Beckmann),
         "blinn-phong" => Ok(NdfKind::BlinnPhong),
         other => Err(format!(
-            "unknown NDF \"{other}\" (expected ggx, beckmann or blinn-phong)"
+            "unknown NDF {} (expected ggx, beckmann or blinn-phong)",
+            quoted(other)
         )),
     }
 }
@@ -138,7 +154,8 @@ pub fn parse_shadowing(name: &str) -> Result<Shadowing, String> {
         "smith" => Ok(Shadowing::Smith),
         "v-cavity" => Ok(Shadowing::VCavity),
         other => Err(format!(
-            "unknown shadowing \"{other}\" (expected smith or v-cavity)"
+            "unknown shadowing {} (expected smith or v-cavity)",
+            quoted(other)
         )),
     }
 }

@@ -55,7 +55,7 @@ use microfacet::{Fresnel, MicrofacetModel, NdfKind, Shadowing};
 use serde::Deserialize;
 
 use crate::camera::CameraSpec;
-use crate::error::SceneError;
+use crate::error::{SceneError, quoted};
 use crate::light::Light;
 use crate::material::{Material, Surface};
 use crate::paths::ReferencePolicy;
@@ -188,6 +188,25 @@ pub fn load(
         camera = camera.or(model_camera);
         builder.append(part);
     }
+    if let Some(name) = camera_name
+        && camera.is_none()
+    {
+        // glTF models refuse a name they lack; OBJ models have no cameras at all.
+        let key = if manifest.camera.as_ref().and_then(|c| c.name.as_deref()) == Some(name) {
+            "[camera] name"
+        } else {
+            "--camera"
+        };
+        return Err(SceneError::invalid(
+            path,
+            key,
+            format!(
+                "no model of this manifest has a camera named {} (OBJ files have no cameras; \
+                 give `from`, `at` and `fov` instead)",
+                crate::error::quoted(name)
+            ),
+        ));
+    }
     apply_materials(path, &manifest.materials, &mut builder)?;
     add_shapes(path, &manifest.shapes, &mut builder)?;
     for (i, light) in manifest.lights.iter().enumerate() {
@@ -248,13 +267,22 @@ pub fn load(
     })
 }
 
-/// Largest image side a manifest may ask for (a 64k x 64k RGB f64 film is 100 GB).
-pub const MAX_RESOLUTION: u32 = 65_536;
+/// Largest image side a manifest may ask for: the same as `--resolution`'s
+/// (a 64k x 64k film took 100 GB and aborted the process); render-cli
+/// further checks that the film fits in the available memory.
+pub const MAX_RESOLUTION: u32 = 16_384;
 
 /// toml's message with the line of the error and, for a bad value, its key
 /// (toml names the expected type but not the key).
 fn toml_message(text: &str, e: &toml::de::Error) -> String {
+    // toml quotes the offending value, which may be megabytes long.
     let message = e.message().to_string();
+    let message = if message.chars().count() > 200 {
+        let shown: String = message.chars().take(160).collect();
+        format!("{shown}... ({} characters)", message.chars().count())
+    } else {
+        message
+    };
     let Some(span) = e.span() else {
         return message;
     };
@@ -266,6 +294,17 @@ fn toml_message(text: &str, e: &toml::de::Error) -> String {
             format!("line {line}: {}: {message}", key.trim())
         }
         _ => format!("line {line}: {message}"),
+    }
+}
+
+/// A shape's or light's `type` for its element name, " (point)", when it is
+/// a short word; nothing otherwise (the message quotes it).
+fn kind_name(kind: &str) -> String {
+    let word = |c: char| c.is_ascii_alphanumeric() || c == '_' || c == '-';
+    if !kind.is_empty() && kind.len() <= 20 && kind.chars().all(word) {
+        format!(" ({kind})")
+    } else {
+        String::new()
     }
 }
 
@@ -285,7 +324,7 @@ fn apply_materials(
         .map(|(i, m)| (m.name.clone(), i))
         .collect();
     for section in sections {
-        let element = format!("material \"{}\"", section.name);
+        let element = format!("material {}", quoted(&section.name));
         let invalid = |message: String| SceneError::invalid(path, element.clone(), message);
         let alpha = checked_values(section).map_err(invalid)?;
         let ndf = section
@@ -387,7 +426,8 @@ fn new_surface(
         },
         other => {
             return Err(format!(
-                "unknown type \"{other}\" (expected diffuse, conductor or dielectric)"
+                "unknown type {} (expected diffuse, conductor or dielectric)",
+                quoted(other)
             ));
         }
     })
@@ -456,13 +496,13 @@ fn add_shapes(
     builder: &mut SceneBuilder,
 ) -> Result<(), SceneError> {
     for (i, s) in sections.iter().enumerate() {
-        let element = format!("shape {} ({})", i + 1, s.kind);
+        let element = format!("shape {}{}", i + 1, kind_name(&s.kind));
         let invalid = |message: String| SceneError::invalid(path, element.clone(), message);
         let material = builder
             .materials
             .iter()
             .position(|m| m.name == s.material)
-            .ok_or_else(|| invalid(format!("material \"{}\" is not defined", s.material)))?
+            .ok_or_else(|| invalid(format!("material {} is not defined", quoted(&s.material))))?
             as u32;
         let need = |v: Option<[f32; 3]>, name: &str| {
             vec3(v).ok_or_else(|| invalid(format!("`{name}` is required")))
@@ -489,7 +529,8 @@ fn add_shapes(
             "quad" => shapes::quad(need(s.origin, "origin")?, need(s.u, "u")?, need(s.v, "v")?),
             other => {
                 return Err(invalid(format!(
-                    "unknown shape type \"{other}\" (expected sphere or quad)"
+                    "unknown shape type {} (expected sphere or quad)",
+                    quoted(other)
                 )));
             }
         };
@@ -508,7 +549,7 @@ fn add_shapes(
 }
 
 fn parse_light(path: &Path, index: usize, l: &LightSection) -> Result<Light, SceneError> {
-    let element = format!("light {} ({})", index + 1, l.kind);
+    let element = format!("light {}{}", index + 1, kind_name(&l.kind));
     let invalid = |message: String| SceneError::invalid(path, element.clone(), message);
     let intensity = Vec3::from_array(l.intensity);
     if !(intensity.is_finite() && intensity.min_element() >= 0.0) {
@@ -555,7 +596,8 @@ fn parse_light(path: &Path, index: usize, l: &LightSection) -> Result<Light, Sce
         },
         other => {
             return Err(invalid(format!(
-                "unknown light type \"{other}\" (expected point, spot, directional or environment)"
+                "unknown light type {} (expected point, spot, directional or environment)",
+                quoted(other)
             )));
         }
     })

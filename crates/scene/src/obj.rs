@@ -1,12 +1,13 @@
 //! Wavefront OBJ/MTL loading with `tobj` (mapping: see `material` module docs).
 
+use std::cell::RefCell;
 use std::collections::HashMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
 use microfacet::{Fresnel, MicrofacetModel, NdfKind, Shadowing};
 
-use crate::error::SceneError;
+use crate::error::{SceneError, quoted};
 use crate::material::{Material, Surface, TexturedPbr};
 use crate::scene::SceneBuilder;
 use crate::texture::Texture;
@@ -25,10 +26,13 @@ fn default_material() -> Material {
     }
 }
 
-/// Loads an OBJ file and the MTL files it references.
+/// Where each material came from: its MTL file and the line of its `newmtl`.
+type Origins = HashMap<String, (PathBuf, usize)>;
+
+/// Loads an OBJ file and the MTL files it references (resolved with `policy`).
 pub fn load(
     path: &Path,
-    _policy: &crate::paths::ReferencePolicy,
+    policy: &crate::paths::ReferencePolicy,
 ) -> Result<SceneBuilder, SceneError> {
     let text = std::fs::read(path).map_err(|e| SceneError::io(path, e))?;
     check_lines(path, &text)?;
@@ -38,8 +42,33 @@ pub fn load(
         ignore_points: true,
         ignore_lines: true,
     };
-    let (models, materials) =
-        tobj::load_obj(path, &options).map_err(|e| SceneError::malformed(path, describe(&e)))?;
+    // tobj's material loader cannot return our error: keep the first one here.
+    let mtl_error: RefCell<Option<SceneError>> = RefCell::new(None);
+    let origins: RefCell<Origins> = RefCell::new(HashMap::new());
+    let loader = |reference: &Path| -> tobj::MTLLoadResult {
+        match load_mtl(path, reference, policy) {
+            Ok(LoadedMtl {
+                file,
+                materials,
+                lines,
+            }) => {
+                let mut origins = origins.borrow_mut();
+                for (name, line) in lines {
+                    origins.entry(name).or_insert((file.clone(), line));
+                }
+                Ok(materials)
+            }
+            Err(e) => {
+                mtl_error.borrow_mut().get_or_insert(e);
+                Err(tobj::LoadError::OpenFileFailed)
+            }
+        }
+    };
+    let loaded = tobj::load_obj_buf(&mut text.as_slice(), &options, loader);
+    if let Some(e) = mtl_error.into_inner() {
+        return Err(e);
+    }
+    let (models, materials) = loaded.map_err(|e| SceneError::malformed(path, describe(&e)))?;
     let mtl_materials = match materials {
         Ok(m) => m,
         Err(e) => {
@@ -52,12 +81,29 @@ pub fn load(
             ));
         }
     };
+    let origins = origins.into_inner();
     let mut builder = SceneBuilder::default();
-    let directory = path.parent().unwrap_or(Path::new("."));
-    let mut texture_cache: HashMap<String, usize> = HashMap::new();
+    for (line, name) in undefined_materials(&text, &mtl_materials) {
+        builder.report.warnings.push(format!(
+            "{}: line {line}: usemtl {} names no material of its MTL files: the default \
+             material (diffuse 0.8) is used",
+            path.display(),
+            quoted(&name)
+        ));
+    }
+    let mut texture_cache: HashMap<PathBuf, usize> = HashMap::new();
     let mut material_ids = Vec::with_capacity(mtl_materials.len());
     for m in &mtl_materials {
-        let material = map_material(path, directory, m, &mut builder, &mut texture_cache)?;
+        let (mtl_file, line) = origins
+            .get(&m.name)
+            .cloned()
+            .unwrap_or_else(|| (path.to_path_buf(), 0));
+        let source = Source {
+            file: &mtl_file,
+            line,
+            policy,
+        };
+        let material = map_material(&source, m, &mut builder, &mut texture_cache)?;
         material_ids.push(builder.add_material(material));
     }
     let mut default_id = None;
@@ -68,8 +114,8 @@ pub fn load(
                 SceneError::malformed(
                     path,
                     format!(
-                        "object \"{}\" uses material {id}, which the MTL does not define",
-                        model.name
+                        "object {} uses material {id}, which the MTL does not define",
+                        quoted(&model.name)
                     ),
                 )
             })?,
@@ -95,7 +141,7 @@ pub fn load(
                 .map(|t| Vec2::new(t[0], 1.0 - t[1]))
         };
         for (f, face) in mesh.indices.chunks_exact(3).enumerate() {
-            let element = || format!("object \"{}\", triangle {f}", model.name);
+            let element = || format!("object {}, triangle {f}", quoted(&model.name));
             let get = |g: &dyn Fn(u32) -> Option<Vec3>| -> Option<[Vec3; 3]> {
                 Some([g(face[0])?, g(face[1])?, g(face[2])?])
             };
@@ -118,38 +164,231 @@ pub fn load(
     Ok(builder)
 }
 
-/// Finds the first `v`, `vn` or `vt` line with a number that does not parse or is
-/// not finite, and the first face with fewer than three vertices, so that the
-/// error names the line (tobj's errors do not; it drops short faces silently).
-fn check_lines(path: &Path, text: &[u8]) -> Result<(), SceneError> {
+/// What tobj reads from one MTL file.
+type MtlMaterials = <tobj::MTLLoadResult as IntoIterator>::Item;
+
+/// One MTL file as read: where it is, tobj's materials, the line of each `newmtl`.
+struct LoadedMtl {
+    file: PathBuf,
+    materials: MtlMaterials,
+    lines: Vec<(String, usize)>,
+}
+
+/// One `mtllib`: resolved through `policy` (inside the scene's folder, a
+/// file and not a folder), its values checked line by line ([`check_mtl`]),
+/// then parsed by tobj. Returns the file, tobj's result and the line of each
+/// `newmtl`.
+fn load_mtl(
+    obj: &Path,
+    reference: &Path,
+    policy: &crate::paths::ReferencePolicy,
+) -> Result<LoadedMtl, SceneError> {
+    let written = reference.to_string_lossy();
+    let file = policy.resolve(obj, "mtllib", &written)?;
+    let text = std::fs::read(&file).map_err(|e| SceneError::io(&file, e))?;
+    let lines = check_mtl(&file, &text)?;
+    let materials = tobj::load_mtl_buf(&mut text.as_slice())
+        .map_err(|e| SceneError::malformed(&file, describe(&e)))?;
+    Ok(LoadedMtl {
+        file,
+        materials,
+        lines,
+    })
+}
+
+/// The value checks of an MTL file, before tobj reads it (tobj reads `nan`
+/// as a number and panics on a colour with fewer than three numbers). Returns
+/// the line of each `newmtl`.
+fn check_mtl(path: &Path, text: &[u8]) -> Result<Vec<(String, usize)>, SceneError> {
     let text = String::from_utf8_lossy(text);
+    let mut material = String::new();
+    let mut newmtl = Vec::new();
     for (n, line) in text.lines().enumerate() {
+        let line = line.trim();
         let mut words = line.split_whitespace();
-        match words.next() {
-            Some("v" | "vn" | "vt") => {}
-            Some("f") if words.clone().count() < 3 => {
-                return Err(SceneError::invalid(
-                    path,
-                    format!("line {}", n + 1),
-                    "a face needs at least three vertices",
-                ));
+        let Some(key) = words.next() else { continue };
+        let element = || {
+            if material.is_empty() {
+                format!("line {}", n + 1)
+            } else {
+                format!("material {}, line {}", quoted(&material), n + 1)
             }
-            _ => continue,
-        }
-        for word in words {
+        };
+        let invalid = |message: String| SceneError::invalid(path, element(), message);
+        let number = |word: Option<&str>| -> Result<f32, SceneError> {
+            let word = word.ok_or_else(|| invalid(format!("{key} needs a number")))?;
             match word.parse::<f32>() {
-                Ok(x) if x.is_finite() => {}
-                _ => {
-                    return Err(SceneError::invalid(
-                        path,
-                        format!("line {}", n + 1),
-                        format!("\"{word}\" is not a finite number"),
-                    ));
+                Ok(x) if x.is_finite() => Ok(x),
+                _ => Err(invalid(format!(
+                    "{key} {} is not a finite number",
+                    quoted(word)
+                ))),
+            }
+        };
+        let in_range = |x: f32, low: f32, high: f32| -> Result<f32, SceneError> {
+            if (low..=high).contains(&x) {
+                Ok(x)
+            } else {
+                Err(invalid(format!(
+                    "{key} must be in [{low}, {high}], got {x}"
+                )))
+            }
+        };
+        match key {
+            "newmtl" => {
+                material = line["newmtl".len()..].trim().to_owned();
+                newmtl.push((material.clone(), n + 1));
+            }
+            "Ka" | "Kd" | "Ks" | "Ke" | "Tf" => {
+                for _ in 0..3 {
+                    in_range(number(words.next())?, 0.0, f32::MAX)?;
                 }
             }
+            "Ns" => {
+                in_range(number(words.next())?, 0.0, f32::MAX)?;
+            }
+            // Ni <= 0 is refused where the material is a dielectric (real files
+            // write `Ni 0` on opaque materials).
+            "Ni" => {
+                number(words.next())?;
+            }
+            "d" | "Tr" | "Pm" => {
+                in_range(number(words.next())?, 0.0, 1.0)?;
+            }
+            "Pr" => {
+                in_range(number(words.next())?, 0.0, f32::MAX)?;
+            }
+            "illum" => {
+                let word = words.next().unwrap_or("");
+                if word.parse::<u8>().is_err() {
+                    return Err(invalid(format!(
+                        "illum {} is not a whole number in 0..=255",
+                        quoted(word)
+                    )));
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(newmtl)
+}
+
+/// Finds the first `v`, `vn` or `vt` line with a number that does not parse or is
+/// not finite, the first face with fewer than three vertices, and the first
+/// face (or line, or point) index that is not a whole number or refers to no
+/// element, so that the error names the line (tobj's errors do not; it drops
+/// short faces silently, and overflows on an index such as -9223372036854775808).
+/// Negative indices count back from the elements read so far; positive ones
+/// may refer to any element of the file.
+fn check_lines(path: &Path, text: &[u8]) -> Result<(), SceneError> {
+    let text = String::from_utf8_lossy(text);
+    let mut totals = [0usize; 3];
+    for line in text.lines() {
+        match line.split_whitespace().next() {
+            Some("v") => totals[0] += 1,
+            Some("vt") => totals[1] += 1,
+            Some("vn") => totals[2] += 1,
+            _ => {}
+        }
+    }
+    let mut counts = [0usize; 3];
+    for (n, line) in text.lines().enumerate() {
+        let element = || format!("line {}", n + 1);
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some(kind @ ("v" | "vn" | "vt")) => {
+                counts[match kind {
+                    "v" => 0,
+                    "vt" => 1,
+                    _ => 2,
+                }] += 1;
+                for word in words {
+                    match word.parse::<f32>() {
+                        Ok(x) if x.is_finite() => {}
+                        _ => {
+                            return Err(SceneError::invalid(
+                                path,
+                                element(),
+                                format!("{} is not a finite number", quoted(word)),
+                            ));
+                        }
+                    }
+                }
+            }
+            Some(kind @ ("f" | "l" | "p")) => {
+                if kind == "f" && words.clone().count() < 3 {
+                    return Err(SceneError::invalid(
+                        path,
+                        element(),
+                        "a face needs at least three vertices",
+                    ));
+                }
+                for word in words {
+                    check_face_vertex(word, &counts, &totals)
+                        .map_err(|message| SceneError::invalid(path, element(), message))?;
+                }
+            }
+            _ => {}
         }
     }
     Ok(())
+}
+
+/// One `v/vt/vn` of a face: whole numbers, not 0, referring to existing elements.
+fn check_face_vertex(word: &str, counts: &[usize; 3], totals: &[usize; 3]) -> Result<(), String> {
+    const NAMES: [&str; 3] = ["vertex", "texture coordinate", "normal"];
+    let parts: Vec<&str> = word.split('/').collect();
+    if parts.len() > 3 {
+        return Err(format!(
+            "face vertex {} has more than three indices (v/vt/vn)",
+            quoted(word)
+        ));
+    }
+    for (k, part) in parts.iter().enumerate() {
+        if part.is_empty() && k > 0 {
+            continue;
+        }
+        let name = NAMES[k];
+        let Ok(index) = part.parse::<i64>() else {
+            return Err(format!(
+                "face {name} index {} is not a whole number",
+                quoted(part)
+            ));
+        };
+        let valid = if index > 0 {
+            index as u64 <= totals[k] as u64
+        } else {
+            index != 0 && index.unsigned_abs() <= counts[k] as u64
+        };
+        if !valid {
+            let available = if index > 0 { totals[k] } else { counts[k] };
+            return Err(format!(
+                "face {name} index {index} refers to no {name} ({available} defined{})",
+                if index < 0 { " so far" } else { "" }
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The first `usemtl` line of each material name that no MTL file defines.
+fn undefined_materials(text: &[u8], materials: &[tobj::Material]) -> Vec<(usize, String)> {
+    let text = String::from_utf8_lossy(text);
+    let mut missing: Vec<(usize, String)> = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.split_whitespace().next() != Some("usemtl") {
+            continue;
+        }
+        let name = line["usemtl".len()..].trim();
+        if !name.is_empty()
+            && !materials.iter().any(|m| m.name == name)
+            && !missing.iter().any(|(_, m)| m == name)
+        {
+            missing.push((n + 1, name.to_owned()));
+        }
+    }
+    missing
 }
 
 fn describe(e: &tobj::LoadError) -> String {
@@ -185,15 +424,29 @@ fn rgb(c: Option<[f32; 3]>) -> Vec3 {
     c.map_or(Vec3::ZERO, Vec3::from_array)
 }
 
+/// Where a material was defined: its MTL file (whose folder its textures
+/// are relative to) and the line of its `newmtl` (0: unknown).
+struct Source<'a> {
+    file: &'a Path,
+    line: usize,
+    policy: &'a crate::paths::ReferencePolicy,
+}
+
 /// The mapping of the `material` module docs, with range checks.
 fn map_material(
-    path: &Path,
-    directory: &Path,
+    source: &Source,
     m: &tobj::Material,
     builder: &mut SceneBuilder,
-    textures: &mut HashMap<String, usize>,
+    textures: &mut HashMap<PathBuf, usize>,
 ) -> Result<Material, SceneError> {
-    let element = || format!("material \"{}\"", m.name);
+    let path = source.file;
+    let element = || {
+        if source.line > 0 {
+            format!("material {} (line {})", quoted(&m.name), source.line)
+        } else {
+            format!("material {}", quoted(&m.name))
+        }
+    };
     let kd = rgb(m.diffuse);
     let ks = rgb(m.specular);
     let ke = rgb(m.emissive);
@@ -203,6 +456,15 @@ fn map_material(
                 path,
                 element(),
                 format!("{name} must be finite and non-negative, got {c}"),
+            ));
+        }
+    }
+    for (name, c) in [("Kd", kd), ("Ks", ks)] {
+        if c.max_element() > 1.0 {
+            builder.report.warnings.push(format!(
+                "{}: {}: {name} {c} is above 1 and is clamped to 1",
+                path.display(),
+                element()
             ));
         }
     }
@@ -269,7 +531,7 @@ fn map_material(
     };
     let surface = match (&m.diffuse_texture, surface) {
         (Some(file), Surface::Diffuse { reflectance }) => {
-            let id = load_texture(path, directory, file, builder, textures)?;
+            let id = load_texture(source, &element(), file, builder, textures)?;
             Surface::Textured(TexturedPbr {
                 base_color: reflectance,
                 base_color_texture: Some(id),
@@ -282,9 +544,10 @@ fn map_material(
         }
         (Some(file), s) => {
             builder.report.warnings.push(format!(
-                "{}: {}: map_Kd \"{file}\" ignored on a non-diffuse material",
+                "{}: {}: map_Kd {} ignored on a non-diffuse material",
                 path.display(),
-                element()
+                element(),
+                quoted(file)
             ));
             s
         }
@@ -298,29 +561,37 @@ fn map_material(
 }
 
 fn load_texture(
-    path: &Path,
-    directory: &Path,
+    source: &Source,
+    element: &str,
     file: &str,
     builder: &mut SceneBuilder,
-    cache: &mut HashMap<String, usize>,
+    cache: &mut HashMap<PathBuf, usize>,
 ) -> Result<usize, SceneError> {
-    if let Some(&id) = cache.get(file) {
+    let path = source.file;
+    let texture_path = source
+        .policy
+        .resolve(path, &format!("{element}: map_Kd"), file.trim())?;
+    if let Some(&id) = cache.get(&texture_path) {
         return Ok(id);
     }
-    let texture_path = directory.join(file);
     let image = image::open(&texture_path)
         .map_err(|e| {
-            SceneError::malformed(path, format!("texture \"{}\": {e}", texture_path.display()))
+            SceneError::invalid(
+                path,
+                format!("{element}: map_Kd {}", quoted(file)),
+                e.to_string(),
+            )
         })?
         .to_rgba8();
     let texture = Texture::from_u8(image.width(), image.height(), 4, image.as_raw(), true)
         .ok_or_else(|| {
-            SceneError::malformed(
+            SceneError::invalid(
                 path,
-                format!("texture \"{}\" is empty", texture_path.display()),
+                format!("{element}: map_Kd {}", quoted(file)),
+                "the image is empty",
             )
         })?;
     let id = builder.add_texture(texture);
-    cache.insert(file.to_string(), id);
+    cache.insert(texture_path, id);
     Ok(id)
 }

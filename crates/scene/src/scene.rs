@@ -145,9 +145,9 @@ impl SceneBuilder {
         self.textures.len() - 1
     }
 
-    /// Adds one triangle. Non-finite positions are an error naming `element`;
-    /// zero-area triangles are skipped and counted; missing or invalid
-    /// shading normals fall back to the geometric normal.
+    /// Adds one triangle. Non-finite positions, normals or uvs are an error
+    /// naming `element`; zero-area triangles are skipped and counted; missing
+    /// or zero shading normals fall back to the geometric normal.
     pub(crate) fn add_triangle(
         &mut self,
         path: &Path,
@@ -164,6 +164,20 @@ impl SceneBuilder {
                 "vertex position is NaN or infinite",
             ));
         }
+        if normals.is_some_and(|ns| !ns.iter().all(|n| n.is_finite())) {
+            return Err(SceneError::invalid(
+                path,
+                element(),
+                "vertex normal is NaN or infinite",
+            ));
+        }
+        if uvs.is_some_and(|t| !t.iter().all(|uv| uv.is_finite())) {
+            return Err(SceneError::invalid(
+                path,
+                element(),
+                "texture coordinate is NaN or infinite",
+            ));
+        }
         let Some(geometric) = triangle_normal(&positions) else {
             self.report.degenerate_triangles += 1;
             return Ok(());
@@ -171,9 +185,7 @@ impl SceneBuilder {
         let normals = normals.map_or([geometric; 3], |ns| {
             ns.map(|n| n.try_normalize().unwrap_or(geometric))
         });
-        let uvs = uvs
-            .filter(|t| t.iter().all(|uv| uv.is_finite()))
-            .unwrap_or([Vec2::ZERO; 3]);
+        let uvs = uvs.unwrap_or([Vec2::ZERO; 3]);
         self.triangles.push(positions);
         self.normals.push(normals);
         self.uvs.push(uvs);
@@ -228,16 +240,7 @@ impl SceneBuilder {
             }
         }
         self.report.non_manifold_edges = count_non_manifold_edges(&self.triangles);
-        if self.triangles.is_empty() {
-            self.report
-                .warnings
-                .push("the scene has no geometry".into());
-        }
-        if self.lights.is_empty() {
-            self.report
-                .warnings
-                .push("the scene has no lights: it renders black".into());
-        }
+        // An empty scene is refused or warned about by `validate`.
         let (min, max) = bounds_of(&self.triangles);
         let camera = camera.unwrap_or_else(|| Camera::framing(min, max, resolution));
         Scene {

@@ -111,14 +111,14 @@ fn cases() -> Vec<Case> {
     let invalid: fn(&SceneError) -> bool = |e| matches!(e, SceneError::Invalid { .. });
     let unsupported: fn(&SceneError) -> bool = |e| matches!(e, SceneError::Unsupported { .. });
     vec![
-        ("OBJ face index out of range", vec![("a.obj", s("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"))], malformed, "vertex"),
+        ("OBJ face index out of range", vec![("a.obj", s("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"))], invalid, "line 4"),
         ("OBJ NaN position", vec![("a.obj", s("v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n"))], invalid, "line 2"),
         ("OBJ garbage number", vec![("a.obj", s("v 0 0 0\nv 1 0 0\nv 0 1x 0\nf 1 2 3\n"))], invalid, "line 3"),
         ("OBJ truncated face", vec![("a.obj", s("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2"))], invalid, "line 4"),
-        ("OBJ missing MTL", vec![("a.obj", s("mtllib missing.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl x\nf 1 2 3\n"))], malformed, "material library"),
+        ("OBJ missing MTL", vec![("a.obj", s("mtllib missing.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl x\nf 1 2 3\n"))], invalid, "mtllib"),
         ("MTL negative Kd", vec![("a.obj", s("mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl x\nf 1 2 3\n")), ("a.mtl", s("newmtl x\nKd -1 0 0\n"))], invalid, "material \"x\""),
         ("MTL glass with Ni 0", vec![("a.obj", s("mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl g\nf 1 2 3\n")), ("a.mtl", s("newmtl g\nillum 7\nNi 0\n"))], invalid, "Ni"),
-        ("MTL missing texture", vec![("a.obj", s("mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl t\nf 1 2 3\n")), ("a.mtl", s("newmtl t\nKd 1 1 1\nmap_Kd nowhere.png\n"))], malformed, "nowhere.png"),
+        ("MTL missing texture", vec![("a.obj", s("mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl t\nf 1 2 3\n")), ("a.mtl", s("newmtl t\nKd 1 1 1\nmap_Kd nowhere.png\n"))], invalid, "nowhere.png"),
         ("glTF truncated JSON", vec![("a.gltf", s("{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[0]"))], malformed, "a.gltf"),
         ("glTF missing .bin", vec![("a.gltf", s(r#"{"asset":{"version":"2.0"},"buffers":[{"byteLength":12,"uri":"gone.bin"}]}"#))], malformed, "gone.bin"),
         ("glTF accessor out of range", vec![("a.gltf", s(r#"{"asset":{"version":"2.0"},"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],"meshes":[{"primitives":[{"attributes":{"POSITION":7}}]}]}"#))], malformed, "POSITION"),
@@ -173,8 +173,17 @@ fn degenerate_but_legal_input_is_accepted_and_reported() {
     .unwrap();
     assert_eq!((s.triangles.len(), s.report.degenerate_triangles), (1, 1));
     assert_eq!(s.lights.len(), 1);
-    // An empty scene loads (it renders black), with a warning.
-    let empty = load_files(&[("e.toml", b"")]).unwrap();
+    // An empty scene is an error, unless allowed: then it loads with a warning.
+    let e = load_files(&[("e.toml", b"")]).unwrap_err().to_string();
+    assert!(e.contains("e.toml") && e.contains("no geometry"), "{e}");
+    let dir = scratch_dir();
+    std::fs::write(dir.join("e.toml"), b"").unwrap();
+    let allow = LoadOptions {
+        allow_empty: true,
+        ..Default::default()
+    };
+    let empty = load(&dir.join("e.toml"), &allow).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
     assert!(empty.triangles.is_empty() && !empty.report.warnings.is_empty());
 }
 
@@ -182,7 +191,7 @@ fn fixtures() -> Vec<(&'static str, Vec<u8>)> {
     vec![
         ("f.obj", TRIANGLE_OBJ.as_bytes().to_vec()),
         ("f.gltf", gltf_triangle(r#","extras":{"ndf":"beckmann"}"#, UNIT, [0, 1, 2]).into_bytes()),
-        ("f.toml", b"resolution = [4, 4]\n[[material]]\nname = \"m\"\ntype = \"diffuse\"\n[[shape]]\ntype = \"sphere\"\nmaterial = \"m\"\ncenter = [0, 0, 0]\nradius = 1\nrings = 4\n".to_vec()),
+        ("f.toml", b"resolution = [4, 4]\n[[material]]\nname = \"m\"\ntype = \"diffuse\"\n[[shape]]\ntype = \"sphere\"\nmaterial = \"m\"\ncenter = [0, 0, 0]\nradius = 1\nrings = 4\n[[light]]\ntype = \"environment\"\nintensity = [1, 1, 1]\n".to_vec()),
         ("f.glb", std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/Box/glTF-Binary/Box.glb")).unwrap_or_default()),
     ]
 }

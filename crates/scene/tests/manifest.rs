@@ -134,8 +134,15 @@ fn gltf_punctual_lights_and_orthographic_camera() {
         "{err}"
     );
     // Without the camera the lights load, placed by their nodes.
+    // (The file has no geometry: an error unless allowed.)
     std::fs::write(&path, gltf.replace("[0,1,2]", "[0,1]")).unwrap();
-    let s = load(&path, &LoadOptions::default()).unwrap();
+    let err = load(&path, &LoadOptions::default()).unwrap_err();
+    assert!(err.to_string().contains("no geometry"), "{err}");
+    let allow_empty = LoadOptions {
+        allow_empty: true,
+        ..Default::default()
+    };
+    let s = load(&path, &allow_empty).unwrap();
     assert!(s.lights.iter().any(|l| matches!(l, Light::Spot { position, intensity, cos_inner, .. }
         if *position == Vec3::new(0.0, 2.0, 0.0) && *intensity == Vec3::new(8.0, 4.0, 2.0) && (cos_inner - 0.2f32.cos()).abs() < 1e-6)));
     assert!(s.lights.iter().any(|l| matches!(l, Light::Directional { direction, .. } if (*direction - Vec3::NEG_Z).length() < 1e-6)));
@@ -146,7 +153,12 @@ fn with_render_table(name: &str, render: &str) -> Result<scene::Scene, SceneErro
     let text = format!(
         "[[material]]\nname = \"m\"\ntype = \"diffuse\"\n[[shape]]\ntype = \"quad\"\nmaterial = \"m\"\norigin = [0, 0, 0]\nu = [1, 0, 0]\nv = [0, 1, 0]\n[render]\n{render}"
     );
-    load(&write_manifest(name, &text), &LoadOptions::default())
+    // No light: allowed, since only the [render] table matters here.
+    let options = LoadOptions {
+        allow_empty: true,
+        ..Default::default()
+    };
+    load(&write_manifest(name, &text), &options)
 }
 
 #[test]
