@@ -37,3 +37,7 @@ pub use film::Film;
 pub use regularization::{Mode, Schedule};
 pub use render::Renderer;
 pub use roulette::ROULETTE_DEPTH;
+
+/// Peak memory of the BVH build per triangle ([`accel::Bvh::BUILD_BYTES_PER_TRIANGLE`]),
+/// for callers that check memory before a scene is prepared.
+pub const BVH_BUILD_BYTES_PER_TRIANGLE: u64 = accel::Bvh::BUILD_BYTES_PER_TRIANGLE;

@@ -115,9 +115,12 @@ fn run(cli: &Cli) -> Result<ExitCode, Error> {
     } else {
         "the default resolution".to_owned()
     };
-    settings::check_film_memory(
-        resolution.x,
-        resolution.y,
+    let size = (resolution.x, resolution.y);
+    let film = ("film", settings::film_bytes(resolution.x, resolution.y));
+    let bvh = scene.triangles.len() as u64 * integrators::BVH_BUILD_BYTES_PER_TRIANGLE;
+    settings::check_memory(
+        &[film, ("BVH", bvh)],
+        size,
         &source,
         settings::available_memory(),
     )
@@ -130,6 +133,14 @@ fn run(cli: &Cli) -> Result<ExitCode, Error> {
     // The BVH build and every iteration run in the pool, so --threads bounds both.
     let (film, outcome, header) = pool.install(|| {
         let renderer = Renderer::new(scene, settings.config);
+        // The photon map is measured with a few pilot light subpaths once the
+        // BVH exists (it is taken anew every iteration).
+        let photons = renderer.photon_map_bytes();
+        if photons > 0 {
+            let needs = [film, ("photon map", photons)];
+            settings::check_memory(&needs, size, &source, settings::available_memory())
+                .map_err(Error::Memory)?;
+        }
         if cli.explain {
             print_explanation(cli, &renderer, &settings, &outputs);
         }
@@ -145,8 +156,8 @@ fn run(cli: &Cli) -> Result<ExitCode, Error> {
             .partial
             .as_ref()
             .map(|_| shard::header(&cli.scene, renderer.scene(), &settings.config, first, last));
-        (film, outcome, header)
-    });
+        Ok::<_, Error>((film, outcome, header))
+    })?;
     if outcome.iterations == 0 {
         return Err(Error::InterruptedEarly);
     }

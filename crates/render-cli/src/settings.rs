@@ -280,22 +280,28 @@ pub fn available_memory() -> Option<u64> {
     kib.checked_mul(1024)
 }
 
-/// Refuses a film that does not fit in `available` bytes (skipped when
-/// `None`), before anything is allocated: an allocation that fails aborts the
-/// process. `source` says where the resolution came from (flag or manifest key).
-pub fn check_film_memory(
-    width: u32,
-    height: u32,
+/// Refuses a render whose estimated needs (`(what, bytes)` pairs: the film,
+/// the BVH, the photon map) do not fit in `available` bytes (skipped when
+/// `None`), before they are allocated: an allocation that fails aborts the
+/// process. `source` says where the resolution came from (flag or manifest
+/// key), `(width, height)` is the resolution.
+pub fn check_memory(
+    needs: &[(&str, u64)],
+    (width, height): (u32, u32),
     source: &str,
     available: Option<u64>,
 ) -> Result<(), String> {
-    let needed = film_bytes(width, height);
+    let needed: u64 = needs.iter().map(|(_, bytes)| bytes).sum();
+    let parts: Vec<String> = needs
+        .iter()
+        .map(|(what, bytes)| format!("{what} {}", gib(*bytes)))
+        .collect();
     match available {
         Some(available) if needed > available => Err(format!(
-            "{source}: {width}x{height} needs about {} of memory for the film \
-             (60 bytes a pixel, doubled as a margin) but only {} is available; \
-             lower the resolution",
+            "{source}: {width}x{height} needs about {} of memory ({}) but only {} is \
+             available; lower the resolution",
             gib(needed),
+            parts.join(", "),
             gib(available)
         )),
         _ => Ok(()),
@@ -309,15 +315,18 @@ fn gib(bytes: u64) -> String {
 #[cfg(test)]
 mod tests {
     #[test]
-    fn a_film_larger_than_the_memory_is_refused() {
+    fn a_render_larger_than_the_memory_is_refused() {
         assert_eq!(super::film_bytes(10, 10), 12_000);
-        let e = super::check_film_memory(30000, 30000, "--resolution", Some(8 << 30)).unwrap_err();
+        let size = (30000, 30000);
+        let needs = [("film", super::film_bytes(30000, 30000)), ("BVH", 1 << 30)];
+        let e = super::check_memory(&needs, size, "--resolution", Some(8 << 30)).unwrap_err();
         assert!(
-            e.starts_with("--resolution: 30000x30000 needs about 100.6 GiB"),
+            e.starts_with("--resolution: 30000x30000 needs about 101.6 GiB of memory (film 100.6 GiB, BVH 1.0 GiB)"),
             "{e}"
         );
-        assert!(super::check_film_memory(30000, 30000, "--resolution", None).is_ok());
-        assert!(super::check_film_memory(512, 512, "--resolution", Some(8 << 30)).is_ok());
+        assert!(super::check_memory(&needs, size, "--resolution", None).is_ok());
+        let small = [("film", super::film_bytes(512, 512))];
+        assert!(super::check_memory(&small, (512, 512), "--resolution", Some(8 << 30)).is_ok());
     }
 
     use super::*;

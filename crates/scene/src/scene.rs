@@ -164,6 +164,12 @@ impl SceneBuilder {
                 "vertex position is NaN or infinite",
             ));
         }
+        // A degenerate triangle is skipped whatever its shading data (a node
+        // scaled to zero makes both degenerate positions and NaN normals).
+        let Some(geometric) = triangle_normal(&positions) else {
+            self.report.degenerate_triangles += 1;
+            return Ok(());
+        };
         if normals.is_some_and(|ns| !ns.iter().all(|n| n.is_finite())) {
             return Err(SceneError::invalid(
                 path,
@@ -178,10 +184,6 @@ impl SceneBuilder {
                 "texture coordinate is NaN or infinite",
             ));
         }
-        let Some(geometric) = triangle_normal(&positions) else {
-            self.report.degenerate_triangles += 1;
-            return Ok(());
-        };
         let normals = normals.map_or([geometric; 3], |ns| {
             ns.map(|n| n.try_normalize().unwrap_or(geometric))
         });
