@@ -649,3 +649,76 @@ fn mtllib_and_textures_outside_the_scene_folder_are_refused() {
         &["a.mtl", "map_Kd", "outside"],
     );
 }
+
+/// A one-triangle glTF (positions, u16 indices in `model.bin`), edited by
+/// `edit` (a JSON text replacement), written with its buffer into a
+/// `scene` folder of `dir`; the path of the .gltf.
+fn hostile_gltf(dir: &Path, edit: (&str, &str)) -> PathBuf {
+    let scene = dir.join("scene");
+    std::fs::create_dir_all(&scene).unwrap();
+    let mut bin = Vec::new();
+    for c in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0] {
+        bin.extend_from_slice(&c.to_le_bytes());
+    }
+    for i in [0u16, 1, 2, 0] {
+        bin.extend_from_slice(&i.to_le_bytes());
+    }
+    std::fs::write(scene.join("model.bin"), &bin).unwrap();
+    let gltf = r#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+"meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":1}]}],
+"buffers":[{"uri":"model.bin","byteLength":44}],
+"bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":8}],
+"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+{"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"}]}"#;
+    assert!(gltf.contains(edit.0), "{}", edit.0);
+    let path = scene.join("model.gltf");
+    std::fs::write(&path, gltf.replacen(edit.0, edit.1, 1)).unwrap();
+    path
+}
+
+/// glTF files that used to panic inside the gltf crate (exit 101) or read a
+/// file outside the scene now fail with one line naming file and element,
+/// and write nothing; the unedited file renders.
+#[test]
+fn hostile_gltf_files_fail_cleanly() {
+    let valid = tempfile::tempdir().unwrap();
+    let scene = hostile_gltf(valid.path(), ("", ""));
+    let exr = valid.path().join("ok.exr");
+    let mut args = vec![scene.to_str().unwrap(), "-o", exr.to_str().unwrap()];
+    args.extend(TINY);
+    let output = render_cli(&args);
+    assert!(output.status.success(), "{}", stderr(&output));
+
+    let cases = [
+        (
+            (r#""byteLength":36}"#, r#""byteLength":36,"byteStride":4}"#),
+            &["model.gltf", "accessor 0", "byteStride 4"][..],
+        ),
+        (
+            (r#""componentType":5123"#, r#""componentType":5126"#),
+            &["model.gltf", "accessor 1", "FLOAT"][..],
+        ),
+        (
+            (r#""uri":"model.bin""#, r#""uri":"../outside.bin""#),
+            &["model.gltf", "buffer 0", "outside", "--allow-outside-paths"][..],
+        ),
+    ];
+    for (edit, names) in cases {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("outside.bin"), [0u8; 44]).unwrap();
+        let scene = hostile_gltf(dir.path(), edit);
+        let out = dir.path().join("out");
+        std::fs::create_dir(&out).unwrap();
+        let exr = out.join("out.exr");
+        let mut args = vec![scene.to_str().unwrap(), "-o", exr.to_str().unwrap()];
+        args.extend(TINY);
+        let output = render_cli(&args);
+        assert_eq!(
+            output.status.code(),
+            Some(1),
+            "{edit:?}: {}",
+            stderr(&output)
+        );
+        assert_fails_cleanly(&output, names, &out);
+    }
+}
