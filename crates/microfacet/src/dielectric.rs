@@ -9,7 +9,7 @@
 
 use glam::{Vec2, Vec3};
 
-use crate::frame::{reflect, refract};
+use crate::frame::{reflect, refract_f64};
 use crate::fresnel;
 use crate::model::MicrofacetModel;
 use crate::sample::{BsdfSample, TransportMode};
@@ -69,11 +69,12 @@ impl Dielectric {
         if wi_h <= 0.0 {
             return None;
         }
-        let reflected = half.uc < fresnel::dielectric(wi_h, eta);
+        // F in f32 for the coin, as in `sample_smooth`.
+        let reflected = half.uc < fresnel::dielectric_f64(f64::from(wi_h), eta).0 as f32;
         let wo = if reflected {
             reflect(wi, h).try_normalize()?
         } else {
-            refract(wi, h, eta)?
+            refract_f64(wi, h, eta)?
         };
         let t = self.terms(wi, wo, h, eta, mode)?;
         Some(BsdfSample {
@@ -81,21 +82,27 @@ impl Dielectric {
             f: Vec3::splat(t.f),
             pdf: t.pdf,
             pdf_reverse: t.pdf_reverse,
-            eta: if reflected { 1.0 } else { eta },
+            eta: if reflected { 1.0 } else { eta as f32 },
             is_specular: false,
         })
     }
 
     /// Fresnel-weighted choice between mirror reflection and refraction
     /// through the macro normal (wi above the surface, eta = eta_t/eta_i).
+    /// Reflectance and transmittance come from the f64 Fresnel (each exact
+    /// to f32 rounding, also where F -> 1 near the critical angle).
     fn sample_smooth(
         &self,
         wi: Vec3,
-        eta: f32,
+        eta: f64,
         uc: f32,
         mode: TransportMode,
     ) -> Option<BsdfSample> {
-        let f = fresnel::dielectric(wi.z, eta);
+        let (f, t) = fresnel::dielectric_f64(f64::from(wi.z), eta);
+        // The coin compares with F in f32: a branch chosen this way has an
+        // f32 probability above 0 (F > uc >= 0, or F <= 1 - 2^-24 and so
+        // 1 - F >= 2^-25).
+        let (f, t) = (f as f32, t as f32);
         if uc < f {
             return Some(BsdfSample {
                 wo: Vec3::new(-wi.x, -wi.y, wi.z),
@@ -106,8 +113,8 @@ impl Dielectric {
                 is_specular: true,
             });
         }
-        let wo = refract(wi, Vec3::Z, eta)?;
-        let t = 1.0 - f;
+        let wo = refract_f64(wi, Vec3::Z, eta)?;
+        let eta = eta as f32;
         let scale = match mode {
             TransportMode::Radiance => 1.0 / (eta * eta),
             TransportMode::Importance => 1.0,
@@ -134,7 +141,11 @@ impl Dielectric {
             return None;
         }
         // Reflection: h ~ wi + wo; refraction: h ~ eta_i wi + eta_t wo ~ wi + eta wo.
-        let h = if wo.z > 0.0 { wi + wo } else { wi + eta * wo };
+        let h = if wo.z > 0.0 {
+            wi + wo
+        } else {
+            wi + eta as f32 * wo
+        };
         // Zero length only for wo = -wi at eta = 1, excluded above; kept for round-off.
         let h = h.try_normalize()?;
         let h = if h.z < 0.0 { -h } else { h };
@@ -143,14 +154,17 @@ impl Dielectric {
 
     /// The core shared by `eval`, `pdf` and `sample`: wi above the surface,
     /// h the oriented microfacet normal, eta = eta_t/eta_i.
-    fn terms(&self, wi: Vec3, wo: Vec3, h: Vec3, eta: f32, mode: TransportMode) -> Option<Terms> {
+    fn terms(&self, wi: Vec3, wo: Vec3, h: Vec3, eta: f64, mode: TransportMode) -> Option<Terms> {
         let (wi_h, wo_h) = (wi.dot(h), wo.dot(h));
         // Discard back-facing microfacets (SPEC §3).
         if !(h.z > 0.0 && wi_h > 0.0 && wo_h * wo.z > 0.0) {
             return None;
         }
         let (cos_i, cos_o) = (wi.z, wo.z.abs());
-        let f_r = fresnel::dielectric(wi_h, eta);
+        // F and 1 - F each to f32 precision (1 - F from an f32 F is not,
+        // near the critical angle).
+        let (f_r, t) = fresnel::dielectric_f64(f64::from(wi_h), eta);
+        let (f_r, t, eta) = (f_r as f32, t as f32, eta as f32);
         let facet = self.model.facet_terms(wi, wo, h);
         let terms = if wo.z > 0.0 {
             Terms {
@@ -159,7 +173,6 @@ impl Dielectric {
                 pdf_reverse: facet.pdf_h_wo / (4.0 * wo_h) * f_r,
             }
         } else {
-            let t = 1.0 - f_r;
             let denominator = wi_h + eta * wo_h;
             let denominator2 = denominator * denominator;
             let radiance =
@@ -182,8 +195,11 @@ impl Dielectric {
     }
 
     /// (sign of wi.z, wi flipped upwards, eta seen from wi), or `None` for a
-    /// direction in the tangent plane or an invalid index.
-    fn oriented(&self, wi: Vec3) -> Option<(f32, Vec3, f32)> {
+    /// direction in the tangent plane or an invalid index. The index is
+    /// returned in f64: the f32 1/eta of a query from below is off by up to
+    /// 6e-8 relative, which moves cos^2(theta_t) near the critical angle by
+    /// as much as f32 round-off did (see `frame::cos2_theta_t`).
+    fn oriented(&self, wi: Vec3) -> Option<(f32, Vec3, f64)> {
         if wi.z == 0.0 || !(self.eta > 0.0 && self.eta.is_finite()) {
             return None;
         }
@@ -191,7 +207,11 @@ impl Dielectric {
         Some((
             side,
             wi * side,
-            if side > 0.0 { self.eta } else { 1.0 / self.eta },
+            if side > 0.0 {
+                f64::from(self.eta)
+            } else {
+                1.0 / f64::from(self.eta)
+            },
         ))
     }
 }
