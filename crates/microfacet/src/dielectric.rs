@@ -73,8 +73,10 @@ impl Dielectric {
     /// Samples reflection or refraction through a sampled microfacet normal
     /// (or through the macro normal when smooth or index-matched). `None` on
     /// degenerate input, for a sample that ends on the wrong side of the
-    /// surface, and for a direction whose `pdf` is 0 (rounding at grazing
-    /// angles). A returned sample's pdf, reverse pdf and value are exactly
+    /// surface, and for a direction whose `pdf` is 0: rounding at grazing
+    /// angles, or a microfacet within f32 rounding of the horizon (h.z below
+    /// ~1e-7, e.g. GGX at u.x = 1 - 2^-24, u.y = 3/4), whose half vector
+    /// recovered from the rounded wo can come out below it. A returned sample's pdf, reverse pdf and value are exactly
     /// `pdf(wi, wo)`, `pdf(wo, wi)` and `eval(wi, wo)`.
     pub fn sample(&self, wi: Vec3, uc: f32, u: Vec2, mode: TransportMode) -> Option<BsdfSample> {
         let (side, wi, eta) = self.oriented(wi)?;
