@@ -39,4 +39,4 @@ mod triangle;
 
 pub use bvh::{BuildOptions, BuildQuality, Bvh, Hit, Layout, MAX_COORDINATE};
 pub use grid::HashGrid;
-pub use offset::offset_ray_origin;
+pub use offset::{offset_ray_origin, offset_ray_origin_scaled};

@@ -6,11 +6,20 @@ use glam::Vec3;
 /// Coordinates with magnitude below this use the float fallback: near zero,
 /// ULPs become tiny (down to denormals) while the error of a computed hit
 /// point does not (it scales with the magnitude of the triangle's vertices).
+/// The chapter's `origin()` (1/32).
 const ORIGIN: f32 = 1.0 / 32.0;
-/// Fallback offset, in world units per unit of normal, near the origin.
+/// Fallback offset, in world units per unit of normal, near the origin: the
+/// chapter's `float_scale()` (1/65536), for triangles whose vertices reach
+/// `ORIGIN` or beyond; scaled down for smaller ones by
+/// [`offset_ray_origin_scaled`].
 const FLOAT_SCALE: f32 = 1.0 / 65536.0;
-/// Offset in ULPs per unit of normal away from the origin.
+/// Offset in ULPs per unit of normal away from the origin: the chapter's
+/// `int_scale()` (256).
 const INT_SCALE: f32 = 256.0;
+/// Smallest geometry scale the fallback follows down (2^-40 = 9e-13): smaller
+/// scenes are not supported, and a point exactly at the origin still moves
+/// (by at least 2^-51 = 4e-16 per unit of normal).
+const MIN_SCALE: f32 = 1.0 / 1_099_511_627_776.0;
 /// A normal whose squared length is within this of 1 is used as it is: the
 /// offset then differs from the normalized one's by under 0.1 %, far below
 /// what matters for an offset of a few hundred ULPs.
@@ -48,12 +57,34 @@ const UNIT_TOLERANCE: f32 = 1e-3;
 /// Limitation: the fallback near the origin is tuned, as in the chapter, for
 /// scenes of roughly unit scale: for geometry much smaller than 1/32 placed
 /// around the world origin the offset (1/65536 along the normal) is large
-/// compared with the geometry.
+/// compared with the geometry, and a closed box of size 1e-5 or smaller there
+/// is jumped over (every ray spawned inside it starts outside and escapes).
+/// Use [`offset_ray_origin_scaled`] with the hit triangle's size for such
+/// scenes. (The fallback cannot follow |p| instead: a unit-size triangle
+/// hit within 1e-3 of the origin has a hit-point error of ~ULP(1), and an
+/// offset proportional to |p| then self-intersected, 3 % of rays at
+/// |p| = 1e-4.)
 ///
 /// [`Bvh::intersect`]: crate::Bvh::intersect
 /// [`Bvh::occluded`]: crate::Bvh::occluded
 #[must_use]
 pub fn offset_ray_origin(p: Vec3, n_geometric: Vec3) -> Vec3 {
+    offset_ray_origin_scaled(p, n_geometric, f32::INFINITY)
+}
+
+/// [`offset_ray_origin`] for geometry of any scale near the origin.
+///
+/// `scale` is the largest coordinate magnitude of the triangle's vertices
+/// (`max |v_i|` over its three vertices and their components): the error
+/// of a hit point interpolated from them scales with it, not with the hit
+/// point, which can be near zero on a large triangle. Coordinates of `p`
+/// below 1/32 then move by `n_i * scale / 2048` (the chapter's 1/65536 at
+/// scale 1/32; 4000 ULPs of `scale`), capped at the chapter's 1/65536 for
+/// scale >= 1/32 and floored at scale 2^-40; coordinates from 1/32 up move by
+/// 256 ULPs as in the chapter. A scale of infinity (or NaN) gives
+/// [`offset_ray_origin`] exactly.
+#[must_use]
+pub fn offset_ray_origin_scaled(p: Vec3, n_geometric: Vec3, scale: f32) -> Vec3 {
     // Callers mostly pass unit normals: normalizing only the others makes the
     // function 5x faster (criterion bench `offset`: 36 -> 7 ns per call).
     let n = if (n_geometric.length_squared() - 1.0).abs() <= UNIT_TOLERANCE {
@@ -64,20 +95,32 @@ pub fn offset_ray_origin(p: Vec3, n_geometric: Vec3) -> Vec3 {
     if n == Vec3::ZERO {
         return p;
     }
+    let fallback = fallback_offset(scale);
     Vec3::new(
-        offset_component(p.x, n.x),
-        offset_component(p.y, n.y),
-        offset_component(p.z, n.z),
+        offset_component(p.x, n.x, fallback),
+        offset_component(p.y, n.y, fallback),
+        offset_component(p.z, n.z, fallback),
     )
 }
 
+/// World-space offset per unit of normal for coordinates below `ORIGIN`:
+/// `FLOAT_SCALE * scale / ORIGIN` (= scale / 2048) for scale in
+/// [`MIN_SCALE`, `ORIGIN`], the chapter's `FLOAT_SCALE` above (and for NaN).
 #[inline]
-fn offset_component(p: f32, n: f32) -> f32 {
+fn fallback_offset(scale: f32) -> f32 {
+    if !(scale < ORIGIN) {
+        return FLOAT_SCALE;
+    }
+    FLOAT_SCALE * (scale.max(MIN_SCALE) / ORIGIN)
+}
+
+#[inline]
+fn offset_component(p: f32, n: f32, fallback: f32) -> f32 {
     if !p.is_finite() {
         return p;
     }
     if p.abs() < ORIGIN {
-        return p + FLOAT_SCALE * n;
+        return p + fallback * n;
     }
     // Truncation toward zero, as the chapter's int conversion; |n| <= 1.
     let of_i = (INT_SCALE * n) as i32;
@@ -122,6 +165,31 @@ mod tests {
                 assert!((o - p).dot(n) > 0.0, "{s} {n}");
             }
         }
+    }
+
+    /// The scaled fallback: the chapter's 1/65536 from scale 1/32 up (and for
+    /// an infinite scale, which is `offset_ray_origin`), scale/2048 below.
+    #[test]
+    fn fallback_follows_the_geometry_scale() {
+        let p = Vec3::new(1e-6, -2e-6, 0.0);
+        for scale in [1.0f32 / 32.0, 1.0, f32::INFINITY, f32::NAN] {
+            let o = offset_ray_origin_scaled(p, Vec3::Z, scale);
+            assert_eq!(o.z, 1.0 / 65536.0);
+        }
+        assert_eq!(offset_ray_origin(p, Vec3::Z).z, 1.0 / 65536.0);
+        let o = offset_ray_origin_scaled(p, Vec3::Z, 1.0 / 64.0);
+        assert_eq!(o.z, 1.0 / 131_072.0);
+        let o = offset_ray_origin_scaled(p, Vec3::Z, 4e-6);
+        assert!((o.z - 4e-6 / 2048.0).abs() < 1e-15, "{o}");
+        assert_eq!((o.x, o.y), (p.x, p.y));
+        let o = offset_ray_origin_scaled(Vec3::ZERO, -Vec3::Y, 0.0);
+        assert_eq!(o.y, -MIN_SCALE / 2048.0);
+        // Away from the origin the scale does not matter.
+        let q = Vec3::new(1.0, 2.0, 3.0);
+        assert_eq!(
+            offset_ray_origin_scaled(q, Vec3::X, 1e-6),
+            offset_ray_origin(q, Vec3::X)
+        );
     }
 
     #[test]

@@ -7,12 +7,21 @@
 //! from below sees 1/eta. Reflection is chosen with probability F and
 //! refraction with 1 - F, and the pdfs carry those factors (SPEC §3).
 
-use glam::{Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 
-use crate::frame::{reflect, refract};
+use crate::frame::{reflect, refract_f64};
 use crate::fresnel;
 use crate::model::MicrofacetModel;
 use crate::sample::{BsdfSample, TransportMode};
+
+/// Interfaces with |eta - 1| below this are index-matched (SPEC §5): the lobe
+/// is treated as smooth (a delta), whatever its roughness. The refraction
+/// Jacobian grows like 1/(eta - 1)^2 (SPEC §4), so below 1e-3 the rough
+/// transmission lobe is narrower than f32 directions resolve (densities up to
+/// 1e17 at |eta - 1| = 1e-7, where sample and pdf disagreed by 100 %) and no
+/// roughness can blur it; the same value makes `regularization` skip such
+/// interfaces (its `INDEX_MATCH_EPSILON`, SPEC §5).
+pub const INDEX_MATCH_EPSILON: f32 = 1e-3;
 
 /// A dielectric interface lobe.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -31,10 +40,19 @@ struct Terms {
 }
 
 impl Dielectric {
-    /// True for a smooth interface, and for an index-matched one (eta = 1),
-    /// whose transmission is a straight pass-through at any roughness.
+    /// True for a smooth interface, and for an index-matched one
+    /// (|eta - 1| < `INDEX_MATCH_EPSILON`, SPEC §5), whose transmission is a
+    /// (nearly) straight pass-through at any roughness. Both are sampled as a
+    /// smooth interface with the lobe's own eta: the pass-through with weight
+    /// 1 at eta = 1 exactly; Snell refraction, Fresnel and total internal
+    /// reflection otherwise. `eval` and `pdf` are 0 for them.
     pub fn is_specular(&self) -> bool {
-        self.model.is_smooth() || self.eta == 1.0
+        self.model.is_smooth() || self.is_index_matched()
+    }
+
+    /// |eta - 1| < `INDEX_MATCH_EPSILON` (SPEC §5).
+    pub fn is_index_matched(&self) -> bool {
+        (self.eta - 1.0).abs() < INDEX_MATCH_EPSILON
     }
 
     /// f(wi, wo) (SPEC §3): F D G / (4 |cos_i cos_o|) for reflection;
@@ -53,8 +71,13 @@ impl Dielectric {
     }
 
     /// Samples reflection or refraction through a sampled microfacet normal
-    /// (or through the macro normal when smooth). `None` on degenerate input
-    /// or a sample that ends on the wrong side of the surface.
+    /// (or through the macro normal when smooth or index-matched). `None` on
+    /// degenerate input, for a sample that ends on the wrong side of the
+    /// surface, and for a direction whose `pdf` is 0: rounding at grazing
+    /// angles, or a microfacet within f32 rounding of the horizon (h.z below
+    /// ~1e-7, e.g. GGX at u.x = 1 - 2^-24, u.y = 3/4), whose half vector
+    /// recovered from the rounded wo can come out below it. A returned sample's pdf, reverse pdf and value are exactly
+    /// `pdf(wi, wo)`, `pdf(wo, wi)` and `eval(wi, wo)`.
     pub fn sample(&self, wi: Vec3, uc: f32, u: Vec2, mode: TransportMode) -> Option<BsdfSample> {
         let (side, wi, eta) = self.oriented(wi)?;
         if self.is_specular() {
@@ -69,33 +92,56 @@ impl Dielectric {
         if wi_h <= 0.0 {
             return None;
         }
-        let reflected = half.uc < fresnel::dielectric(wi_h, eta);
+        // F in f32 for the coin, as in `sample_smooth`.
+        let reflected = half.uc < fresnel::dielectric_f64(f64::from(wi_h), eta).0 as f32;
         let wo = if reflected {
             reflect(wi, h).try_normalize()?
         } else {
-            refract(wi, h, eta)?
+            refract_f64(wi, h, eta)?
         };
-        let t = self.terms(wi, wo, h, eta, mode)?;
+        // A reflection below or a refraction above the surface is discarded
+        // (SPEC §3); checked here because `half_vector` below reads the side
+        // of wo as the choice between reflection and refraction.
+        if (wo.z > 0.0) != reflected {
+            return None;
+        }
+        // Value and pdfs of the returned (rounded) direction, through the
+        // half vector that `eval` and `pdf` recover from it, so that the
+        // sample's pdf is exactly `pdf(wi, wo)`: near eta = 1 the sampled h and
+        // the one implied by the rounded wo differ (pdfs by 2 % at eta = 1.001).
+        let t = self.terms(wi, wo, half_vector(wi, wo, eta)?, eta, mode)?;
+        // At grazing angles the recovered h can miss a narrow lobe entirely
+        // (wi + wo of length 1e-6 carries f32 errors of 6e-8): `pdf` is then 0
+        // for this direction, and so the sampler must not return it.
+        if !(t.pdf > 0.0) {
+            return None;
+        }
         Some(BsdfSample {
             wo: wo * side,
             f: Vec3::splat(t.f),
             pdf: t.pdf,
             pdf_reverse: t.pdf_reverse,
-            eta: if reflected { 1.0 } else { eta },
+            eta: if reflected { 1.0 } else { eta as f32 },
             is_specular: false,
         })
     }
 
     /// Fresnel-weighted choice between mirror reflection and refraction
     /// through the macro normal (wi above the surface, eta = eta_t/eta_i).
+    /// Reflectance and transmittance come from the f64 Fresnel (each exact
+    /// to f32 rounding, also where F -> 1 near the critical angle).
     fn sample_smooth(
         &self,
         wi: Vec3,
-        eta: f32,
+        eta: f64,
         uc: f32,
         mode: TransportMode,
     ) -> Option<BsdfSample> {
-        let f = fresnel::dielectric(wi.z, eta);
+        let (f, t) = fresnel::dielectric_f64(f64::from(wi.z), eta);
+        // The coin compares with F in f32: a branch chosen this way has an
+        // f32 probability above 0 (F > uc >= 0, or F <= 1 - 2^-24 and so
+        // 1 - F >= 2^-25).
+        let (f, t) = (f as f32, t as f32);
         if uc < f {
             return Some(BsdfSample {
                 wo: Vec3::new(-wi.x, -wi.y, wi.z),
@@ -106,8 +152,8 @@ impl Dielectric {
                 is_specular: true,
             });
         }
-        let wo = refract(wi, Vec3::Z, eta)?;
-        let t = 1.0 - f;
+        let wo = refract_f64(wi, Vec3::Z, eta)?;
+        let eta = eta as f32;
         let scale = match mode {
             TransportMode::Radiance => 1.0 / (eta * eta),
             TransportMode::Importance => 1.0,
@@ -130,27 +176,30 @@ impl Dielectric {
         }
         let (side, wi, eta) = self.oriented(wi)?;
         let wo = wo * side;
-        if wo.z == 0.0 {
-            return None;
-        }
-        // Reflection: h ~ wi + wo; refraction: h ~ eta_i wi + eta_t wo ~ wi + eta wo.
-        let h = if wo.z > 0.0 { wi + wo } else { wi + eta * wo };
-        // Zero length only for wo = -wi at eta = 1, excluded above; kept for round-off.
-        let h = h.try_normalize()?;
-        let h = if h.z < 0.0 { -h } else { h };
-        self.terms(wi, wo, h, eta, mode)
+        self.terms(wi, wo, half_vector(wi, wo, eta)?, eta, mode)
     }
 
     /// The core shared by `eval`, `pdf` and `sample`: wi above the surface,
-    /// h the oriented microfacet normal, eta = eta_t/eta_i.
-    fn terms(&self, wi: Vec3, wo: Vec3, h: Vec3, eta: f32, mode: TransportMode) -> Option<Terms> {
-        let (wi_h, wo_h) = (wi.dot(h), wo.dot(h));
+    /// `half` the oriented microfacet normal, eta = eta_t/eta_i.
+    fn terms(
+        &self,
+        wi: Vec3,
+        wo: Vec3,
+        half: Half,
+        eta: f64,
+        mode: TransportMode,
+    ) -> Option<Terms> {
+        let h = half.h;
+        let (wi_h, wo_h) = (half.wi_h as f32, half.wo_h as f32);
         // Discard back-facing microfacets (SPEC §3).
         if !(h.z > 0.0 && wi_h > 0.0 && wo_h * wo.z > 0.0) {
             return None;
         }
         let (cos_i, cos_o) = (wi.z, wo.z.abs());
-        let f_r = fresnel::dielectric(wi_h, eta);
+        // F and 1 - F each to f32 precision (1 - F from an f32 F is not,
+        // near the critical angle).
+        let (f_r, t) = fresnel::dielectric_f64(half.wi_h, eta);
+        let (f_r, t, eta) = (f_r as f32, t as f32, eta as f32);
         let facet = self.model.facet_terms(wi, wo, h);
         let terms = if wo.z > 0.0 {
             Terms {
@@ -159,9 +208,9 @@ impl Dielectric {
                 pdf_reverse: facet.pdf_h_wo / (4.0 * wo_h) * f_r,
             }
         } else {
-            let t = 1.0 - f_r;
-            let denominator = wi_h + eta * wo_h;
-            let denominator2 = denominator * denominator;
+            // (<wi,h> + eta <wo,h>)^2 = |wi + eta wo|^2 (h is its direction),
+            // from the f64 sum: in f32 the dot products cancel as eta -> 1.
+            let denominator2 = half.sum2 as f32;
             let radiance =
                 facet.d * facet.g * t * (wi_h * wo_h).abs() / (cos_i * cos_o * denominator2);
             Terms {
@@ -182,8 +231,11 @@ impl Dielectric {
     }
 
     /// (sign of wi.z, wi flipped upwards, eta seen from wi), or `None` for a
-    /// direction in the tangent plane or an invalid index.
-    fn oriented(&self, wi: Vec3) -> Option<(f32, Vec3, f32)> {
+    /// direction in the tangent plane or an invalid index. The index is
+    /// returned in f64: the f32 1/eta of a query from below is off by up to
+    /// 6e-8 relative, which moves cos^2(theta_t) near the critical angle by
+    /// as much as f32 round-off did (see `frame::cos2_theta_t`).
+    fn oriented(&self, wi: Vec3) -> Option<(f32, Vec3, f64)> {
         if wi.z == 0.0 || !(self.eta > 0.0 && self.eta.is_finite()) {
             return None;
         }
@@ -191,7 +243,59 @@ impl Dielectric {
         Some((
             side,
             wi * side,
-            if side > 0.0 { self.eta } else { 1.0 / self.eta },
+            if side > 0.0 {
+                f64::from(self.eta)
+            } else {
+                1.0 / f64::from(self.eta)
+            },
         ))
     }
+}
+
+/// A microfacet normal recovered from a pair of directions.
+#[derive(Clone, Copy, Debug)]
+struct Half {
+    /// The oriented normal, h.z > 0.
+    h: Vec3,
+    /// |wi + wo|^2 for reflection, |wi + eta wo|^2 for refraction: the
+    /// squared denominator (<wi,h> + eta <wo,h>)^2 of SPEC §3's refraction
+    /// terms, in f64 (see `half_vector`).
+    sum2: f64,
+    /// <wi,h> and <wo,h> from the f64 normal: Fresnel needs them to more
+    /// than f32 precision where the microfacet is seen at grazing incidence
+    /// or near the critical angle (forward and reverse query then agree).
+    wi_h: f64,
+    wo_h: f64,
+}
+
+/// The oriented microfacet normal of a pair (wi above the surface, eta =
+/// eta_t/eta_i; SPEC §3): h ~ wi + wo for reflection, h ~ eta_i wi + eta_t wo
+/// ~ wi + eta wo for refraction, flipped so that h.z > 0. The sum is formed in
+/// f64: near eta = 1 it cancels to |eta - 1| of the inputs' size, and in f32
+/// its direction would carry a relative error of 6e-8/|eta - 1| (6e-5 at
+/// eta = 1.001, enough to move D by 2 % at alpha = 0.01), different for the
+/// forward and the reverse query of one pair. Also returns <wi,h> and <wo,h>
+/// in f64. `None` for wo in the tangent plane or a zero-length sum (wo = -wi
+/// at eta = 1).
+fn half_vector(wi: Vec3, wo: Vec3, eta: f64) -> Option<Half> {
+    if wo.z == 0.0 {
+        return None;
+    }
+    // Unit length in f64 first: an f32 direction's length is off by up to
+    // 1e-7, and <wi,h> - <wo,h> = (|wi|^2 - |wo|^2)/|wi + wo| for reflection,
+    // 3e-6 when grazing directions nearly cancel; near the critical angle
+    // that moved F by 1e-3 between the forward and the reverse query.
+    let (wi, wo) = (
+        wi.as_dvec3().try_normalize()?,
+        wo.as_dvec3().try_normalize()?,
+    );
+    let sum: DVec3 = if wo.z > 0.0 { wi + wo } else { wi + eta * wo };
+    let h = sum.try_normalize()?;
+    let h = if h.z < 0.0 { -h } else { h };
+    Some(Half {
+        h: h.as_vec3(),
+        sum2: sum.length_squared(),
+        wi_h: h.dot(wi),
+        wo_h: h.dot(wo),
+    })
 }

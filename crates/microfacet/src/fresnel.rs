@@ -3,6 +3,8 @@
 
 use glam::Vec3;
 
+use crate::frame::cos2_theta_t;
+
 /// Unpolarised Fresnel reflectance of a dielectric interface (Born & Wolf;
 /// pbrt-v4 `FrDielectric`).
 ///
@@ -10,26 +12,56 @@ use glam::Vec3;
 /// on its side; a negative value means the direction is on the far side, and
 /// the interface is then seen with 1/eta. `eta` = eta_t / eta_i. Returns 1 on
 /// total internal reflection, 0 for eta = 1 (except at exactly grazing
-/// incidence, where it is 1), and a value in [0, 1] otherwise.
+/// incidence, where it is 1), and a value in [0, 1] otherwise. Computed in
+/// f64 (see [`dielectric_f64`]).
 pub fn dielectric(cos_theta_i: f32, eta: f32) -> f32 {
+    dielectric_f64(f64::from(cos_theta_i), f64::from(eta)).0 as f32
+}
+
+/// The transmittance 1 - F of [`dielectric`], computed directly: near the
+/// critical angle F -> 1, and 1 - F formed from an f32 F would keep only
+/// its absolute error 6e-8 (all of it at 1 - F < 6e-8).
+pub fn dielectric_transmittance(cos_theta_i: f32, eta: f32) -> f32 {
+    dielectric_f64(f64::from(cos_theta_i), f64::from(eta)).1 as f32
+}
+
+/// (F, 1 - F) of a dielectric interface in f64, with the conventions of
+/// [`dielectric`] (a negative cosine sees the interface with 1/eta, inverted
+/// here in f64).
+///
+/// cos^2(theta_t) comes from `frame::cos2_theta_t` (f64, exact for f32
+/// inputs up to one rounding), the quantity that loses all precision near
+/// the critical angle in f32. The transmittance uses 1 - r^2 = 4ab/(a + b)^2
+/// for r = (a - b)/(a + b) (Born & Wolf, sec. 1.5.3: the transmissivities
+/// (eta cos_t / cos_i) t^2 of the two polarisations), so it has no
+/// cancellation as F -> 1: T = 2 eta cos_i cos_t (1/(eta cos_i + cos_t)^2 +
+/// 1/(cos_i + eta cos_t)^2).
+pub fn dielectric_f64(cos_theta_i: f64, eta: f64) -> (f64, f64) {
     let (cos_i, eta) = if cos_theta_i < 0.0 {
         (-cos_theta_i, 1.0 / eta)
     } else {
         (cos_theta_i, eta)
     };
     let cos_i = cos_i.min(1.0);
-    // cos_t^2 = 1 - sin_t^2 = ((eta - 1)(eta + 1) + cos_i^2) / eta^2, exact at
-    // eta = 1: the textbook 1 - (1 - cos_i^2)/eta^2 rounds 1 - cos_i^2 to 1 at
-    // grazing angles (cos_i^2 < 3e-8) and reported total internal reflection
-    // for an index-matched interface.
-    let cos2_t = ((eta - 1.0) * (eta + 1.0) + cos_i * cos_i) / (eta * eta);
+    let cos2_t = cos2_theta_t(cos_i, eta);
     if !(cos2_t > 0.0) {
-        return 1.0;
+        return (1.0, 0.0);
     }
     let cos_t = cos2_t.sqrt();
-    let r_parallel = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-    let r_perpendicular = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-    (0.5 * (r_parallel * r_parallel + r_perpendicular * r_perpendicular)).clamp(0.0, 1.0)
+    let (parallel, perpendicular) = (eta * cos_i + cos_t, cos_i + eta * cos_t);
+    let r_parallel = (eta * cos_i - cos_t) / parallel;
+    let r_perpendicular = (cos_i - eta * cos_t) / perpendicular;
+    let r = 0.5 * (r_parallel * r_parallel + r_perpendicular * r_perpendicular);
+    let t = 2.0
+        * eta
+        * cos_i
+        * cos_t
+        * ((parallel * parallel).recip() + (perpendicular * perpendicular).recip());
+    if !(r.is_finite() && t.is_finite()) {
+        // eta so large or small that a square overflows: seen as opaque.
+        return (1.0, 0.0);
+    }
+    (r.clamp(0.0, 1.0), t.clamp(0.0, 1.0))
 }
 
 /// Fresnel reflectance of a conductor with complex index eta + i k, per RGB

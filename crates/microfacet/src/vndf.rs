@@ -31,23 +31,36 @@ const SLOPE_TOLERANCE: f64 = 1e-9;
 /// GGX visible normals, Heitz 2018 ("Sampling the GGX Distribution of Visible
 /// Normals", JCGT 7(4)): stretch wi to the hemisphere configuration, sample
 /// a projected disk warped towards the visible half, unstretch.
-/// `None` only when the unstretched normal degenerates to zero length.
+///
+/// Computed in f64. The edge of the disk (r = sqrt(u.x) -> 1) maps to the
+/// horizon of the visible hemisphere, where the normal's height is a
+/// difference of O(1) terms: for u.x = 1 - 2^-24 (the largest f32 below 1)
+/// it is about 1e-8 / sin(theta) in exact arithmetic, which f32 rounded to 0
+/// (a normal in the tangent plane, rejected by every lobe) or to noise of
+/// either sign. In f64 the error is ~1e-16, so for every u in [0, 1)^2 the
+/// result is a unit normal with h.z > 0 and <wi,h> >= 0 (strictly positive
+/// unless wi is so grazing that its f32 dot product with h underflows the
+/// rounding). `None` only when the unstretched normal degenerates to zero
+/// length (not observed for finite inputs).
 pub fn sample_ggx(wi: Vec3, alpha: f32, u: Vec2) -> Option<Vec3> {
-    let vh = Vec3::new(alpha * wi.x, alpha * wi.y, wi.z).try_normalize()?;
+    let a = f64::from(alpha);
+    let vh =
+        DVec3::new(a * f64::from(wi.x), a * f64::from(wi.y), f64::from(wi.z)).try_normalize()?;
     let len2 = vh.x * vh.x + vh.y * vh.y;
     let t1 = if len2 > 0.0 {
-        Vec3::new(-vh.y, vh.x, 0.0) / len2.sqrt()
+        DVec3::new(-vh.y, vh.x, 0.0) / len2.sqrt()
     } else {
-        Vec3::X
+        DVec3::X
     };
     let t2 = vh.cross(t1);
-    let r = u.x.sqrt();
-    let phi = 2.0 * std::f32::consts::PI * u.y;
-    let p1 = r * phi.cos();
+    let r = f64::from(u.x).sqrt();
+    let (sin_phi, cos_phi) = (2.0 * PI * f64::from(u.y)).sin_cos();
+    let p1 = r * cos_phi;
     let s = 0.5 * (1.0 + vh.z);
-    let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * r * phi.sin();
+    let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * r * sin_phi;
     let nh = p1 * t1 + p2 * t2 + (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt() * vh;
-    Vec3::new(alpha * nh.x, alpha * nh.y, nh.z.max(0.0)).try_normalize()
+    let h = DVec3::new(a * nh.x, a * nh.y, nh.z.max(0.0)).try_normalize()?;
+    Some(h.as_vec3()).filter(|h| h.is_finite())
 }
 
 /// Beckmann visible normals (Heitz & d'Eon 2014, §4): stretch wi to alpha = 1,
