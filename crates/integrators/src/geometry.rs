@@ -95,6 +95,17 @@ pub struct SurfacePoint {
     pub triangle: u32,
     /// Material index.
     pub material: u32,
+    /// [`vertex_scale`] of the triangle: the scale of `p`'s rounding error.
+    pub scale: f32,
+}
+
+/// The largest coordinate magnitude of a triangle's vertices: the error of
+/// a point interpolated from them scales with it (`accel::offset_ray_origin_scaled`).
+pub fn vertex_scale(triangle: &[Vec3; 3]) -> f32 {
+    triangle
+        .iter()
+        .map(|v| v.abs().max_element())
+        .fold(0.0, f32::max)
 }
 
 impl SurfacePoint {
@@ -121,6 +132,7 @@ impl SurfacePoint {
             uv: uv[0] * b.x + uv[1] * b.y + uv[2] * b.z,
             triangle: hit.triangle,
             material: scene.triangle_materials[i],
+            scale: vertex_scale(&scene.triangles[i]),
         }
     }
 
@@ -133,9 +145,10 @@ impl SurfacePoint {
         }
     }
 
-    /// Origin of a ray leaving in direction `w` (Wächter and Binder offset).
+    /// Origin of a ray leaving in direction `w` (Wächter and Binder offset,
+    /// scaled for geometry far below unit size near the origin).
     pub fn spawn_origin(&self, w: Vec3) -> Vec3 {
-        accel::offset_ray_origin(self.p, self.ng_towards(w))
+        accel::offset_ray_origin_scaled(self.p, self.ng_towards(w), self.scale)
     }
 }
 

@@ -7,7 +7,7 @@ use glam::{Vec2, Vec3};
 use mis::EmitterKind;
 use scene::{Light, Scene};
 
-use crate::geometry::BoundingSphere;
+use crate::geometry::{BoundingSphere, vertex_scale};
 
 /// Luminance weights (Rec. 709) to turn RGB power into one number.
 fn luminance(c: Vec3) -> f32 {
@@ -118,6 +118,9 @@ pub struct LightPoint {
     pub p: Vec3,
     /// Geometric normal (zero for point lights).
     pub n: Vec3,
+    /// The emitting triangle's [`crate::geometry::vertex_scale`] (infinity
+    /// for point lights: no offset).
+    pub scale: f32,
 }
 
 /// The scene's lights with a power-proportional selection distribution.
@@ -287,6 +290,7 @@ impl Lights {
                 point: Some(LightPoint {
                     p: position,
                     n: Vec3::ZERO,
+                    scale: f32::INFINITY,
                 }),
                 is_delta: true,
                 mis: EmitterPdfs {
@@ -363,7 +367,11 @@ impl Lights {
                     wi,
                     li: material.emission,
                     pdf,
-                    point: Some(LightPoint { p: q, n }),
+                    point: Some(LightPoint {
+                        p: q,
+                        n,
+                        scale: vertex_scale(&scene.triangles[triangle as usize]),
+                    }),
                     is_delta: false,
                     mis: self.area_pdfs(triangle, n.dot(-wi)),
                 }
@@ -504,7 +512,11 @@ impl Lights {
                     &scene.materials[scene.triangle_materials[triangle as usize] as usize];
                 let mis = self.area_pdfs(triangle, local.z);
                 Emission {
-                    origin: accel::offset_ray_origin(p, n),
+                    origin: accel::offset_ray_origin_scaled(
+                        p,
+                        n,
+                        vertex_scale(&scene.triangles[triangle as usize]),
+                    ),
                     direction: crate::geometry::Frame::from_normal(n).to_world(local),
                     throughput: material.emission * local.z / mis.emission_pdf_w,
                     mis,

@@ -34,7 +34,7 @@ pub fn visible(ctx: &SceneContext, vertex: &PathVertex, ls: &LightSample) -> boo
                 lp.p
             } else {
                 let n = if lp.n.dot(-ls.wi) > 0.0 { lp.n } else { -lp.n };
-                accel::offset_ray_origin(lp.p, n)
+                accel::offset_ray_origin_scaled(lp.p, n, lp.scale)
             };
             !ctx.occluded(origin, end - origin, 1.0)
         }

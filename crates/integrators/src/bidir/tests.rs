@@ -87,6 +87,7 @@ fn light_vertex_bound_holds_towards_every_direction() {
             uv: Vec2::ZERO,
             triangle: 0,
             material: material(true),
+            scale: 1.0,
         };
         for wi in sphere_directions(64) {
             let (vertex, light) = light_vertex(point, wi);
