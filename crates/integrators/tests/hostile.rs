@@ -75,7 +75,7 @@ fn edited(rng: &mut Pcg32) -> String {
     let mut lines: Vec<String> = MANIFEST.lines().map(str::to_owned).collect();
     for _ in 0..=rng.next_u32() % 3 {
         let i = (rng.next_u32() as usize) % lines.len();
-        if rng.next_u32() % 8 == 0 {
+        if rng.next_u32().is_multiple_of(8) {
             lines.remove(i);
             continue;
         }
