@@ -29,6 +29,18 @@ const EXPECTED_TO_PANIC_TODAY: &[&str] = &[
     // parses without validation, so attribute accessors of the wrong type
     // or component type reach the reader (release builds read garbage).
     "glb-normal-accessor-vec4.glb",
+    // gltf 1.4.1 mesh/mod.rs:396 `unreachable!()` in `read_indices`: an
+    // index accessor with a float (or signed) component type. Panics in
+    // release builds too; the loader calls it at scene/src/gltf.rs:168.
+    "glb-float-indices.glb",
+    // gltf 1.4.1 accessor/util.rs:376 `debug_assert!(stride >= size)`: a
+    // vertex buffer view with byteStride 11 for VEC3 float positions
+    // (release builds read overlapping elements).
+    "glb-stride-below-element-size.glb",
+    // tobj 4.0.5 lib.rs:783 `parse_float3(..).try_into().unwrap()`: an MTL
+    // colour (`Ka`, `Kd`, `Ks`, `Ke`) with fewer than three numbers. Panics in
+    // release builds too; reached from tobj::load_obj at scene/src/obj.rs:42.
+    "obj_mtl-mtl-color-short.objmtl",
 ];
 
 /// The buffers the `gltf_json` fuzz target writes next to its input.
