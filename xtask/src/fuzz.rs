@@ -45,7 +45,11 @@ pub const TARGETS: &[(&str, &str, &str)] = &[
         "objmtl",
         "OBJ, NUL byte, MTL (written as fuzz.mtl) through scene::load",
     ),
-    ("scene_toml", "toml", "scene.toml manifests through scene::load"),
+    (
+        "scene_toml",
+        "toml",
+        "scene.toml manifests through scene::load",
+    ),
     (
         "render",
         "toml",
@@ -228,7 +232,10 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
     }
     println!("log:         {}", log_path.display());
     if !status.success() && stats.executions.is_none() {
-        return Err(format!("cargo fuzz failed ({status}); see {}", log_path.display()));
+        return Err(format!(
+            "cargo fuzz failed ({status}); see {}",
+            log_path.display()
+        ));
     }
     Ok(())
 }
@@ -249,7 +256,11 @@ impl Stats {
             if let Ok(n) = digits.parse::<u64>() {
                 self.executions = Some(self.executions.map_or(n, |e| e.max(n)));
                 if let Some(i) = rest.find("cov: ") {
-                    let cov: String = rest[i..].split_whitespace().take(4).collect::<Vec<_>>().join(" ");
+                    let cov: String = rest[i..]
+                        .split_whitespace()
+                        .take(4)
+                        .collect::<Vec<_>>()
+                        .join(" ");
                     self.coverage = Some(cov);
                 }
             }
@@ -311,7 +322,9 @@ fn copy_runtime_seeds(root: &Path, target: &str, seeds: &Path) -> Result<usize, 
             }
             for obj in objs {
                 if let Some(bytes) = obj_mtl_seed(&obj) {
-                    let name = obj.file_stem().map_or("obj".into(), |s| s.to_string_lossy());
+                    let name = obj
+                        .file_stem()
+                        .map_or("obj".into(), |s| s.to_string_lossy());
                     put(&format!("{name}.objmtl"), bytes)?;
                 }
             }
@@ -321,7 +334,10 @@ fn copy_runtime_seeds(root: &Path, target: &str, seeds: &Path) -> Result<usize, 
                 for entry in entries.filter_map(Result::ok) {
                     let manifest = entry.path().join("scene.toml");
                     if let Ok(bytes) = fs::read(&manifest) {
-                        put(&format!("{}.toml", entry.file_name().to_string_lossy()), bytes)?;
+                        put(
+                            &format!("{}.toml", entry.file_name().to_string_lossy()),
+                            bytes,
+                        )?;
                     }
                 }
             }

@@ -102,16 +102,14 @@ fn fuzz_regressions_do_not_panic() {
     let recorder = Arc::clone(&last_panic);
     let previous_hook = panic::take_hook();
     panic::set_hook(Box::new(move |info| {
-        let location = info
-            .location()
-            .map_or("?".to_string(), |l| {
-                // Registry paths shortened to `crate-version/src/...`.
-                let file = l.file();
-                let file = file.find("index.crates.io-").map_or(file, |i| {
-                    file[i..].split_once('/').map_or(file, |(_, rest)| rest)
-                });
-                format!("{file}:{}", l.line())
+        let location = info.location().map_or("?".to_string(), |l| {
+            // Registry paths shortened to `crate-version/src/...`.
+            let file = l.file();
+            let file = file.find("index.crates.io-").map_or(file, |i| {
+                file[i..].split_once('/').map_or(file, |(_, rest)| rest)
             });
+            format!("{file}:{}", l.line())
+        });
         let payload = info
             .payload()
             .downcast_ref::<&str>()
@@ -126,7 +124,8 @@ fn fuzz_regressions_do_not_panic() {
     let mut stale = Vec::new();
     for (i, input) in inputs.iter().enumerate() {
         let name = input.file_name().unwrap().to_string_lossy().into_owned();
-        let dir = std::env::temp_dir().join(format!("rlt-fuzz-regression-{}-{i}", std::process::id()));
+        let dir =
+            std::env::temp_dir().join(format!("rlt-fuzz-regression-{}-{i}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = stage(input, &dir);
         let options = scene::LoadOptions {
@@ -171,7 +170,9 @@ fn fuzz_regressions_do_not_panic() {
     }
     for name in EXPECTED_TO_PANIC_TODAY {
         assert!(
-            inputs.iter().any(|p| p.file_name().is_some_and(|f| f == *name)),
+            inputs
+                .iter()
+                .any(|p| p.file_name().is_some_and(|f| f == *name)),
             "EXPECTED_TO_PANIC_TODAY names {name}, which is not in tests/fuzz-regressions/"
         );
     }
