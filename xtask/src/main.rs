@@ -27,6 +27,7 @@ use std::process::{Command, ExitCode};
 
 mod bench;
 mod farm;
+mod fuzz;
 mod mitsuba;
 mod stability;
 mod study;
@@ -37,9 +38,10 @@ const USAGE_HELP: &str = "  help              print this text";
 
 fn usage() -> String {
     format!(
-        "{USAGE_HEADER}\n{}\n{}\n{}\n{}\n{}\n{USAGE_HELP}",
+        "{USAGE_HEADER}\n{}\n{}\n{}\n{}\n{}\n{}\n{USAGE_HELP}",
         bench::USAGE,
         farm::USAGE,
+        fuzz::USAGE,
         mitsuba::USAGE,
         study::USAGE,
         stability::USAGE
@@ -53,6 +55,7 @@ fn main() -> ExitCode {
         // One run of `bench`, spawned by it; not listed in the usage.
         Some("bench-run") => bench::run_child(&args[1..]),
         Some("farm") => farm::run(&workspace_root(), &args[1..]),
+        Some("fuzz") => fuzz::run(&workspace_root(), &args[1..]),
         Some("mitsuba") => mitsuba::run(&workspace_root(), &args[1..]),
         Some("study") => study::run(&workspace_root(), &args[1..]),
         Some("stability") => stability::run(&workspace_root(), &args[1..]),
