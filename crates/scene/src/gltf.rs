@@ -148,6 +148,12 @@ fn check_glb_lengths(path: &Path, bytes: &[u8]) -> Result<(), SceneError> {
             "the header declares {declared} bytes, the file has {len}"
         )));
     }
+    if declared < 12 {
+        return Err(SceneError::malformed(
+            path,
+            format!("the .glb header declares {declared} bytes, less than its own 12"),
+        ));
+    }
     let mut offset = 12;
     while offset < declared {
         let Some(chunk) = word(offset) else {

@@ -17,31 +17,11 @@ use glam::UVec2;
 /// Files (names in `tests/fuzz-regressions/`) that still panic because the
 /// loader fix has not landed yet. The test lists them and passes; it fails
 /// if any other file panics, and also if a file listed here no longer
-/// panics. The lead removes an entry when the fix for it is merged.
-const EXPECTED_TO_PANIC_TODAY: &[&str] = &[
-    // gltf 1.4.1 binary.rs:252 `header.length as usize - Header::size_of()`:
-    // a GLB header whose total length is below 12 bytes overflows (a panic
-    // with debug assertions, as in tests; wraps to an Err in release).
-    "glb-header-length-underflow.glb",
-    // gltf 1.4.1 accessor/util.rs:371 `debug_assert_eq!(size_of::<T>(),
-    // accessor.size())`: the Box sample with its NORMAL accessor declared
-    // VEC4, read by `read_normals` (scene/src/gltf.rs:163); the loader
-    // parses without validation, so attribute accessors of the wrong type
-    // or component type reach the reader (release builds read garbage).
-    "glb-normal-accessor-vec4.glb",
-    // gltf 1.4.1 mesh/mod.rs:396 `unreachable!()` in `read_indices`: an
-    // index accessor with a float (or signed) component type. Panics in
-    // release builds too; the loader calls it at scene/src/gltf.rs:168.
-    "glb-float-indices.glb",
-    // gltf 1.4.1 accessor/util.rs:376 `debug_assert!(stride >= size)`: a
-    // vertex buffer view with byteStride 11 for VEC3 float positions
-    // (release builds read overlapping elements).
-    "glb-stride-below-element-size.glb",
-    // tobj 4.0.5 lib.rs:783 `parse_float3(..).try_into().unwrap()`: an MTL
-    // colour (`Ka`, `Kd`, `Ks`, `Ke`) with fewer than three numbers. Panics in
-    // release builds too; reached from tobj::load_obj at scene/src/obj.rs:42.
-    "obj_mtl-mtl-color-short.objmtl",
-];
+/// panics. Empty: the glTF validation and the MTL checks fixed all five
+/// inputs found (GLB header length below 12, NORMAL declared VEC4, float
+/// indices, byteStride below the element size, an MTL colour of fewer than
+/// three numbers).
+const EXPECTED_TO_PANIC_TODAY: &[&str] = &[];
 
 /// The buffers the `gltf_json` fuzz target writes next to its input.
 const GLTF_BUFFERS: &[&str] = &[
