@@ -135,6 +135,13 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
         return Err("cargo-fuzz is not installed: run `cargo install cargo-fuzz`".into());
     }
 
+    // Every fork-mode job is a new process with its own scratch folder
+    // (`rlt-fuzz-<pid>` in the temporary directory, holding the fixed glTF
+    // buffers): point TMPDIR at a folder of ours and remove it afterwards.
+    let tmp = work.join("tmp").join(name);
+    let _ = fs::remove_dir_all(&tmp);
+    fs::create_dir_all(&tmp).map_err(|e| format!("cannot create {}: {e}", tmp.display()))?;
+
     let before = artifact_names(&artifacts);
     let seconds = (options.minutes * 60.0).round().max(1.0) as u64;
     // The renderer needs more time per input than the loaders, and smaller
@@ -170,6 +177,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
             "-print_final_stats=1",
         ])
         .env("RUSTC_BOOTSTRAP", "1")
+        .env("TMPDIR", &tmp)
         .env_remove("CARGO_TARGET_DIR")
         .current_dir(root)
         .stdout(Stdio::inherit())
@@ -203,6 +211,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
         .wait()
         .map_err(|e| format!("cargo fuzz did not finish: {e}"))?;
     let elapsed = start.elapsed().as_secs_f64();
+    let _ = fs::remove_dir_all(&tmp);
 
     let after = artifact_names(&artifacts);
     let new: Vec<&String> = after.difference(&before).collect();
