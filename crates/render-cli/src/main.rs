@@ -97,7 +97,7 @@ fn run(cli: &Cli) -> Result<ExitCode, Error> {
     let outputs = cli.outputs()?;
     let camera = cli.camera_override()?;
 
-    let mut scene = scene::load(&cli.scene, &cli.load_options()?)?;
+    let mut scene = load_quietly(&cli.scene, &cli.load_options()?)?;
     for warning in &scene.report.warnings {
         eprintln!("warning: {warning}");
     }
@@ -191,6 +191,21 @@ fn run(cli: &Cli) -> Result<ExitCode, Error> {
     } else {
         ExitCode::SUCCESS
     })
+}
+
+/// `scene::load` without the panic hook's message: the loaders turn a panic
+/// of a third-party reader into a one-line error, which is all the user
+/// should see (no other thread runs yet, so swapping the process-wide hook
+/// affects nothing else).
+fn load_quietly(
+    path: &std::path::Path,
+    options: &scene::LoadOptions,
+) -> Result<scene::Scene, SceneError> {
+    let hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    let loaded = scene::load(path, options);
+    std::panic::set_hook(hook);
+    loaded
 }
 
 /// `--explain`: the scene, what the integrator does with it, the settings.

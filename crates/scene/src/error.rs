@@ -24,6 +24,31 @@ pub fn quoted(value: &str) -> String {
     }
 }
 
+/// `load` with a panic of a third-party `reader` (e.g. "the glTF reader")
+/// turned into a one-line [`SceneError`] naming `path`: loaders validate
+/// before they call into other crates, and this catches what still escapes.
+pub(crate) fn guarded<T>(
+    path: &Path,
+    reader: &str,
+    load: impl FnOnce() -> Result<T, SceneError>,
+) -> Result<T, SceneError> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(load)).unwrap_or_else(|payload| {
+        let why = payload
+            .downcast_ref::<&str>()
+            .map(|s| (*s).to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_default();
+        let why = why.lines().next().unwrap_or_default().to_string();
+        Err(SceneError::malformed(
+            path,
+            format!(
+                "{reader} failed on this file (internal error {})",
+                quoted(&why)
+            ),
+        ))
+    })
+}
+
 /// Why a scene could not be loaded. `Display` is one line that names the file
 /// and the element (node, mesh, material, line, field) at fault.
 #[derive(Debug, Error)]
@@ -102,6 +127,20 @@ impl SceneError {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_panic_becomes_an_error_naming_the_file() {
+        let path = Path::new("model.gltf");
+        let result: Result<(), SceneError> = guarded(path, "the glTF reader", || {
+            panic!("index out of bounds\nmore")
+        });
+        let message = result.unwrap_err().to_string();
+        assert_eq!(
+            message,
+            "model.gltf: the glTF reader failed on this file (internal error \"index out of bounds\")"
+        );
+        assert!(guarded(path, "the glTF reader", || Ok(3)).is_ok_and(|v| v == 3));
+    }
 
     #[test]
     fn quoted_values_are_short_and_escaped() {

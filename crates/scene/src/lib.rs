@@ -123,7 +123,10 @@ pub(crate) fn load_model(
         .map(str::to_ascii_lowercase)
         .as_deref()
     {
-        Some("obj") => Ok((obj::load(path, policy)?, None)),
+        Some("obj") => Ok((
+            error::guarded(path, "the OBJ reader", || obj::load(path, policy))?,
+            None,
+        )),
         Some("gltf" | "glb") => {
             let g = gltf::load(path, camera_name, policy)?;
             Ok((g.builder, g.camera))
