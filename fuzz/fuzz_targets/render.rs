@@ -9,13 +9,6 @@ use glam::{UVec2, Vec3};
 use integrators::{Algorithm, RenderConfig, Renderer};
 use libfuzzer_sys::fuzz_target;
 
-const ALGORITHMS: [Algorithm; 5] = [
-    Algorithm::Pt,
-    Algorithm::Bpt,
-    Algorithm::Ppm,
-    Algorithm::Bpm,
-    Algorithm::Vcm,
-];
 
 fuzz_target!(
     init: {
@@ -31,7 +24,7 @@ fuzz_target!(
         let Ok(scene) = scene::load(&path, &options) else {
             return;
         };
-        for algorithm in ALGORITHMS {
+        for algorithm in Algorithm::every() {
             let config = RenderConfig {
                 algorithm,
                 ..RenderConfig::default()

@@ -37,6 +37,11 @@ impl Algorithm {
         (Self::Vcm, "vcm"),
     ];
 
+    /// Every algorithm, in `ALL`'s order.
+    pub fn every() -> [Self; 5] {
+        Self::ALL.map(|(algorithm, _)| algorithm)
+    }
+
     /// The command-line name.
     pub fn name(self) -> &'static str {
         Self::ALL

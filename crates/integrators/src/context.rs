@@ -13,7 +13,7 @@ use scene::{Scene, SceneFeatures};
 
 use crate::camera::CameraRays;
 use crate::config::RenderConfig;
-use crate::geometry::{BoundingSphere, SurfacePoint};
+use crate::geometry::{BoundingSphere, SurfacePoint, vertex_scale};
 use crate::lights::Lights;
 use crate::merge_radius::{MergeRadius, pixel_footprint};
 use crate::sampler::Sampler;
@@ -47,6 +47,9 @@ pub struct SceneContext {
     /// every surface point needs one, and computing it (in f64, see
     /// `scene::triangle_cross`) cost 5 % of a path-traced iteration.
     geometric_normals: Vec<Vec3>,
+    /// [`vertex_scale`] of each triangle, for ray-origin offsets: computed
+    /// once, like the normals, not at every hit.
+    vertex_scales: Vec<f32>,
     /// Rays traced by finished tasks (closest-hit and shadow rays).
     rays: AtomicU64,
 }
@@ -64,6 +67,7 @@ impl SceneContext {
             pixel_footprint(&bvh, &camera),
             config.radius_alpha,
         );
+        let vertex_scales = scene.triangles.iter().map(vertex_scale).collect();
         let geometric_normals = (0..scene.triangles.len())
             .map(|i| scene.geometric_normal(i))
             .collect();
@@ -76,6 +80,7 @@ impl SceneContext {
             config,
             merge_radius,
             geometric_normals,
+            vertex_scales,
             rays: AtomicU64::new(0),
         }
     }
@@ -122,8 +127,13 @@ impl SceneContext {
     /// The surface point of a hit.
     #[inline]
     pub fn surface_point(&self, hit: &Hit) -> SurfacePoint {
-        let n_winding = self.geometric_normals[hit.triangle as usize];
-        SurfacePoint::new(&self.scene, n_winding, hit)
+        let i = hit.triangle as usize;
+        SurfacePoint::new(
+            &self.scene,
+            self.geometric_normals[i],
+            self.vertex_scales[i],
+            hit,
+        )
     }
 
     /// Adds this thread's ray count to the total; called at the end of every

@@ -110,8 +110,9 @@ pub fn vertex_scale(triangle: &[Vec3; 3]) -> f32 {
 
 impl SurfacePoint {
     /// The surface point of `hit` in `scene`, whose triangle has the
-    /// geometric normal `n_winding` ([`Scene::geometric_normal`]).
-    pub fn new(scene: &Scene, n_winding: Vec3, hit: &Hit) -> Self {
+    /// geometric normal `n_winding` ([`Scene::geometric_normal`]) and the
+    /// vertex scale `scale` ([`vertex_scale`]).
+    pub fn new(scene: &Scene, n_winding: Vec3, scale: f32, hit: &Hit) -> Self {
         let i = hit.triangle as usize;
         let b = Vec3::new(1.0 - hit.b1 - hit.b2, hit.b1, hit.b2);
         let interpolate = |v: [Vec3; 3]| v[0] * b.x + v[1] * b.y + v[2] * b.z;
@@ -132,7 +133,7 @@ impl SurfacePoint {
             uv: uv[0] * b.x + uv[1] * b.y + uv[2] * b.z,
             triangle: hit.triangle,
             material: scene.triangle_materials[i],
-            scale: vertex_scale(&scene.triangles[i]),
+            scale,
         }
     }
 

@@ -137,6 +137,9 @@ pub struct Lights {
     /// Per light: an area light's geometric normal (emitting side), zero
     /// for other lights. Stored: every light sample needs it.
     area_normal: Vec<Vec3>,
+    /// Per light: an area light's [`vertex_scale`] (ray-origin offsets),
+    /// infinity for other lights.
+    area_scale: Vec<f32>,
     /// Light index of each emissive triangle (`u32::MAX` for others).
     triangle_light: Vec<u32>,
     /// Index of the environment light, if any.
@@ -219,12 +222,20 @@ impl Lights {
             .iter()
             .map(|light| area_triangle(light).map_or(Vec3::ZERO, |t| scene.geometric_normal(t)))
             .collect();
+        let area_scale = scene
+            .lights
+            .iter()
+            .map(|light| {
+                area_triangle(light).map_or(f32::INFINITY, |t| vertex_scale(&scene.triangles[t]))
+            })
+            .collect();
         Self {
             lights: scene.lights.clone(),
             cdf,
             pmf,
             area_pdf_a,
             area_normal,
+            area_scale,
             triangle_light,
             environment,
             scene_centre: bounds.centre,
@@ -370,7 +381,7 @@ impl Lights {
                     point: Some(LightPoint {
                         p: q,
                         n,
-                        scale: vertex_scale(&scene.triangles[triangle as usize]),
+                        scale: self.area_scale[index],
                     }),
                     is_delta: false,
                     mis: self.area_pdfs(triangle, n.dot(-wi)),
@@ -512,11 +523,7 @@ impl Lights {
                     &scene.materials[scene.triangle_materials[triangle as usize] as usize];
                 let mis = self.area_pdfs(triangle, local.z);
                 Emission {
-                    origin: accel::offset_ray_origin_scaled(
-                        p,
-                        n,
-                        vertex_scale(&scene.triangles[triangle as usize]),
-                    ),
+                    origin: accel::offset_ray_origin_scaled(p, n, self.area_scale[index]),
                     direction: crate::geometry::Frame::from_normal(n).to_world(local),
                     throughput: material.emission * local.z / mis.emission_pdf_w,
                     mis,

@@ -18,14 +18,7 @@ const LENGTH_KEYS: [&str; 8] = [
     "from", "at", "center", "radius", "origin", "u", "v", "position",
 ];
 
-/// Integrators and regularization modes every render case runs.
-const ALGORITHMS: [Algorithm; 5] = [
-    Algorithm::Pt,
-    Algorithm::Bpt,
-    Algorithm::Ppm,
-    Algorithm::Bpm,
-    Algorithm::Vcm,
-];
+/// Regularization modes every render case runs (with every integrator).
 const MODES: [Mode; 3] = [Mode::Off, Mode::Uniform, Mode::Selective];
 
 /// Seed of every render (the images do not matter, only their numbers).
@@ -261,7 +254,7 @@ fn scaled_row(dir: &Path, scales: &[f64], tmp: &Path) -> Row {
     let size = UVec2::new(32, 24);
     let iterations = 2;
     let max_depth = 8;
-    let mut unit_means: Vec<Option<f64>> = vec![None; ALGORITHMS.len() * MODES.len()];
+    let mut unit_means: Vec<Option<f64>> = vec![None; Algorithm::ALL.len() * MODES.len()];
     let mut unit_degenerate = None;
     // Scale 1 first: the others are compared with it.
     let mut ordered = vec![1.0];
@@ -282,7 +275,7 @@ fn scaled_row(dir: &Path, scales: &[f64], tmp: &Path) -> Row {
                 manifest.display()
             )
         };
-        for (a, &algorithm) in ALGORITHMS.iter().enumerate() {
+        for (a, algorithm) in Algorithm::every().into_iter().enumerate() {
             for (m, &mode) in MODES.iter().enumerate() {
                 let mean = render(
                     &mut t,
@@ -406,7 +399,7 @@ fn stiff_row(budget: Budget, dir: &Path) -> Row {
             Ok(scene) => {
                 let max_depth = scene.render.max_depth.unwrap_or(16);
                 let describe = || "scenes/stiff/scene.toml".to_string();
-                for algorithm in ALGORITHMS {
+                for algorithm in Algorithm::every() {
                     for mode in MODES {
                         render(
                             &mut t,
@@ -677,7 +670,7 @@ fn degenerate_row(budget: Budget, tmp: &Path) -> Row {
     }
     for (name, scene, manifest) in &rendered {
         let describe = || format!("{name} ({})", manifest.display());
-        for algorithm in ALGORITHMS {
+        for algorithm in Algorithm::every() {
             for &mode in modes {
                 render(
                     &mut t,
