@@ -214,6 +214,9 @@ fn print_explanation(cli: &Cli, renderer: &Renderer, settings: &Settings, output
     let (width, height) = renderer.resolution();
     let mut text = format!("scene:            {}\n", cli.scene.display());
     text += &format!("{}\n", renderer.features());
+    for line in &renderer.scene().report.ignored {
+        text += &format!("ignored:          {line}\n");
+    }
     text += &format!("{}\n", explain::integrator(renderer).trim_end());
     text += &explain::settings(settings);
     text += &format!("resolution:       {width}x{height}\n");

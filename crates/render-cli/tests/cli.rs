@@ -722,3 +722,49 @@ fn hostile_gltf_files_fail_cleanly() {
         assert_fails_cleanly(&output, names, &out);
     }
 }
+
+/// An extension the renderer does not implement is one warning naming it and
+/// its material, and `--explain` lists it; a required one is an error naming it.
+#[test]
+fn unsupported_gltf_extensions_are_named() {
+    let primitives = r#""indices":1}]}],"#;
+    let with_clearcoat = r#""indices":1,"material":0}]}],
+"extensionsUsed":["KHR_materials_clearcoat"],
+"materials":[{"name":"paint","extensions":{"KHR_materials_clearcoat":{"clearcoatFactor":1}}}],"#;
+    let dir = tempfile::tempdir().unwrap();
+    let scene = hostile_gltf(dir.path(), (primitives, with_clearcoat));
+    let exr = dir.path().join("out.exr");
+    let mut args = vec![scene.to_str().unwrap(), "-o", exr.to_str().unwrap()];
+    args.extend(TINY);
+    args.extend(["--explain", "--no-png"]);
+    let output = render_cli(&args);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let warning = stderr(&output);
+    let warning = warning
+        .lines()
+        .find(|l| l.contains("KHR_materials_clearcoat"));
+    assert!(
+        warning.is_some_and(|l| l.starts_with("warning:") && l.contains("\"paint\"")),
+        "{warning:?}"
+    );
+    let explained = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        explained
+            .lines()
+            .any(|l| l.starts_with("ignored:") && l.contains("KHR_materials_clearcoat")),
+        "{explained}"
+    );
+
+    let asset = r#""asset":{"version":"2.0"}"#;
+    let required = r#""asset":{"version":"2.0"},"extensionsUsed":["KHR_draco_mesh_compression"],"extensionsRequired":["KHR_draco_mesh_compression"]"#;
+    let dir = tempfile::tempdir().unwrap();
+    let scene = hostile_gltf(dir.path(), (asset, required));
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    let exr = out.join("out.exr");
+    let mut args = vec![scene.to_str().unwrap(), "-o", exr.to_str().unwrap()];
+    args.extend(TINY);
+    let output = render_cli(&args);
+    assert_eq!(output.status.code(), Some(1), "{}", stderr(&output));
+    assert_fails_cleanly(&output, &["model.gltf", "KHR_draco_mesh_compression"], &out);
+}

@@ -11,6 +11,10 @@
 //! numeric factors of materials and lights. Buffer and image files go through
 //! the [`ReferencePolicy`](crate::paths::ReferencePolicy); a panic that still
 //! escapes the crate becomes a [`SceneError`].
+//!
+//! Extensions (`extensions`): a file that requires one this loader does not
+//! implement is refused, naming it; one that is only used is a warning naming
+//! it and the materials that carry it (`LoadReport::ignored`, shown by `--explain`).
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -26,6 +30,7 @@ use crate::material::{Material, Surface, TexturedPbr, metal_rough_surface};
 use crate::scene::SceneBuilder;
 use crate::texture::{Texture, Wrap};
 
+mod extensions;
 mod validate;
 
 use validate::Semantic;
@@ -69,6 +74,8 @@ fn load_unguarded(
     // bounds check (a panic on malformed files): check it first, then validate.
     check_position_accessors(path, gltf.document.as_json())?;
     check_cameras(path, gltf.document.as_json())?;
+    extensions::check_required(path, gltf.document.as_json())?;
+    let ignored = extensions::ignored(gltf.document.as_json());
     let document =
         gltf::Document::from_json(gltf.document.into_json()).map_err(|e| map_error(path, e))?;
     let buffers = load_buffers(path, &document, gltf.blob, policy)?;
@@ -86,6 +93,13 @@ fn load_unguarded(
     };
 
     let mut builder = SceneBuilder::default();
+    for line in ignored {
+        builder
+            .report
+            .warnings
+            .push(format!("{}: {line}", path.display()));
+        builder.report.ignored.push(line);
+    }
     let mut loader = Loader {
         path,
         buffers: &buffers,

@@ -46,6 +46,9 @@ pub struct LoadReport {
     pub non_manifold_edges: usize,
     /// Human-readable warnings, each naming the file and element.
     pub warnings: Vec<String>,
+    /// Features the file uses that the renderer ignores (e.g. an unsupported
+    /// glTF extension and its materials), also among `warnings`; `--explain` lists them.
+    pub ignored: Vec<String>,
 }
 
 /// A triangle scene in world space.
