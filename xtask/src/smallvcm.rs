@@ -1,0 +1,312 @@
+//! `cargo xtask smallvcm --src DIR`: seconds per iteration of our integrators
+//! against SmallVCM's (Georgiev et al. 2012, the VCM paper's reference code)
+//! on its scenes 1 and 2, side by side in one run.
+//!
+//! Procedure (SmallVCM's code is read and run, never committed here):
+//! 1. fetch its source into a scratch folder outside this repository, e.g.
+//!    `git clone https://github.com/SmallVCM/SmallVCM /tmp/SmallVCM`;
+//! 2. `cargo xtask smallvcm --src /tmp/SmallVCM` builds it with
+//!    `g++ -O3 -std=c++11 -fopenmp` into `<out>/smallvcm` (its own Makefile's
+//!    flags), builds our `render-cli` in release, then renders each scene with
+//!    each algorithm at 1 and 1 + K iterations with both programs, interleaved,
+//!    `--repeat` times; both use every core (OpenMP, rayon).
+//! 3. Seconds per iteration = (t(1 + K) - t(1)) / K, t being the render time
+//!    each program prints ("done in", "rendered ... in"), so start-up and scene
+//!    building cancel; the median over the repeats is reported with the ratio
+//!    ours / SmallVCM's in `<out>/report.md` and `report.json`.
+//!
+//! Our scenes are `scenes/smallvcm-1` and `scenes/smallvcm-2`, transcribed
+//! from SmallVCM's `scene.hxx`; their manifests say where our models differ
+//! (its Phong floor, and its analytic spheres, which ours tessellate).
+//! Same resolution (512x512), path length (10 segments), merge radius
+//! (0.003 x scene radius, alpha 0.75) and no regularization.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use serde_json::json;
+
+pub const USAGE: &str = "  smallvcm --src DIR [options]
+                    seconds per iteration of our pt, bpt, bpm, ppm and vcm
+                    against SmallVCM's on its scenes 1 and 2 (scenes/smallvcm-*),
+                    start-up subtracted; DIR is a SmallVCM checkout outside this
+                    repository (git clone https://github.com/SmallVCM/SmallVCM)
+      --iterations K        the timed renders run 1 and 1 + K iterations (default 8)
+      --repeat R            interleaved rounds, median reported (default 3)
+      --algorithms LIST     comma-separated (default pt,bpt,bpm,ppm,vcm)
+      --scenes LIST         SmallVCM scene numbers, 1 and/or 2 (default 1,2)
+      --out DIR             output folder (default target/smallvcm)";
+
+struct Options {
+    src: PathBuf,
+    iterations: u32,
+    repeat: usize,
+    algorithms: Vec<String>,
+    scenes: Vec<u32>,
+    out: PathBuf,
+}
+
+/// Runs the comparison; see the module docs.
+pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
+    let options = parse(root, args)?;
+    std::fs::create_dir_all(&options.out)
+        .map_err(|e| format!("cannot create {}: {e}", options.out.display()))?;
+    let theirs = build_smallvcm(&options.src, &options.out)?;
+    crate::cargo(root, &["build", "--release", "-p", "render-cli"])?;
+    let ours = release_binary(root, "render-cli");
+    let mut rows = Vec::new();
+    for &scene in &options.scenes {
+        for algorithm in &options.algorithms {
+            let manifest = root.join(format!("scenes/smallvcm-{scene}/scene.toml"));
+            let (mut ours_s, mut theirs_s) = (Vec::new(), Vec::new());
+            for round in 0..options.repeat {
+                println!(
+                    "smallvcm: scene {scene}, {algorithm}, round {}/{}",
+                    round + 1,
+                    options.repeat
+                );
+                ours_s.push(per_iteration(options.iterations, |n| {
+                    time_ours(&ours, &manifest, algorithm, n, &options.out)
+                })?);
+                theirs_s.push(per_iteration(options.iterations, |n| {
+                    time_smallvcm(&theirs, scene, algorithm, n, &options.out)
+                })?);
+            }
+            rows.push(Row {
+                scene,
+                algorithm: algorithm.clone(),
+                ours: median(&mut ours_s),
+                theirs: median(&mut theirs_s),
+            });
+        }
+    }
+    report(root, &options, &rows)
+}
+
+fn parse(root: &Path, args: &[String]) -> Result<Options, String> {
+    let mut options = Options {
+        src: PathBuf::new(),
+        iterations: 8,
+        repeat: 3,
+        algorithms: ["pt", "bpt", "bpm", "ppm", "vcm"]
+            .map(String::from)
+            .to_vec(),
+        scenes: vec![1, 2],
+        out: root.join("target/smallvcm"),
+    };
+    let mut it = args.iter();
+    while let Some(flag) = it.next() {
+        let mut value = || {
+            it.next()
+                .cloned()
+                .ok_or_else(|| format!("{flag} needs a value\n{USAGE}"))
+        };
+        let number = |v: String| {
+            v.parse::<u32>()
+                .ok()
+                .filter(|&n| n > 0)
+                .ok_or_else(|| format!("{flag} takes a positive integer, not {v:?}"))
+        };
+        match flag.as_str() {
+            "--src" => options.src = PathBuf::from(value()?),
+            "--iterations" => options.iterations = number(value()?)?,
+            "--repeat" => options.repeat = number(value()?)? as usize,
+            "--algorithms" => options.algorithms = value()?.split(',').map(String::from).collect(),
+            "--scenes" => {
+                options.scenes = value()?
+                    .split(',')
+                    .map(|s| match s {
+                        "1" => Ok(1),
+                        "2" => Ok(2),
+                        _ => Err(format!(
+                            "--scenes: {s:?} is not 1 or 2 (the transcribed scenes)"
+                        )),
+                    })
+                    .collect::<Result<_, _>>()?;
+            }
+            "--out" => options.out = root.join(value()?),
+            _ => return Err(format!("unknown flag {flag}\n{USAGE}")),
+        }
+    }
+    if options.src.as_os_str().is_empty() {
+        return Err(format!("--src is required\n{USAGE}"));
+    }
+    if let Some(a) = options
+        .algorithms
+        .iter()
+        .find(|a| !["pt", "bpt", "bpm", "ppm", "vcm"].contains(&a.as_str()))
+    {
+        return Err(format!(
+            "--algorithms: {a:?} is not one of pt, bpt, bpm, ppm, vcm"
+        ));
+    }
+    Ok(options)
+}
+
+/// Builds SmallVCM from `src` into `out/smallvcm` unless it is already there.
+fn build_smallvcm(src: &Path, out: &Path) -> Result<PathBuf, String> {
+    let main = src.join("src/smallvcm.cxx");
+    if !main.is_file() {
+        return Err(format!(
+            "{} not found: --src must be a SmallVCM checkout (git clone https://github.com/SmallVCM/SmallVCM DIR)",
+            main.display()
+        ));
+    }
+    let binary = out.join("smallvcm");
+    if !binary.is_file() {
+        println!(
+            "smallvcm: building {} with g++ -O3 -std=c++11 -fopenmp",
+            main.display()
+        );
+        let status = Command::new("g++")
+            .args(["-O3", "-std=c++11", "-fopenmp", "-o"])
+            .arg(&binary)
+            .arg(&main)
+            .status()
+            .map_err(|e| format!("cannot run g++: {e}"))?;
+        if !status.success() {
+            return Err(format!("g++ failed ({status}) building {}", main.display()));
+        }
+    }
+    Ok(binary)
+}
+
+/// `<target>/release/<name>`, honouring `CARGO_TARGET_DIR`.
+fn release_binary(root: &Path, name: &str) -> PathBuf {
+    std::env::var_os("CARGO_TARGET_DIR")
+        .map_or_else(|| root.join("target"), PathBuf::from)
+        .join("release")
+        .join(name)
+}
+
+/// (t(1 + k) - t(1)) / k for a timing function of the iteration count.
+fn per_iteration(k: u32, mut time: impl FnMut(u32) -> Result<f64, String>) -> Result<f64, String> {
+    let one = time(1)?;
+    let more = time(1 + k)?;
+    Ok((more - one) / f64::from(k))
+}
+
+fn time_ours(
+    binary: &Path,
+    manifest: &Path,
+    algorithm: &str,
+    n: u32,
+    out: &Path,
+) -> Result<f64, String> {
+    let output = Command::new(binary)
+        .arg(manifest)
+        .args(["--integrator", algorithm, "--iterations", &n.to_string()])
+        .args(["--regularize", "off", "--no-png", "-o"])
+        .arg(out.join("ours.exr"))
+        .output()
+        .map_err(|e| format!("cannot run {}: {e}", binary.display()))?;
+    let text = String::from_utf8_lossy(&output.stderr);
+    // "rendered N iterations of WxH in T s (...)"
+    seconds_after(&text, "rendered ", " in ")
+        .ok_or_else(|| format!("render-cli printed no render time:\n{text}"))
+}
+
+fn time_smallvcm(
+    binary: &Path,
+    scene: u32,
+    algorithm: &str,
+    n: u32,
+    out: &Path,
+) -> Result<f64, String> {
+    let output = Command::new(binary)
+        .args([
+            "-s",
+            &scene.to_string(),
+            "-a",
+            algorithm,
+            "-i",
+            &n.to_string(),
+            "-o",
+        ])
+        .arg(out.join("smallvcm.hdr"))
+        .current_dir(out)
+        .output()
+        .map_err(|e| format!("cannot run {}: {e}", binary.display()))?;
+    let text = String::from_utf8_lossy(&output.stdout);
+    // "Running: <name>... done in T s"
+    seconds_after(&text, "Running", "done in ")
+        .ok_or_else(|| format!("SmallVCM printed no render time:\n{text}"))
+}
+
+/// The number of seconds after `marker` on the first line containing `line`.
+fn seconds_after(text: &str, line: &str, marker: &str) -> Option<f64> {
+    let l = text.lines().find(|l| l.contains(line))?;
+    let rest = &l[l.find(marker)? + marker.len()..];
+    rest.split_whitespace().next()?.parse().ok()
+}
+
+fn median(values: &mut [f64]) -> f64 {
+    values.sort_by(f64::total_cmp);
+    values[values.len() / 2]
+}
+
+struct Row {
+    scene: u32,
+    algorithm: String,
+    ours: f64,
+    theirs: f64,
+}
+
+fn report(root: &Path, options: &Options, rows: &[Row]) -> Result<(), String> {
+    let commit = crate::git(root, &["rev-parse", "--short", "HEAD"])
+        .map(|o| String::from_utf8_lossy(&o).trim().to_string())
+        .unwrap_or_else(|| "?".into());
+    let mut md = format!(
+        "# Ours against SmallVCM, seconds per iteration\n\n\
+         commit {commit}, {} cores, load average {} at the end; 512x512, (t(1 + {k}) - t(1)) / {k}, \
+         median of {} interleaved rounds. Ratio < 1: ours is faster.\n\n\
+         | scene | algorithm | ours (s/it) | SmallVCM (s/it) | ours / SmallVCM |\n|---|---|---:|---:|---:|\n",
+        crate::cores(),
+        crate::load_average(),
+        options.repeat,
+        k = options.iterations,
+    );
+    for r in rows {
+        md += &format!(
+            "| {} | {} | {:.4} | {:.4} | {:.2} |\n",
+            r.scene,
+            r.algorithm,
+            r.ours,
+            r.theirs,
+            r.ours / r.theirs
+        );
+    }
+    let json = json!({
+        "commit": commit,
+        "cores": crate::cores(),
+        "iterations": options.iterations,
+        "repeat": options.repeat,
+        "rows": rows.iter().map(|r| json!({
+            "scene": r.scene, "algorithm": r.algorithm,
+            "ours_s_per_iteration": r.ours, "smallvcm_s_per_iteration": r.theirs,
+        })).collect::<Vec<_>>(),
+    });
+    let (md_path, _) = crate::write_report(&options.out, "report", &md, &json)?;
+    println!("{md}\nwritten to {}", md_path.display());
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn render_times_are_read_from_both_programs() {
+        let ours = "loading\nrendered 9 iterations of 512x512 in 2.51 s (3.6 it/s) -> x.exr\n";
+        assert_eq!(seconds_after(ours, "rendered ", " in "), Some(2.51));
+        let theirs = "Scene:   Glossy\nRunning: vertex connection and merging... done in 1.25 s\n";
+        assert_eq!(seconds_after(theirs, "Running", "done in "), Some(1.25));
+        assert_eq!(seconds_after("nothing", "Running", "done in "), None);
+    }
+
+    #[test]
+    fn per_iteration_subtracts_the_one_iteration_render() {
+        let t = per_iteration(4, |n| Ok(0.5 + 0.25 * f64::from(n))).unwrap();
+        assert!((t - 0.25).abs() < 1e-12);
+    }
+}
