@@ -15,7 +15,7 @@
 
 mod common;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use glam::{UVec2, Vec3};
 use integrators::{Algorithm, Film, Mode, RenderConfig, Strategies};
@@ -32,7 +32,7 @@ fn manifest(name: &str, text: &str) -> PathBuf {
     path
 }
 
-fn render(path: &PathBuf, size: UVec2, algorithm: Algorithm, seed: u64, iterations: u64) -> Film {
+fn render(path: &Path, size: UVec2, algorithm: Algorithm, seed: u64, iterations: u64) -> Film {
     let scene = common::load(path, size.x, size.y);
     let config = RenderConfig {
         algorithm,
