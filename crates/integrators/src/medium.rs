@@ -53,3 +53,37 @@ pub fn attenuated(value: Vec3, medium: Option<Medium>, distance: f32) -> Vec3 {
         None => value,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use scene::Surface;
+
+    #[test]
+    fn a_segment_is_inside_behind_the_geometric_normal_and_never_in_an_emitter() {
+        let glass = Medium::absorbing(Vec3::new(1.0, 2.0, 3.0));
+        let ng = Vec3::Z;
+        assert_eq!(towards(glass, ng, Vec3::new(0.3, 0.0, -0.9)), glass);
+        assert_eq!(towards(glass, ng, Vec3::new(0.3, 0.0, 0.9)), None);
+        assert_eq!(towards(None, ng, -Vec3::Z), None);
+        let mut material = Material {
+            name: "glass".into(),
+            surface: Surface::Diffuse {
+                reflectance: Vec3::ZERO,
+            },
+            emission: Vec3::ZERO,
+            medium: glass,
+        };
+        assert_eq!(of(&material), glass);
+        material.emission = Vec3::ONE;
+        assert_eq!(of(&material), None);
+        let t = attenuated(Vec3::splat(2.0), glass, 0.5);
+        assert!(
+            (t - 2.0 * Vec3::new(-0.5f32, -1.0, -1.5).exp())
+                .abs()
+                .max_element()
+                < 1e-6
+        );
+        assert_eq!(attenuated(Vec3::splat(2.0), None, 0.5), Vec3::splat(2.0));
+    }
+}
