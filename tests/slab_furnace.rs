@@ -21,14 +21,8 @@ const MAX_BOUNCES: usize = 64;
 fn walk(model: MicrofacetModel, wi: Vec3, mode: TransportMode, rng: &mut Pcg32) -> f32 {
     // Top interface: glass below (eta = 1.5); bottom interface, in its own frame
     // with +z pointing up into the glass: air below (eta = 1/1.5).
-    let top = Bsdf::Dielectric(Dielectric {
-        model,
-        eta: ETA_GLASS,
-    });
-    let bottom = Bsdf::Dielectric(Dielectric {
-        model,
-        eta: 1.0 / ETA_GLASS,
-    });
+    let top = Bsdf::Dielectric(Dielectric::new(model, ETA_GLASS));
+    let bottom = Bsdf::Dielectric(Dielectric::new(model, 1.0 / ETA_GLASS));
     let mut weight = 1.0;
     let mut wi = wi;
     let mut at_top = true;

@@ -20,6 +20,7 @@ pub mod film;
 pub mod geometry;
 mod integrator;
 pub mod lights;
+pub mod medium;
 pub mod merge_radius;
 mod nee;
 mod pt;

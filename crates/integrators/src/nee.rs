@@ -10,8 +10,10 @@ use crate::context::SceneContext;
 use crate::lights::LightSample;
 use crate::vertex::PathVertex;
 
-/// A light sample for `vertex` with the vertex's f |cos| towards it, if
-/// both are non-zero. The shadow ray is the caller's ([`visible`]): the
+/// A light sample for `vertex` with the vertex's f |cos| towards it, times
+/// the transmittance of the shadow segment where it starts into an
+/// absorbing medium ([`crate::medium`]; lights are outside every medium),
+/// if both are non-zero. The shadow ray is the caller's ([`visible`]): the
 /// bidirectional core decides its roulette first.
 #[inline]
 pub fn light_sample(
@@ -21,7 +23,13 @@ pub fn light_sample(
     uv: Vec2,
 ) -> Option<(LightSample, Vec3)> {
     let ls = ctx.lights.sample(&ctx.scene, vertex.point.p, u_light, uv)?;
-    let f = vertex.eval(ls.wi, TransportMode::Radiance);
+    let mut f = vertex.eval(ls.wi, TransportMode::Radiance);
+    if let Some(m) = vertex.medium_towards(ls.wi) {
+        let distance = ls
+            .point
+            .map_or(f32::INFINITY, |lp| (lp.p - vertex.point.p).length());
+        f *= m.transmittance(distance);
+    }
     (f.max_element() > 0.0).then_some((ls, f))
 }
 

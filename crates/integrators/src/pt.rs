@@ -132,11 +132,12 @@ impl PathTracer {
             let Some(hit) = ctx.intersect(walk.origin, walk.direction, f32::INFINITY) else {
                 if let Some(le) = ctx.lights.environment() {
                     let weight = self.emitter_hit_weight(&bounce, || ctx.lights.environment_pdf());
-                    radiance += walk.throughput * le * weight;
+                    radiance += walk.escaped_throughput() * le * weight;
                 }
                 break;
             };
             let point = ctx.surface_point(&hit);
+            walk.arrive(&ctx.scene, &point, hit.t);
             let wi = -walk.direction;
             if let Some(emission) = ctx.emitted(&point, wi) {
                 let weight = self.emitter_hit_weight(&bounce, || {

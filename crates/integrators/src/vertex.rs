@@ -41,6 +41,8 @@ pub struct PathVertex {
     /// raised its roughness; infinity otherwise (the `mis` crate's
     /// "not a virtual-merge vertex").
     pub tau: f64,
+    /// The medium behind the surface ([`crate::medium`]).
+    medium: Option<scene::Medium>,
 }
 
 /// A direction sampled at a vertex.
@@ -98,7 +100,14 @@ impl PathVertex {
             throughput,
             regularization: regularization.after_vertex(&bsdf_original),
             tau,
+            medium: crate::medium::of(material),
         }
+    }
+
+    /// The absorbing medium a segment leaving here in direction `w` runs
+    /// through, as far as this end knows ([`crate::medium`]).
+    pub fn medium_towards(&self, w: Vec3) -> Option<scene::Medium> {
+        crate::medium::towards(self.medium, self.point.ng, w)
     }
 
     /// This vertex regularized by another subpath's rule: where a

@@ -4,7 +4,10 @@
 
 use glam::Vec3;
 use microfacet::TransportMode;
+use scene::{Medium, Scene};
 
+use crate::geometry::SurfacePoint;
+use crate::medium;
 use crate::roulette;
 use crate::sampler::StepSamples;
 use crate::vertex::{PathVertex, VertexSample};
@@ -16,8 +19,12 @@ pub struct Walk {
     pub origin: Vec3,
     /// Its unit direction.
     pub direction: Vec3,
-    /// Product of f |cos| / pdf so far (and of roulette reweighting).
+    /// Product of f |cos| / pdf so far (and of roulette reweighting, and of
+    /// the transmittance of the segments traced).
     pub throughput: Vec3,
+    /// The absorbing medium the next ray starts into, as its origin's
+    /// surface knows ([`crate::medium`]); `None` from cameras and lights.
+    pub medium: Option<Medium>,
 }
 
 impl Walk {
@@ -27,7 +34,27 @@ impl Walk {
             origin,
             direction,
             throughput: Vec3::ONE,
+            medium: None,
         }
+    }
+
+    /// The ray has hit `point` after `distance`: the throughput takes the
+    /// segment's transmittance, its medium being the origin's or else the
+    /// one behind `point` that it arrives from ([`crate::medium`]).
+    #[inline]
+    pub fn arrive(&mut self, scene: &Scene, point: &SurfacePoint, distance: f32) {
+        let inside = self
+            .medium
+            .or_else(|| medium::at(scene, point, -self.direction));
+        self.throughput = medium::attenuated(self.throughput, inside, distance);
+    }
+
+    /// The throughput of the ray that left the scene: 0 in the channels of
+    /// a medium it started in (a closed volume lets no ray escape but
+    /// rounding's; those see an infinite distance of it).
+    #[inline]
+    pub fn escaped_throughput(&self) -> Vec3 {
+        medium::attenuated(self.throughput, self.medium, f32::INFINITY)
     }
 
     /// Continues the walk from `vertex`, the `depth`-th of its subpath: a
@@ -47,6 +74,7 @@ impl Walk {
         self.throughput *= s.weight;
         self.origin = vertex.point.spawn_origin(s.wo);
         self.direction = s.wo;
+        self.medium = vertex.medium_towards(s.wo);
         roulette::survives(depth, &mut self.throughput, scale, u.u_roulette).then_some(s)
     }
 }

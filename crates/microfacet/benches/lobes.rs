@@ -43,16 +43,13 @@ fn lobes() -> Vec<(String, Bsdf)> {
         ));
         out.push((
             format!("dielectric/{tag}"),
-            Bsdf::Dielectric(Dielectric { model, eta: 1.5 }),
+            Bsdf::Dielectric(Dielectric::new(model, 1.5)),
         ));
     }
     let smooth = MicrofacetModel::new(NdfKind::Ggx, 0.0, Shadowing::Smith);
     out.push((
         "dielectric/smooth".to_string(),
-        Bsdf::Dielectric(Dielectric {
-            model: smooth,
-            eta: 1.5,
-        }),
+        Bsdf::Dielectric(Dielectric::new(smooth, 1.5)),
     ));
     out
 }

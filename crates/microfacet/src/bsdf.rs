@@ -32,7 +32,7 @@ impl Bsdf {
         match self {
             Bsdf::Lambertian(l) => l.eval(wi, wo),
             Bsdf::Conductor(c) => c.eval(wi, wo),
-            Bsdf::Dielectric(d) => Vec3::splat(d.eval(wi, wo, mode)),
+            Bsdf::Dielectric(d) => d.eval(wi, wo, mode),
         }
     }
 

@@ -6,6 +6,13 @@
 //! the index below the surface (-z) over the index above it (+z); a query
 //! from below sees 1/eta. Reflection is chosen with probability F and
 //! refraction with 1 - F, and the pdfs carry those factors (SPEC §3).
+//!
+//! `tint` multiplies the refracted part only (Khronos glTF 2.0
+//! KHR_materials_transmission: `specular_btdf(alpha) * baseColor`; the
+//! reflection is not tinted), in both transport modes and whichever side
+//! light crosses from; the sampling is unchanged (Fresnel decides), so only
+//! the value and the sample weight carry it. White leaves every value as the
+//! untinted lobe's, bit for bit.
 
 use glam::{DVec3, Vec2, Vec3};
 
@@ -30,6 +37,9 @@ pub struct Dielectric {
     pub model: MicrofacetModel,
     /// Index below the surface over index above it; must be finite and > 0.
     pub eta: f32,
+    /// Colour of the transmitted part (glTF's base colour on a transmissive
+    /// material), each channel in [0, 1]; `Vec3::ONE` for clear glass.
+    pub tint: Vec3,
 }
 
 /// f, forward pdf and reverse pdf of one configuration.
@@ -40,6 +50,20 @@ struct Terms {
 }
 
 impl Dielectric {
+    /// A clear (untinted) interface with `model` and index ratio `eta`.
+    pub const fn new(model: MicrofacetModel, eta: f32) -> Self {
+        Self {
+            model,
+            eta,
+            tint: Vec3::ONE,
+        }
+    }
+
+    /// The same interface with the transmitted part tinted by `tint`.
+    pub const fn with_tint(self, tint: Vec3) -> Self {
+        Self { tint, ..self }
+    }
+
     /// True for a smooth interface, and for an index-matched one
     /// (|eta - 1| < `INDEX_MATCH_EPSILON`, SPEC §5), whose transmission is a
     /// (nearly) straight pass-through at any roughness. Both are sampled as a
@@ -58,9 +82,20 @@ impl Dielectric {
     /// f(wi, wo) (SPEC §3): F D G / (4 |cos_i cos_o|) for reflection;
     /// |<wi,h><wo,h>| / |cos_i cos_o| (1 - F) D G / (<wi,h> + eta <wo,h>)^2 for
     /// refraction in Radiance mode, times eta^2 in Importance mode
-    /// (eta = eta_t/eta_i; equivalent to SPEC's eta_i^2, eta_t^2 numerators).
-    pub fn eval(&self, wi: Vec3, wo: Vec3, mode: TransportMode) -> f32 {
-        self.evaluate(wi, wo, mode).map_or(0.0, |t| t.f)
+    /// (eta = eta_t/eta_i; equivalent to SPEC's eta_i^2, eta_t^2 numerators);
+    /// the refraction value times `tint` (module docs).
+    pub fn eval(&self, wi: Vec3, wo: Vec3, mode: TransportMode) -> Vec3 {
+        self.evaluate(wi, wo, mode)
+            .map_or(Vec3::ZERO, |t| self.colour(t.f, wi.z * wo.z < 0.0))
+    }
+
+    /// A scalar value of the lobe as a colour: times `tint` when `refracted`.
+    fn colour(&self, f: f32, refracted: bool) -> Vec3 {
+        if refracted {
+            self.tint * f
+        } else {
+            Vec3::splat(f)
+        }
     }
 
     /// Density of `wo` given `wi`: pdf_h(wi,h)/(4<wo,h>) F for reflection,
@@ -118,7 +153,7 @@ impl Dielectric {
         }
         Some(BsdfSample {
             wo: wo * side,
-            f: Vec3::splat(t.f),
+            f: self.colour(t.f, !reflected),
             pdf: t.pdf,
             pdf_reverse: t.pdf_reverse,
             eta: if reflected { 1.0 } else { eta as f32 },
@@ -160,7 +195,7 @@ impl Dielectric {
         };
         Some(BsdfSample {
             wo,
-            f: Vec3::splat(t * scale / wo.z.abs()),
+            f: self.colour(t * scale / wo.z.abs(), true),
             pdf: t,
             pdf_reverse: t,
             eta,

@@ -32,11 +32,8 @@ fn edge_lobes() -> Vec<Bsdf> {
                     },
                 }));
                 for eta in EDGE_ETAS {
-                    out.push(Bsdf::Dielectric(Dielectric { model, eta }));
-                    out.push(Bsdf::Dielectric(Dielectric {
-                        model,
-                        eta: 1.0 / eta,
-                    }));
+                    out.push(Bsdf::Dielectric(Dielectric::new(model, eta)));
+                    out.push(Bsdf::Dielectric(Dielectric::new(model, 1.0 / eta)));
                 }
             }
         }
@@ -139,9 +136,9 @@ fn extreme_uniforms_give_none_or_valid_samples() {
 fn invalid_indices_are_rejected_quietly() {
     let model = MicrofacetModel::new(microfacet::NdfKind::Ggx, 0.3, microfacet::Shadowing::Smith);
     for eta in [0.0f32, -1.5, f32::NAN, f32::INFINITY] {
-        let d = Dielectric { model, eta };
+        let d = Dielectric::new(model, eta);
         let wi = direction(0.6, 0.0);
-        assert_eq!(d.eval(wi, -wi, TransportMode::Radiance), 0.0);
+        assert_eq!(d.eval(wi, -wi, TransportMode::Radiance), glam::Vec3::ZERO);
         assert_eq!(d.pdf(wi, direction(0.6, std::f32::consts::PI)), 0.0);
         assert!(
             d.sample(wi, 0.5, glam::Vec2::splat(0.5), TransportMode::Radiance)

@@ -70,10 +70,10 @@ const HORIZON_ROUNDING: f32 = 1e-6;
 fn ggx_refraction_at_extreme_uniforms() {
     let mut failures = Vec::new();
     for alpha in [0.01f32, 0.1, 0.5, 1.0, 3.0] {
-        let d = Dielectric {
-            model: MicrofacetModel::new(NdfKind::Ggx, alpha, Shadowing::Smith),
-            eta: 1.5,
-        };
+        let d = Dielectric::new(
+            MicrofacetModel::new(NdfKind::Ggx, alpha, Shadowing::Smith),
+            1.5,
+        );
         for wi in incident() {
             for u in uniforms() {
                 let s = d.sample(wi, TOP, u, TransportMode::Radiance);

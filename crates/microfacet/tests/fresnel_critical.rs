@@ -50,10 +50,7 @@ fn transmittance_near_the_critical_angle_matches_f64() {
             (1.0 / dense, f64::from(1.0 / dense), 1.0f32),
             (dense, 1.0 / f64::from(dense), -1.0),
         ] {
-            let d = Dielectric {
-                model: smooth,
-                eta: lobe_eta,
-            };
+            let d = Dielectric::new(smooth, lobe_eta);
             for cos_i in near_critical(seen) {
                 let Some((f_ref, t_ref)) = reference(f64::from(cos_i), seen) else {
                     continue;

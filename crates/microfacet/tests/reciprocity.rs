@@ -103,9 +103,9 @@ fn refraction_follows_the_adjoint_rule() {
             if same_hemisphere(wi, wo) || !well_conditioned(&bsdf, wi, wo) {
                 continue;
             }
-            let radiance = d.eval(wi, wo, TransportMode::Radiance);
-            let importance = d.eval(wi, wo, TransportMode::Importance);
-            let adjoint = d.eval(wo, wi, TransportMode::Importance);
+            let radiance = d.eval(wi, wo, TransportMode::Radiance).x;
+            let importance = d.eval(wi, wo, TransportMode::Importance).x;
+            let adjoint = d.eval(wo, wi, TransportMode::Importance).x;
             // eta_t / eta_i as seen from wi.
             let eta = if wi.z > 0.0 { d.eta } else { 1.0 / d.eta };
             assert!(

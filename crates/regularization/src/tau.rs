@@ -304,10 +304,10 @@ mod tests {
     fn dielectric_bound_holds_in_both_directions() {
         let tau = 50.0;
         for eta in [1.5f32, 1.0 / 1.5, 1.05, 1.0 / 1.05, 2.4] {
-            let bsdf = Bsdf::Dielectric(microfacet::Dielectric {
-                model: MicrofacetModel::new(NdfKind::Ggx, 0.0, Shadowing::Smith),
+            let bsdf = Bsdf::Dielectric(microfacet::Dielectric::new(
+                MicrofacetModel::new(NdfKind::Ggx, 0.0, Shadowing::Smith),
                 eta,
-            });
+            ));
             let (_, hat) = regularize(&bsdf, tau);
             let hat = hat.expect("a dielectric has a roughness");
             if hat.bound == Bound::Clamped {

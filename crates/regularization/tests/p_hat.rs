@@ -26,11 +26,8 @@ fn lobes(model: MicrofacetModel) -> [Bsdf; 3] {
                 f0: Vec3::new(0.9, 0.6, 0.3),
             },
         }),
-        Bsdf::Dielectric(Dielectric { model, eta: 1.5 }),
-        Bsdf::Dielectric(Dielectric {
-            model,
-            eta: 1.0 / 1.33,
-        }),
+        Bsdf::Dielectric(Dielectric::new(model, 1.5)),
+        Bsdf::Dielectric(Dielectric::new(model, 1.0 / 1.33)),
     ]
 }
 

@@ -98,7 +98,7 @@ fn path_regularization_and_p_hat_are_finite() {
                         model,
                         fresnel: Fresnel::Schlick { f0: Vec3::ONE },
                     }),
-                    Bsdf::Dielectric(Dielectric { model, eta }),
+                    Bsdf::Dielectric(Dielectric::new(model, eta)),
                     Bsdf::Lambertian(Lambertian {
                         reflectance: Vec3::ONE,
                     }),

@@ -64,7 +64,7 @@ impl SceneFeatures {
         }
         for (material, _) in scene.materials.iter().zip(&used).filter(|(_, u)| **u) {
             f.materials += 1;
-            f.transmission |= matches!(material.surface, Surface::Dielectric { .. });
+            f.transmission |= material.surface.may_transmit();
             f.textured |= matches!(material.surface, Surface::Textured(_));
             if let Some(model) = material.surface.microfacet() {
                 let alpha = model.alpha();

@@ -21,12 +21,15 @@ use std::path::{Path, PathBuf};
 
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use gltf::khr_lights_punctual::Kind;
-use microfacet::{MicrofacetModel, NdfKind, Shadowing};
+use microfacet::{NdfKind, Shadowing};
 
 use crate::camera::CameraSpec;
 use crate::error::{SceneError, guarded, quoted};
 use crate::light::Light;
-use crate::material::{Material, Surface, TexturedPbr, metal_rough_surface};
+use crate::material::{
+    Material, Medium, Surface, TexturedPbr, is_transmissive, metal_rough_surface,
+    transmissive_surface,
+};
 use crate::scene::SceneBuilder;
 use crate::texture::{Texture, Wrap};
 
@@ -85,6 +88,8 @@ fn load_unguarded(
             || m.pbr_metallic_roughness()
                 .metallic_roughness_texture()
                 .is_some()
+            || m.transmission()
+                .is_some_and(|t| t.transmission_texture().is_some())
     });
     let images = if uses_textures {
         load_images(path, &document, &buffers, policy)?
@@ -647,34 +652,40 @@ impl Loader<'_> {
                 "KHR_materials_emissive_strength must be finite and >= 0, got {strength}"
             )));
         }
-        let surface = if transmission > 0.0 {
-            Surface::Dielectric {
-                model: MicrofacetModel::new(ndf, roughness * roughness, shadowing),
-                ior,
-            }
-        } else {
-            let base_texture = pbr
-                .base_color_texture()
-                .map(|t| self.texture(&t.texture(), true, &element))
-                .transpose()?;
-            let mr_texture = pbr
-                .metallic_roughness_texture()
-                .map(|t| self.texture(&t.texture(), false, &element))
-                .transpose()?;
-            if base_texture.is_some() || mr_texture.is_some() {
+        let base_texture = pbr
+            .base_color_texture()
+            .map(|t| self.texture(&t.texture(), true, &element))
+            .transpose()?;
+        let mr_texture = pbr
+            .metallic_roughness_texture()
+            .map(|t| self.texture(&t.texture(), false, &element))
+            .transpose()?;
+        let transmission_texture = m
+            .transmission()
+            .and_then(|t| t.transmission_texture())
+            .filter(|_| transmission > 0.0)
+            .map(|t| self.texture(&t.texture(), false, &element))
+            .transpose()?;
+        let surface =
+            if base_texture.is_some() || mr_texture.is_some() || transmission_texture.is_some() {
                 Surface::Textured(TexturedPbr {
                     base_color: base,
                     base_color_texture: base_texture,
                     metallic,
                     roughness,
                     metallic_roughness_texture: mr_texture,
+                    transmission,
+                    transmission_texture,
+                    ior,
                     ndf,
                     shadowing,
                 })
+            } else if is_transmissive(metallic, transmission) {
+                transmissive_surface(base, roughness, ior, ndf, shadowing)
             } else {
                 metal_rough_surface(base, metallic, roughness, ndf, shadowing)
-            }
-        };
+            };
+        let medium = volume_medium(m, surface.may_transmit()).map_err(invalid)?;
         let factor = Vec3::from_array(m.emissive_factor());
         if !factor.is_finite() || factor.min_element() < 0.0 {
             return Err(invalid(format!(
@@ -692,6 +703,7 @@ impl Loader<'_> {
             name,
             surface,
             emission,
+            medium,
         });
         self.materials.insert(m.index(), id);
         Ok(id)
@@ -876,6 +888,41 @@ fn wrap(mode: gltf::texture::WrappingMode) -> Wrap {
 }
 
 /// The NDF and shadowing a material's `extras` choose (GGX and Smith by default).
+/// The absorbing medium of a material with `KHR_materials_volume` and
+/// thicknessFactor > 0 (a closed volume; the thickness itself only says
+/// so), from attenuationColor and attenuationDistance (see
+/// [`Medium::from_attenuation`]), if its surface is `transmissive`
+/// somewhere; `None` for thin walls, clear volumes and opaque materials.
+/// The values are checked either way.
+fn volume_medium(m: &gltf::Material, transmissive: bool) -> Result<Option<Medium>, String> {
+    let Some(volume) = m.volume() else {
+        return Ok(None);
+    };
+    let thickness = volume.thickness_factor();
+    if !(thickness.is_finite() && thickness >= 0.0) {
+        return Err(format!(
+            "KHR_materials_volume thicknessFactor must be finite and >= 0, got {thickness}"
+        ));
+    }
+    let color = Vec3::from_array(volume.attenuation_color());
+    if !(color.is_finite() && color.min_element() >= 0.0 && color.max_element() <= 1.0) {
+        return Err(format!(
+            "KHR_materials_volume attenuationColor must be in [0, 1], got {color}"
+        ));
+    }
+    let distance = volume.attenuation_distance();
+    if !(distance > 0.0) {
+        return Err(format!(
+            "KHR_materials_volume attenuationDistance must be > 0, got {distance}"
+        ));
+    }
+    Ok(if transmissive && thickness > 0.0 {
+        Medium::from_attenuation(color, distance)
+    } else {
+        None
+    })
+}
+
 fn microfacet_choice(m: &gltf::Material) -> Result<(NdfKind, Shadowing), String> {
     let Some(raw) = m.extras() else {
         return Ok((NdfKind::Ggx, Shadowing::Smith));

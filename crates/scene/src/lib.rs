@@ -32,7 +32,7 @@ pub use camera::{Camera, CameraSpec};
 pub use error::SceneError;
 pub use features::SceneFeatures;
 pub use light::Light;
-pub use material::{Material, Surface};
+pub use material::{Material, Medium, Surface};
 pub use scene::{LoadReport, RenderSettings, Scene, triangle_cross, triangle_normal};
 pub use texture::Texture;
 

@@ -32,6 +32,8 @@
 //! reflectance = [0.9, 0.9, 0.9] # diffuse albedo, or conductor F0 (Schlick)
 //! # eta = [..], k = [..]        # conductor complex index instead of F0
 //! # ior = 1.5                   # dielectric
+//! # tint = [1, 1, 1]            # dielectric: colour of the refracted part (glTF base colour)
+//! # absorption = [0, 0, 0]      # dielectric: sigma_a per unit length of a closed mesh's inside
 //! # emission = [10, 10, 10]
 //! [[shape]]
 //! type = "sphere"               # sphere | quad
@@ -57,7 +59,7 @@ use serde::Deserialize;
 use crate::camera::CameraSpec;
 use crate::error::{SceneError, quoted};
 use crate::light::Light;
-use crate::material::{Material, Surface};
+use crate::material::{Material, Medium, Surface};
 use crate::paths::ReferencePolicy;
 use crate::scene::{RenderSettings, SceneBuilder};
 use crate::shapes;
@@ -124,6 +126,8 @@ struct MaterialSection {
     eta: Option<[f32; 3]>,
     k: Option<[f32; 3]>,
     ior: Option<f32>,
+    tint: Option<[f32; 3]>,
+    absorption: Option<[f32; 3]>,
     emission: Option<[f32; 3]>,
 }
 
@@ -362,10 +366,20 @@ fn apply_materials(
         let emission = vec3(section.emission)
             .or(base.as_ref().map(|b| b.emission))
             .unwrap_or(Vec3::ZERO);
+        let medium = match vec3(section.absorption) {
+            Some(_) if !surface.may_transmit() => {
+                return Err(invalid(
+                    "`absorption` needs a dielectric (light enters no other material)".into(),
+                ));
+            }
+            Some(sigma_a) => Medium::absorbing(sigma_a),
+            None => base.as_ref().and_then(|b| b.medium),
+        };
         let material = Material {
             name: section.name.clone(),
             surface,
             emission,
+            medium,
         };
         match target {
             Some(i) => builder.materials[i] = material,
@@ -397,10 +411,16 @@ fn checked_values(section: &MaterialSection) -> Result<Option<f32>, String> {
         ("emission", section.emission),
         ("eta", section.eta),
         ("k", section.k),
+        ("tint", section.tint),
+        ("absorption", section.absorption),
     ] {
         if let Some(v) = vec3(value).filter(|v| !(v.is_finite() && v.min_element() >= 0.0)) {
             return Err(format!("{name} must be finite and non-negative, got {v}"));
         }
+    }
+    // A lossless interface cannot transmit more than it receives.
+    if let Some(t) = vec3(section.tint).filter(|t| t.max_element() > 1.0) {
+        return Err(format!("tint must be in [0, 1], got {t}"));
     }
     Ok(alpha)
 }
@@ -423,6 +443,7 @@ fn new_surface(
         "dielectric" => Surface::Dielectric {
             model,
             ior: section.ior.unwrap_or(1.5),
+            tint: vec3(section.tint).unwrap_or(Vec3::ONE),
         },
         other => {
             return Err(format!(
@@ -475,9 +496,10 @@ fn override_surface(
                 fresnel
             },
         },
-        Surface::Dielectric { model, ior } => Surface::Dielectric {
+        Surface::Dielectric { model, ior, tint } => Surface::Dielectric {
             model: remodel(model),
             ior: section.ior.unwrap_or(ior),
+            tint: vec3(section.tint).unwrap_or(tint),
         },
         Surface::Textured(mut pbr) => {
             pbr.ndf = ndf.unwrap_or(pbr.ndf);

@@ -4,10 +4,17 @@
 //!
 //! glTF 2.0 metallic-roughness (per material, or per texel when textured):
 //! - `alpha = roughness^2` (glTF's perceptual roughness r).
-//! - `KHR_materials_transmission` factor > 0: a rough or smooth dielectric with
-//!   index `KHR_materials_ior` (glTF default 1.5). Base colour tint, the
-//!   transmission texture and `KHR_materials_volume` are not used.
-//! - otherwise metallic >= 0.5: a conductor with Schlick's Fresnel, F0 = base colour.
+//! - metallic >= 0.5: a conductor with Schlick's Fresnel, F0 = base colour.
+//! - otherwise transmission t >= 0.5 (`KHR_materials_transmission` factor
+//!   times the R channel of its `transmissionTexture`): a rough or smooth
+//!   dielectric with index `KHR_materials_ior` (glTF default 1.5) whose
+//!   refracted part is tinted by the base colour (the extension's
+//!   `specular_btdf * baseColor`). glTF mixes the diffuse base and the BTDF
+//!   by t; one lobe per shading point cannot mix them, so the larger weight
+//!   wins, per texel when textured (t = 0.5 is glass). With
+//!   `KHR_materials_volume` and thicknessFactor > 0 the mesh is a closed
+//!   volume that absorbs (`Medium`, from attenuationColor and
+//!   attenuationDistance); the thickness itself and its texture are not used.
 //! - otherwise: Lambertian with the base colour. The thin specular layer of
 //!   glTF dielectrics (F0 = 0.04) is not modelled: there is no layered lobe yet.
 //! - emission = emissiveFactor x `KHR_materials_emissive_strength`; emissive
@@ -56,6 +63,9 @@ pub enum Surface {
         model: MicrofacetModel,
         /// Index of refraction of the inside, > 0 (outside is 1).
         ior: f32,
+        /// Colour of the refracted part, each channel in [0, 1] (glTF's base
+        /// colour; `Vec3::ONE` for clear glass). Reflection is not tinted.
+        tint: Vec3,
     },
     /// glTF metallic-roughness resolved per shading point from textures.
     Textured(TexturedPbr),
@@ -75,6 +85,12 @@ pub struct TexturedPbr {
     pub roughness: f32,
     /// Metallic-roughness texture: roughness in G, metallic in B.
     pub metallic_roughness_texture: Option<usize>,
+    /// `KHR_materials_transmission` factor (0 without the extension).
+    pub transmission: f32,
+    /// Transmission texture: the factor is multiplied by its R channel.
+    pub transmission_texture: Option<usize>,
+    /// Index of refraction of a transmissive texel (`KHR_materials_ior`).
+    pub ior: f32,
     /// NDF and shadowing of the microfacet lobes.
     pub ndf: NdfKind,
     /// Shadowing model.
@@ -90,7 +106,64 @@ pub struct Material {
     pub surface: Surface,
     /// Emitted radiance (W sr^-1 m^-2 per channel), zero for non-emitters.
     pub emission: Vec3,
+    /// What fills the inside of a closed dielectric mesh with this material
+    /// (behind the geometric normal); `None` for clear glass and for every
+    /// opaque material.
+    pub medium: Option<Medium>,
 }
+
+/// A homogeneous absorbing medium (no scattering): Beer-Lambert
+/// attenuation along every path segment inside it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Medium {
+    /// Absorption coefficient sigma_a per channel, per unit of scene
+    /// length, finite and >= 0.
+    pub sigma_a: Vec3,
+}
+
+impl Medium {
+    /// The medium that turns white light into `color` after `distance`
+    /// (Khronos KHR_materials_volume: sigma_a = -ln(attenuationColor) /
+    /// attenuationDistance per channel). `None` when it absorbs nothing
+    /// (colour white, or an infinite distance, the extension's default).
+    /// A colour channel of 0 absorbs everything it crosses: its sigma_a is
+    /// `OPAQUE_SIGMA_A` instead of infinity.
+    /// Expects colour channels in [0, 1] and a distance > 0.
+    pub fn from_attenuation(color: Vec3, distance: f32) -> Option<Self> {
+        if distance == f32::INFINITY {
+            return None;
+        }
+        let sigma_a = color.map(|c| {
+            if c > 0.0 {
+                (-c.ln() / distance).clamp(0.0, OPAQUE_SIGMA_A)
+            } else {
+                OPAQUE_SIGMA_A
+            }
+        });
+        Self::absorbing(sigma_a)
+    }
+
+    /// The medium with absorption coefficient `sigma_a`, or `None` when it
+    /// absorbs nothing.
+    pub fn absorbing(sigma_a: Vec3) -> Option<Self> {
+        (sigma_a.max_element() > 0.0).then_some(Self { sigma_a })
+    }
+
+    /// The fraction of light per channel that crosses `distance` of the
+    /// medium: exp(-sigma_a d) (Beer-Lambert; pbrt-v4 §11.2). A channel
+    /// that does not absorb passes 1 whatever the distance (also an
+    /// infinite one, where sigma_a d would be 0 x inf).
+    pub fn transmittance(&self, distance: f32) -> Vec3 {
+        self.sigma_a
+            .map(|s| if s > 0.0 { (-s * distance).exp() } else { 1.0 })
+    }
+}
+
+/// sigma_a of a channel whose attenuation colour is 0 (ln 0 = -inf): light
+/// that crosses 1e-30 of such a medium keeps e^-1 at most, so any segment a
+/// scene resolves is dark, and sigma_a d stays finite (no inf x 0 = NaN at a
+/// zero-length segment).
+pub const OPAQUE_SIGMA_A: f32 = 1e30;
 
 impl Material {
     /// True when the material emits light.
@@ -105,8 +178,27 @@ impl Surface {
         match *self {
             Surface::Diffuse { reflectance } => Bsdf::Lambertian(Lambertian { reflectance }),
             Surface::Conductor { model, fresnel } => Bsdf::Conductor(Conductor { model, fresnel }),
-            Surface::Dielectric { model, ior } => Bsdf::Dielectric(Dielectric { model, eta: ior }),
+            Surface::Dielectric { model, ior, tint } => {
+                Bsdf::Dielectric(Dielectric::new(model, ior).with_tint(tint))
+            }
             Surface::Textured(pbr) => pbr.resolve(uv, textures).bsdf(uv, textures),
+        }
+    }
+
+    /// True when some point of the surface may be a dielectric (textured
+    /// surfaces: where the textures make it no metal and fully transmissive;
+    /// textures only scale the factors down).
+    pub fn may_transmit(&self) -> bool {
+        match *self {
+            Surface::Dielectric { .. } => true,
+            Surface::Textured(pbr) => {
+                let metallic = match pbr.metallic_roughness_texture {
+                    Some(_) => 0.0,
+                    None => pbr.metallic,
+                };
+                is_transmissive(metallic, pbr.transmission)
+            }
+            Surface::Diffuse { .. } | Surface::Conductor { .. } => false,
         }
     }
 
@@ -140,7 +232,37 @@ impl TexturedPbr {
             roughness *= texel.y;
             metallic *= texel.z;
         }
-        metal_rough_surface(base, metallic, roughness, self.ndf, self.shadowing)
+        let mut transmission = self.transmission;
+        if let Some(t) = self.transmission_texture.and_then(|i| textures.get(i)) {
+            transmission *= t.sample(uv).x;
+        }
+        if is_transmissive(metallic, transmission) {
+            transmissive_surface(base, roughness, self.ior, self.ndf, self.shadowing)
+        } else {
+            metal_rough_surface(base, metallic, roughness, self.ndf, self.shadowing)
+        }
+    }
+}
+
+/// The module docs' rule: a point is glass where it is not metal
+/// (metallic < 0.5) and its transmission weight is at least 0.5.
+pub fn is_transmissive(metallic: f32, transmission: f32) -> bool {
+    metallic < 0.5 && transmission >= 0.5
+}
+
+/// A transmissive glTF material's lobe: a dielectric of index `ior` whose
+/// refraction is tinted by the base colour (module docs).
+pub fn transmissive_surface(
+    base: Vec3,
+    roughness: f32,
+    ior: f32,
+    ndf: NdfKind,
+    shadowing: Shadowing,
+) -> Surface {
+    Surface::Dielectric {
+        model: MicrofacetModel::new(ndf, roughness * roughness, shadowing),
+        ior,
+        tint: base.clamp(Vec3::ZERO, Vec3::ONE),
     }
 }
 
@@ -163,5 +285,34 @@ pub fn metal_rough_surface(
         Surface::Diffuse {
             reflectance: base.clamp(Vec3::ZERO, Vec3::ONE),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn media_follow_beer_lambert_and_have_no_nan_edges() {
+        let m = Medium::from_attenuation(Vec3::new(0.5, 1.0, 0.0), 2.0).unwrap();
+        assert_eq!(
+            m.sigma_a,
+            Vec3::new(0.5f32.ln() / -2.0, 0.0, OPAQUE_SIGMA_A)
+        );
+        // After the attenuation distance white light has the attenuation colour.
+        let t = m.transmittance(2.0);
+        assert!(
+            (t - Vec3::new(0.5, 1.0, 0.0)).abs().max_element() < 1e-6,
+            "{t}"
+        );
+        // A channel that does not absorb passes everything, even to infinity.
+        assert_eq!(m.transmittance(f32::INFINITY), Vec3::new(0.0, 1.0, 0.0));
+        assert_eq!(m.transmittance(0.0), Vec3::ONE);
+        // White, or the extension's default infinite distance: no medium.
+        assert_eq!(Medium::from_attenuation(Vec3::ONE, 1.0), None);
+        assert_eq!(
+            Medium::from_attenuation(Vec3::splat(0.5), f32::INFINITY),
+            None
+        );
     }
 }

@@ -23,6 +23,7 @@ fn default_material() -> Material {
             reflectance: Vec3::splat(0.8),
         },
         emission: Vec3::ZERO,
+        medium: None,
     }
 }
 
@@ -495,6 +496,7 @@ fn map_material(
         Surface::Dielectric {
             model: MicrofacetModel::new(NdfKind::Ggx, smooth_or_pr, Shadowing::Smith),
             ior,
+            tint: Vec3::ONE,
         }
     } else if illum == 5 {
         Surface::Conductor {
@@ -538,6 +540,9 @@ fn map_material(
                 metallic: 0.0,
                 roughness: 1.0,
                 metallic_roughness_texture: None,
+                transmission: 0.0,
+                transmission_texture: None,
+                ior: 1.5,
                 ndf: NdfKind::Ggx,
                 shadowing: Shadowing::Smith,
             })
@@ -557,6 +562,7 @@ fn map_material(
         name: m.name.clone(),
         surface,
         emission: ke,
+        medium: None,
     })
 }
 

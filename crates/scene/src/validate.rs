@@ -76,6 +76,9 @@ pub fn validate(scene: &mut Scene, path: &Path, allow: Allow) -> Result<(), Scen
     for m in &scene.materials {
         let element = || format!("material {}", crate::error::quoted(&m.name));
         check_material(&m.surface, m.emission).map_err(|e| invalid(element(), e))?;
+        if let Some(medium) = m.medium {
+            colour("absorption", medium.sigma_a).map_err(|e| invalid(element(), e))?;
+        }
         if let Surface::Diffuse { reflectance } = m.surface
             && reflectance.max_element() > 1.0
         {
@@ -259,8 +262,13 @@ fn check_material(surface: &Surface, emission: Vec3) -> Result<(), String> {
                 }
             }
         }
-        Surface::Dielectric { model: m, ior } => {
+        Surface::Dielectric {
+            model: m,
+            ior,
+            tint,
+        } => {
             model(m)?;
+            colour("tint", *tint)?;
             if ior.is_finite() && *ior > 0.0 {
                 Ok(())
             } else {
@@ -269,10 +277,17 @@ fn check_material(surface: &Surface, emission: Vec3) -> Result<(), String> {
         }
         Surface::Textured(pbr) => {
             colour("base colour", pbr.base_color)?;
-            for (name, v) in [("metallic", pbr.metallic), ("roughness", pbr.roughness)] {
+            for (name, v) in [
+                ("metallic", pbr.metallic),
+                ("roughness", pbr.roughness),
+                ("transmission", pbr.transmission),
+            ] {
                 if !(v.is_finite() && v >= 0.0) {
                     return Err(format!("{name} must be finite and >= 0, got {v}"));
                 }
+            }
+            if pbr.transmission >= 0.5 && !(pbr.ior.is_finite() && pbr.ior > 0.0) {
+                return Err(format!("ior must be finite and > 0, got {}", pbr.ior));
             }
             Ok(())
         }

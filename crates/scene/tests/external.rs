@@ -66,7 +66,7 @@ fn cornell_box_sphere_maps_mirror_glass_and_ignores_tf() {
     assert!(matches!(material(&s, "leftSphere").surface,
         Surface::Conductor { model, fresnel: Fresnel::Schlick { f0 } } if model.is_smooth() && (f0 - Vec3::splat(0.95)).length() < 1e-6));
     assert!(
-        matches!(material(&s, "rightSphere").surface, Surface::Dielectric { model, ior } if model.is_smooth() && ior == 2.5)
+        matches!(material(&s, "rightSphere").surface, Surface::Dielectric { model, ior, .. } if model.is_smooth() && ior == 2.5)
     );
     // `Tf 1 1 1` on the opaque light must not make it transparent.
     let light = material(&s, "light");
@@ -166,12 +166,41 @@ fn metal_rough_spheres_map_metallic_and_roughness() {
 fn transmission_test_uses_its_camera_and_dielectrics() {
     let s = load_default("TransmissionTest/glTF/TransmissionTest.gltf");
     assert_eq!(s.triangles.len(), 128_775);
-    let dielectrics = s
+    let transmissive = s
         .materials
         .iter()
-        .filter(|m| matches!(m.surface, Surface::Dielectric { .. }))
+        .filter(|m| m.surface.may_transmit())
         .count();
-    assert_eq!(dielectrics, 12);
+    assert_eq!(transmissive, 12);
+    // The one untextured glass is tinted by its base colour.
+    let yellow = material(&s, "YellowTrans");
+    assert!(matches!(yellow.surface, Surface::Dielectric { tint, .. }
+        if (tint - Vec3::new(0.8468738, 0.8713663, 0.09305903)).abs().max_element() < 1e-6));
+    // The rough series takes its roughness per texel from the
+    // metallic-roughness texture: smooth and rough tiles across the texture.
+    let rough = material(&s, "YellowTransRough");
+    let alphas: Vec<f32> = (0..256)
+        .filter_map(|i| {
+            let uv = glam::Vec2::new((i % 16) as f32 + 0.5, (i / 16) as f32 + 0.5) / 16.0;
+            match rough.surface.bsdf(uv, &s.textures) {
+                microfacet::Bsdf::Dielectric(d) => Some(d.model.alpha()),
+                _ => None,
+            }
+        })
+        .collect();
+    assert_eq!(
+        alphas.len(),
+        256,
+        "every texel of the rough series is glass"
+    );
+    let (lo, hi) = alphas
+        .iter()
+        .fold((f32::MAX, 0.0f32), |(l, h), &a| (l.min(a), h.max(a)));
+    // (Before, every tile had the factor's roughness 1: alpha 1.)
+    assert!(
+        lo < 0.06 && hi > 0.2 && hi > 4.0 * lo,
+        "alphas from {lo} to {hi}"
+    );
     // render_camera: yfov 0.602 rad at 4:3.
     assert!((s.camera.vertical_fov - 0.602).abs() < 1e-3);
     assert_eq!(s.camera.resolution, UVec2::new(512, 384));

@@ -429,6 +429,86 @@ fn out_of_range_material_factors_are_refused() {
 }
 
 #[test]
+fn out_of_range_volume_values_are_refused() {
+    for (volume, needle) in [
+        (json!({"thicknessFactor": -1}), "thicknessFactor"),
+        (
+            json!({"thicknessFactor": 1, "attenuationDistance": 0}),
+            "attenuationDistance",
+        ),
+        (
+            json!({"thicknessFactor": 1, "attenuationDistance": -2}),
+            "attenuationDistance",
+        ),
+        (
+            json!({"thicknessFactor": 1, "attenuationColor": [2, 0, 0]}),
+            "attenuationColor",
+        ),
+        (
+            json!({"thicknessFactor": 1, "attenuationColor": [-1, 0, 0]}),
+            "attenuationColor",
+        ),
+    ] {
+        let g = edited(|g| {
+            g["materials"][0]["extensions"] = json!({
+                "KHR_materials_transmission": {"transmissionFactor": 1},
+                "KHR_materials_volume": volume
+            })
+        });
+        assert_error(
+            load_gltf(&g, &valid_bin()),
+            invalid,
+            &["material 0 (\"m\")", "KHR_materials_volume", needle],
+        );
+    }
+}
+
+/// The material of the base triangle with `extensions` and base colour `base`.
+fn material_with(base: [f32; 3], extensions: Value) -> scene::Material {
+    let g = edited(|g| {
+        g["materials"][0]["extensions"] = extensions;
+        g["materials"][0]["pbrMetallicRoughness"] = json!({"baseColorFactor": [base[0], base[1], base[2], 1.0], "roughnessFactor": 0.5, "metallicFactor": 0});
+    });
+    load_gltf(&g, &valid_bin()).unwrap().materials[0].clone()
+}
+
+#[test]
+fn transmission_is_tinted_glass_and_volume_absorbs() {
+    use glam::Vec3;
+    let base = [0.9, 0.5, 0.2];
+    let clear = material_with(
+        base,
+        json!({"KHR_materials_transmission": {"transmissionFactor": 1}}),
+    );
+    assert!(
+        matches!(clear.surface, scene::Surface::Dielectric { tint, ior, .. }
+        if tint == Vec3::from_array(base) && ior == 1.5)
+    );
+    assert_eq!(clear.medium, None, "no KHR_materials_volume: clear");
+    // sigma_a = -ln(attenuationColor) / attenuationDistance (KHR_materials_volume).
+    let volume = json!({
+        "KHR_materials_transmission": {"transmissionFactor": 1},
+        "KHR_materials_volume": {
+            "thicknessFactor": 0.1, "attenuationColor": [0.5, 1.0, 0.25], "attenuationDistance": 2.0
+        }
+    });
+    let absorbing = material_with(base, volume.clone());
+    let sigma_a = absorbing.medium.expect("a closed volume absorbs").sigma_a;
+    let expected = Vec3::new(0.5f32.ln() / -2.0, 0.0, 0.25f32.ln() / -2.0);
+    assert!((sigma_a - expected).abs().max_element() < 1e-6, "{sigma_a}");
+    // thicknessFactor 0 is a thin wall: no volume.
+    let mut thin = volume.clone();
+    thin["KHR_materials_volume"]["thicknessFactor"] = json!(0);
+    assert_eq!(material_with(base, thin).medium, None);
+    // Transmission below one half: the diffuse base wins, nothing to fill.
+    let mut weak = volume;
+    weak["KHR_materials_transmission"]["transmissionFactor"] = json!(0.3);
+    let weak = material_with(base, weak);
+    assert!(matches!(weak.surface, scene::Surface::Diffuse { .. }));
+    assert_eq!(weak.medium, None);
+}
+
+#[test]
 fn out_of_range_light_values_are_refused() {
     let g = edited(|g| {
         g["extensionsUsed"] = json!(["KHR_lights_punctual"]);

@@ -252,7 +252,7 @@ fn assert_finite(scene: &Scene) {
         assert!(m.emission.is_finite(), "{m:?}");
         match m.surface {
             Surface::Diffuse { reflectance } => assert!(reflectance.is_finite()),
-            Surface::Dielectric { ior, model } => {
+            Surface::Dielectric { ior, model, .. } => {
                 assert!(ior.is_finite() && ior > 0.0 && model.alpha().is_finite())
             }
             Surface::Conductor { model, .. } => assert!(model.alpha().is_finite()),

@@ -224,3 +224,52 @@ fn render_table_numbers_are_passed_on_for_the_command_line_to_check() {
     assert!(s.render.radius.is_some_and(f32::is_nan));
     assert_eq!(s.render.shadow_roulette, Some(-1.0));
 }
+
+#[test]
+fn dielectrics_take_a_tint_and_an_absorption() {
+    let scene = |material: &str| {
+        format!(
+            "[camera]\nfrom = [0, 0, 3]\nat = [0, 0, 0]\nfov = 40\n\n[[material]]\nname = \"glass\"\n{material}\n\n[[shape]]\ntype = \"sphere\"\nmaterial = \"glass\"\ncenter = [0, 0, 0]\nradius = 0.5\n\n[[light]]\ntype = \"point\"\nposition = [0, 2, 0]\nintensity = [1, 1, 1]\n"
+        )
+    };
+    let text = scene("type = \"dielectric\"\ntint = [1, 0.5, 0.25]\nabsorption = [0, 0.5, 2]");
+    let s = load(
+        &write_manifest("absorbing-glass", &text),
+        &LoadOptions::default(),
+    )
+    .unwrap();
+    let glass = &s.materials[0];
+    assert!(
+        matches!(glass.surface, Surface::Dielectric { tint, .. } if tint == Vec3::new(1.0, 0.5, 0.25))
+    );
+    assert_eq!(glass.medium.unwrap().sigma_a, Vec3::new(0.0, 0.5, 2.0));
+    // Clear glass by default; absorption only where light can enter.
+    let s = load(
+        &write_manifest("clear-glass", &scene("type = \"dielectric\"")),
+        &LoadOptions::default(),
+    )
+    .unwrap();
+    assert!(
+        matches!(s.materials[0].surface, Surface::Dielectric { tint, .. } if tint == Vec3::ONE)
+    );
+    assert_eq!(s.materials[0].medium, None);
+    for (material, needle) in [
+        ("type = \"diffuse\"\nabsorption = [1, 1, 1]", "absorption"),
+        (
+            "type = \"dielectric\"\nabsorption = [-1, 1, 1]",
+            "absorption",
+        ),
+        ("type = \"dielectric\"\ntint = [1.5, 1, 1]", "tint"),
+    ] {
+        let err = load(
+            &write_manifest("bad-glass", &scene(material)),
+            &LoadOptions::default(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            err.contains("material \"glass\"") && err.contains(needle),
+            "{err}"
+        );
+    }
+}

@@ -373,8 +373,8 @@ fn p_hat_row(budget: Budget) -> Row {
                 ));
                 for eta in [1.5f32, 1.0 / 1.5, 1.0001] {
                     bsdfs.push((
-                        Bsdf::Dielectric(Dielectric { model, eta }),
-                        format!("Bsdf::Dielectric(Dielectric {{ model: {m}, eta: {eta:?} }})"),
+                        Bsdf::Dielectric(Dielectric::new(model, eta)),
+                        format!("Bsdf::Dielectric(Dielectric::new({m}, {eta:?}))"),
                     ));
                 }
             }

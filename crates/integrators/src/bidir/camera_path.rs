@@ -8,6 +8,7 @@ use regularization::{PathRegularization, Subpath};
 
 use super::light_path::LightVertex;
 use super::{Iteration, PhotonMap};
+use crate::medium;
 use crate::nee;
 use crate::sampler::CameraVertexSamples;
 use crate::vertex::PathVertex;
@@ -35,11 +36,12 @@ impl Iteration<'_> {
                 if let Some(le) = ctx.lights.environment() {
                     let hit = ctx.lights.environment_pdfs().hit();
                     let w = self.mis.environment_hit_weight(&ray, &hit);
-                    radiance += walk.throughput * le * w as f32;
+                    radiance += walk.escaped_throughput() * le * w as f32;
                 }
                 break;
             };
             let point = ctx.surface_point(&hit);
+            walk.arrive(&ctx.scene, &point, hit.t);
             let wi = -walk.direction;
             let vertex = PathVertex::new(&ctx.scene, point, wi, walk.throughput, regularization);
             regularization = vertex.regularization;
@@ -155,7 +157,16 @@ impl Iteration<'_> {
         if f.max_element() <= 0.0 {
             return Vec3::ZERO;
         }
-        let unweighted = camera.throughput * f * light.throughput / distance2;
+        // The segment's transmittance (either end knows its medium): at
+        // most 1, so `bound` above still bounds the contribution.
+        let inside = camera
+            .medium_towards(dir)
+            .or_else(|| light_vertex.medium_towards(-dir));
+        let unweighted = medium::attenuated(
+            camera.throughput * f * light.throughput / distance2,
+            inside,
+            distance,
+        );
         let Some(contribution) = self.roulette.weighted(unweighted, u_roulette, || {
             self.mis.connection_weight(
                 &light.state,

@@ -10,6 +10,7 @@ use scene::Scene;
 use super::Iteration;
 use crate::film::Splats;
 use crate::geometry::SurfacePoint;
+use crate::medium;
 use crate::sampler::{LIGHT_STREAM, Sampler};
 use crate::vertex::PathVertex;
 use crate::walk::Walk;
@@ -94,6 +95,7 @@ impl Iteration<'_> {
             origin: emission.origin,
             direction: emission.direction,
             throughput: emission.throughput,
+            medium: None,
         };
         let emitted = walk.throughput.max_element();
         for length in 1..=max_depth {
@@ -101,6 +103,7 @@ impl Iteration<'_> {
                 break;
             };
             let point = ctx.surface_point(&hit);
+            walk.arrive(&ctx.scene, &point, hit.t);
             let wi = -walk.direction;
             let vertex = PathVertex::new(&ctx.scene, point, wi, walk.throughput, regularization);
             let state = ray.arrive(&self.mis, f64::from(hit.t), f64::from(vertex.cos(wi)));
@@ -169,8 +172,12 @@ impl Iteration<'_> {
         // surface-to-image factor is camera_pdf_w / d^2 (SmallVCM's
         // ConnectToCamera); each of the N light paths is one sample.
         let light_paths = (camera.resolution.x * camera.resolution.y) as f32;
-        let unweighted =
-            vertex.throughput * f * (camera_pdf_w / (distance * distance * light_paths));
+        // The camera is outside every medium: the vertex's end decides.
+        let unweighted = medium::attenuated(
+            vertex.throughput * f * (camera_pdf_w / (distance * distance * light_paths)),
+            vertex.medium_towards(dir),
+            distance,
+        );
         let Some(contribution) = self.roulette.weighted(unweighted, u_roulette, || {
             self.mis.light_tracing_weight(
                 state,

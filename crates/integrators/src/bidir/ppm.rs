@@ -63,11 +63,12 @@ impl Iteration<'_> {
         for length in 1..=max_depth {
             let Some(hit) = ctx.intersect(walk.origin, walk.direction, f32::INFINITY) else {
                 if let Some(le) = ctx.lights.environment() {
-                    radiance += walk.throughput * le;
+                    radiance += walk.escaped_throughput() * le;
                 }
                 break;
             };
             let point = ctx.surface_point(&hit);
+            walk.arrive(&ctx.scene, &point, hit.t);
             let wi = -walk.direction;
             if let Some(emission) = ctx.emitted(&point, wi) {
                 radiance += walk.throughput * emission;

@@ -57,7 +57,7 @@ pub fn white_conductor(model: MicrofacetModel) -> Conductor {
 
 /// A dielectric with relative index `eta`.
 pub fn dielectric(model: MicrofacetModel, eta: f32) -> Dielectric {
-    Dielectric { model, eta }
+    Dielectric::new(model, eta)
 }
 
 /// Short label for failure messages.

@@ -17,6 +17,7 @@ pub const SUPPORTED: &[&str] = &[
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_transmission",
+    "KHR_materials_volume",
 ];
 
 /// At most this many material names are listed per ignored extension, so a
