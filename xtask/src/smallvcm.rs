@@ -49,6 +49,9 @@ struct Options {
 /// Runs the comparison; see the module docs.
 pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
     let options = parse(root, args)?;
+    let commit = crate::git(root, &["rev-parse", "--short", "HEAD"])
+        .map(|o| String::from_utf8_lossy(&o).trim().to_string())
+        .unwrap_or_else(|| "?".into());
     std::fs::create_dir_all(&options.out)
         .map_err(|e| format!("cannot create {}: {e}", options.out.display()))?;
     let theirs = build_smallvcm(&options.src, &options.out)?;
@@ -80,7 +83,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
             });
         }
     }
-    report(root, &options, &rows)
+    report(&commit, &options, &rows)
 }
 
 fn parse(root: &Path, args: &[String]) -> Result<Options, String> {
@@ -252,10 +255,8 @@ struct Row {
     theirs: f64,
 }
 
-fn report(root: &Path, options: &Options, rows: &[Row]) -> Result<(), String> {
-    let commit = crate::git(root, &["rev-parse", "--short", "HEAD"])
-        .map(|o| String::from_utf8_lossy(&o).trim().to_string())
-        .unwrap_or_else(|| "?".into());
+/// `report.md` and `report.json`; `commit` is the one measured (read at the start).
+fn report(commit: &str, options: &Options, rows: &[Row]) -> Result<(), String> {
     let mut md = format!(
         "# Ours against SmallVCM, seconds per iteration\n\n\
          commit {commit}, {} cores, load average {} at the end; 512x512, (t(1 + {k}) - t(1)) / {k}, \
