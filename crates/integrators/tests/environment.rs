@@ -69,8 +69,10 @@ fn map_of(width: u32, height: u32, mut f: impl FnMut(u32, u32) -> Vec3) -> Envir
 
 /// Direction sampling matches its density: a random map with dark texels,
 /// and a map whose brightest row touches the pole, where the sin theta
-/// Jacobian is largest within a texel (uniform in theta instead of cos
-/// theta inside a texel fails this one with p < 1e-100, measured).
+/// Jacobian varies most within a texel. Measured negative controls: theta
+/// uniform instead of cos theta inside a texel gives chi^2 = 9836 at 335
+/// degrees of freedom; a density with pbrt's sin theta at the row centre
+/// instead of the texel's exact solid angle, 2663 at 336 (p = 0 both).
 #[test]
 fn environment_sampling_matches_its_density() {
     let mut rng = Pcg32::new(7, 1);
@@ -178,6 +180,10 @@ fn render(scene: &scene::Scene, algorithm: Algorithm, seed: u64, iterations: u64
 /// The constant environment light and a constant 8x4 map of the same
 /// radiance give the same image (block means within their measured
 /// variance), with PT and with BPT, whose light subpaths start from the map.
+/// (Its power is limited: the centre-sin-theta density above, 2.6 % off
+/// per texel here and diluted by MIS, gave p = 0.024 (PT) and 3e-4 (BPT),
+/// above the Sidak threshold 2e-4; the chi-square test is the one that
+/// catches such a density.)
 #[test]
 fn constant_map_renders_like_the_constant_environment() {
     let radiance = Vec3::new(0.8, 1.0, 1.2);
@@ -189,27 +195,12 @@ fn constant_map_renders_like_the_constant_environment() {
     let mut mapped = constant.clone();
     mapped.set_environment(map_of(8, 4, |_, _| radiance));
     for (algorithm, seeds) in [(Algorithm::Pt, (1, 2)), (Algorithm::Bpt, (3, 4))] {
-        let a = render(&constant, algorithm, seeds.0, 256);
-        let b = render(&mapped, algorithm, seeds.1, 256);
+        let a = render(&constant, algorithm, seeds.0, 1024);
+        let b = render(&mapped, algorithm, seeds.1, 1024);
         let what = format!("{algorithm}: constant environment vs constant map");
         let p = common::assert_films_agree(&a, &b, 4, &what);
         eprintln!("{what}: smallest p {p:.3}");
     }
-}
-
-/// The agreement above notices a map 3 % too bright.
-#[test]
-fn constant_map_agreement_detects_a_bias() {
-    let constant = load_manifest(
-        "constant-bias",
-        &spheres_scene("[[light]]\ntype = \"environment\"\nintensity = [0.8, 1.0, 1.2]"),
-    );
-    let mut mapped = constant.clone();
-    mapped.set_environment(map_of(8, 4, |_, _| 1.03 * Vec3::new(0.8, 1.0, 1.2)));
-    let a = render(&constant, Algorithm::Pt, 1, 256);
-    let b = render(&mapped, Algorithm::Pt, 2, 256);
-    let caught = std::panic::catch_unwind(|| common::assert_films_agree(&a, &b, 4, "biased map"));
-    assert!(caught.is_err(), "a 3 % brighter map went unnoticed");
 }
 
 /// A map dark but for one texel lights a diffuse floor like the distant

@@ -215,6 +215,9 @@ fn print_explanation(cli: &Cli, renderer: &Renderer, settings: &Settings, output
     let mut text = format!("scene:            {}\n", cli.scene.display());
     text += &format!("{}\n", renderer.features());
     text += &format!("{}\n", explain::integrator(renderer).trim_end());
+    if let Some(line) = explain::environment(renderer, cli.env.is_some()) {
+        text += &format!("{line}\n");
+    }
     text += &explain::settings(settings);
     text += &format!("resolution:       {width}x{height}\n");
     text += &format!("threads:          {}\n", rayon::current_num_threads());
