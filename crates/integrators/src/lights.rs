@@ -1,5 +1,8 @@
 //! Light selection and sampling: lights are chosen in proportion to their
-//! power, then a point (or direction) on the chosen light is sampled.
+//! power, then a point (or direction) on the chosen light is sampled. The
+//! constant environment is sampled uniformly over the sphere; an environment
+//! map by its distribution ([`crate::environment`]), and both emit light
+//! subpaths from a disk covering the scene's bounding sphere.
 
 use std::f32::consts::PI;
 
@@ -180,7 +183,10 @@ impl Lights {
                         PI * scene_radius * scene_radius * luminance(irradiance)
                     }
                     Light::Environment { radiance } => {
+                        // The last environment is the one escaping rays
+                        // see (`scene::validate` allows only one).
                         environment = Some(i as u32);
+                        environment_map = None;
                         4.0 * PI * PI * scene_radius * scene_radius * luminance(radiance)
                     }
                     Light::EnvironmentMap { map } => {

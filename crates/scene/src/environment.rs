@@ -250,8 +250,9 @@ mod tests {
         let close = |(u, v): (f32, f32), (a, b): (f32, f32)| {
             assert!((u - a).abs() < 1e-6 && (v - b).abs() < 1e-6, "{u} {v}")
         };
-        close(map.uv(Vec3::Y), (0.0, 0.0));
-        close(map.uv(-Vec3::Y), (0.0, 1.0));
+        // At the poles u is arbitrary.
+        assert_eq!(map.uv(Vec3::Y).1, 0.0);
+        assert_eq!(map.uv(-Vec3::Y).1, 1.0);
         close(map.uv(-Vec3::Z), (0.0, 0.5));
         close(map.uv(Vec3::X), (0.25, 0.5));
         close(map.uv(Vec3::Z), (0.5, 0.5));

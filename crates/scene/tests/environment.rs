@@ -138,9 +138,17 @@ fn manifest_environment_maps_load_with_scale_and_rotation() {
     assert!(scene::SceneFeatures::of(&scene).environment_map);
 }
 
+/// A bad-entry case: name, the light's keys, files, expected message part.
+type Case = (
+    &'static str,
+    &'static str,
+    Vec<(&'static str, Vec<u8>)>,
+    &'static str,
+);
+
 #[test]
 fn bad_environment_entries_are_one_line_errors() {
-    let cases: [(&str, &str, Vec<(&str, Vec<u8>)>, &str); 6] = [
+    let cases: [Case; 6] = [
         (
             "missing",
             "file = \"nope.exr\"",

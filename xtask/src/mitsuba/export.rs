@@ -346,6 +346,30 @@ mod tests {
         assert_eq!(bytes.len() - header_end, 6 * 12 + 2 * 13);
     }
 
+    /// The env-sphere map becomes an `envmap` of a copy of its file with
+    /// its scale and rotation about +y.
+    #[test]
+    fn environment_map_exports_as_envmap() {
+        let mut scene = scene::load(
+            &Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/env-sphere/scene.toml"),
+            &LoadOptions {
+                resolution: Some(UVec2::new(8, 8)),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        scene.environment_maps[0].scale = 2.5;
+        let dir = std::env::temp_dir().join(format!("xtask-mitsuba-env-{}", std::process::id()));
+        fs::create_dir_all(&dir).unwrap();
+        let xml = environment_xml(&scene, &dir).unwrap();
+        assert!(xml.contains(r#"<emitter type="envmap">"#), "{xml}");
+        assert!(xml.contains(r#"<string name="filename" value="envmap.hdr"/>"#));
+        assert!(xml.contains(r#"<float name="scale" value="2.5"/>"#));
+        assert!(xml.contains(r#"<rotate y="1" angle="0.0"/>"#));
+        assert!(dir.join("envmap.hdr").is_file());
+        fs::remove_dir_all(dir).unwrap();
+    }
+
     #[test]
     fn export_writes_one_ply_per_material_and_the_scene_xml() {
         let options = crate::mitsuba::test_options(&["--resolution", "8x8", "--spp", "4"]);
