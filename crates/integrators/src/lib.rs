@@ -1,5 +1,5 @@
 //! Light transport: the film, deterministic samplers, camera rays, light
-//! sampling, the shared path vertex, and the integrators: path tracing
+//! sampling (environment maps included), the shared path vertex, and the integrators: path tracing
 //! (`pt`) and one bidirectional core for BPT, PPM and VCM (`bidir`), all
 //! regularized per SPEC §5-§6.
 //!
@@ -16,6 +16,7 @@ mod bidir;
 pub mod camera;
 pub mod config;
 pub mod context;
+pub mod environment;
 pub mod film;
 pub mod geometry;
 mod integrator;

@@ -1,5 +1,8 @@
 //! Light selection and sampling: lights are chosen in proportion to their
-//! power, then a point (or direction) on the chosen light is sampled.
+//! power, then a point (or direction) on the chosen light is sampled. The
+//! constant environment is sampled uniformly over the sphere; an environment
+//! map by its distribution ([`crate::environment`]), and both emit light
+//! subpaths from a disk covering the scene's bounding sphere.
 
 use std::f32::consts::PI;
 
@@ -7,10 +10,11 @@ use glam::{Vec2, Vec3};
 use mis::EmitterKind;
 use scene::{Light, Scene};
 
+use crate::environment::EnvironmentDistribution;
 use crate::geometry::{BoundingSphere, vertex_scale};
 
 /// Luminance weights (Rec. 709) to turn RGB power into one number.
-fn luminance(c: Vec3) -> f32 {
+pub(crate) fn luminance(c: Vec3) -> f32 {
     c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
 }
 
@@ -144,6 +148,10 @@ pub struct Lights {
     triangle_light: Vec<u32>,
     /// Index of the environment light, if any.
     environment: Option<u32>,
+    /// The environment map's index in `Scene::environment_maps` and its
+    /// sampling distribution, when the environment is a map (`None` also
+    /// for a dark map: it emits nothing).
+    environment_map: Option<(usize, EnvironmentDistribution)>,
     /// Centre and radius of the scene's bounding sphere (power and
     /// emission of lights at infinity).
     scene_centre: Vec3,
@@ -157,6 +165,7 @@ impl Lights {
         let scene_radius = bounds.radius;
         let mut triangle_light = vec![u32::MAX; scene.triangles.len()];
         let mut environment = None;
+        let mut environment_map = None;
         let power: Vec<f32> = scene
             .lights
             .iter()
@@ -174,8 +183,26 @@ impl Lights {
                         PI * scene_radius * scene_radius * luminance(irradiance)
                     }
                     Light::Environment { radiance } => {
+                        // The last environment is the one escaping rays
+                        // see (`scene::validate` allows only one).
                         environment = Some(i as u32);
+                        environment_map = None;
                         4.0 * PI * PI * scene_radius * scene_radius * luminance(radiance)
+                    }
+                    Light::EnvironmentMap { map } => {
+                        // As for the constant environment: the disk the
+                        // light enters through times the radiance
+                        // integrated over the sphere (4 pi L for a constant).
+                        environment = Some(i as u32);
+                        environment_map = scene
+                            .environment_maps
+                            .get(map as usize)
+                            .and_then(EnvironmentDistribution::new)
+                            .map(|d| (map as usize, d));
+                        environment_map.as_ref().map_or(0.0, |(_, d)| {
+                            (f64::from(PI * scene_radius * scene_radius) * d.luminance_integral())
+                                as f32
+                        })
                     }
                     Light::Area { triangle } => {
                         triangle_light[triangle as usize] = i as u32;
@@ -238,6 +265,7 @@ impl Lights {
             area_scale,
             triangle_light,
             environment,
+            environment_map,
             scene_centre: bounds.centre,
             scene_radius,
         }
@@ -248,19 +276,34 @@ impl Lights {
         self.lights.is_empty()
     }
 
-    /// The environment light's radiance, if there is one.
-    pub fn environment(&self) -> Option<Vec3> {
+    /// The radiance arriving from the environment along unit direction
+    /// `d` (towards the environment), if the scene has one.
+    #[inline]
+    pub fn environment(&self, scene: &Scene, d: Vec3) -> Option<Vec3> {
         self.environment.map(|i| match self.lights[i as usize] {
             Light::Environment { radiance } => radiance,
+            Light::EnvironmentMap { map } => scene
+                .environment_maps
+                .get(map as usize)
+                .map_or(Vec3::ZERO, |m| m.radiance(d)),
             _ => Vec3::ZERO,
         })
     }
 
-    /// Density of the environment light's sampling technique for any
-    /// direction (selection probability / 4 pi).
-    pub fn environment_pdf(&self) -> f32 {
-        self.environment
-            .map_or(0.0, |i| self.pmf[i as usize] / (4.0 * PI))
+    /// Density in solid angle of the environment light's sampling technique
+    /// for unit direction `d`, selection probability included (pmf / 4 pi
+    /// for a constant environment).
+    #[inline]
+    pub fn environment_pdf(&self, scene: &Scene, d: Vec3) -> f32 {
+        let Some(i) = self.environment else {
+            return 0.0;
+        };
+        let pmf = self.pmf[i as usize];
+        match &self.environment_map {
+            Some((map, distribution)) => pmf * distribution.pdf(&scene.environment_maps[*map], d),
+            None if matches!(self.lights[i as usize], Light::EnvironmentMap { .. }) => 0.0,
+            None => pmf / (4.0 * PI),
+        }
     }
 
     /// Density, in solid angle at `from`, with which [`Lights::sample`]
@@ -358,8 +401,20 @@ impl Lights {
                 pdf: pmf * UNIFORM_SPHERE_PDF,
                 point: None,
                 is_delta: false,
-                mis: self.environment_pdfs(),
+                mis: self.environment_pdfs_of(pmf / (4.0 * PI)),
             },
+            Light::EnvironmentMap { .. } => {
+                let (map, distribution) = self.environment_map.as_ref()?;
+                let s = distribution.sample(&scene.environment_maps[*map], u)?;
+                LightSample {
+                    wi: s.direction,
+                    li: s.radiance,
+                    pdf: pmf * s.pdf,
+                    point: None,
+                    is_delta: false,
+                    mis: self.environment_pdfs_of(pmf * s.pdf),
+                }
+            }
             Light::Area { triangle } => {
                 let q = uniform_triangle(scene.triangles[triangle as usize], u);
                 let n = self.area_normal[index];
@@ -415,9 +470,17 @@ impl Lights {
         }
     }
 
-    /// MIS pdfs of the environment light (any direction).
-    pub fn environment_pdfs(&self) -> EmitterPdfs {
-        let direct_pdf = self.environment_pdf();
+    /// MIS pdfs of the environment light for unit direction `d` (towards
+    /// the environment).
+    #[inline]
+    pub fn environment_pdfs(&self, scene: &Scene, d: Vec3) -> EmitterPdfs {
+        self.environment_pdfs_of(self.environment_pdf(scene, d))
+    }
+
+    /// MIS pdfs of an environment direction whose next-event density
+    /// (selection included) is `direct_pdf`: emission adds the uniform
+    /// point of the disk the light enters the scene through.
+    fn environment_pdfs_of(&self, direct_pdf: f32) -> EmitterPdfs {
         EmitterPdfs {
             kind: EmitterKind::Environment,
             direct_pdf,
@@ -504,11 +567,26 @@ impl Lights {
             }
             Light::Environment { radiance } => {
                 let direction = -uniform_sphere(u_direction);
-                let mis = self.environment_pdfs();
+                let mis = self.environment_pdfs_of(pmf / (4.0 * PI));
                 Emission {
                     origin: from_disk(direction),
                     direction,
                     throughput: radiance / mis.emission_pdf_w,
+                    mis,
+                }
+            }
+            Light::EnvironmentMap { .. } => {
+                // A direction from the map's distribution, entering through
+                // the disk facing it (pbrt-v4 `ImageInfiniteLight::SampleLe`,
+                // SmallVCM's background light): density pdf_w / (pi r^2).
+                let (map, distribution) = self.environment_map.as_ref()?;
+                let s = distribution.sample(&scene.environment_maps[*map], u_direction)?;
+                let direction = -s.direction;
+                let mis = self.environment_pdfs_of(pmf * s.pdf);
+                Emission {
+                    origin: from_disk(direction),
+                    direction,
+                    throughput: s.radiance / mis.emission_pdf_w,
                     mis,
                 }
             }

@@ -130,8 +130,10 @@ impl PathTracer {
 
         for depth in 1..=ctx.config.max_depth {
             let Some(hit) = ctx.intersect(walk.origin, walk.direction, f32::INFINITY) else {
-                if let Some(le) = ctx.lights.environment() {
-                    let weight = self.emitter_hit_weight(&bounce, || ctx.lights.environment_pdf());
+                if let Some(le) = ctx.lights.environment(&ctx.scene, walk.direction) {
+                    let weight = self.emitter_hit_weight(&bounce, || {
+                        ctx.lights.environment_pdf(&ctx.scene, walk.direction)
+                    });
                     radiance += walk.escaped_throughput() * le * weight;
                 }
                 break;

@@ -9,10 +9,10 @@ use glam::{UVec2, Vec3};
 use integrators::{Algorithm, Mode};
 
 use crate::values::{
-    parse_algorithm, parse_exposure, parse_exr_path, parse_fov, parse_iteration_range,
-    parse_iterations, parse_max_depth, parse_on_off, parse_partial_path, parse_png_path,
-    parse_radius, parse_regularize, parse_resolution, parse_shadow_roulette, parse_tau0,
-    parse_threads, parse_time, parse_vec3,
+    parse_algorithm, parse_env_rotation, parse_env_scale, parse_exposure, parse_exr_path,
+    parse_fov, parse_iteration_range, parse_iterations, parse_max_depth, parse_on_off,
+    parse_partial_path, parse_png_path, parse_radius, parse_regularize, parse_resolution,
+    parse_shadow_roulette, parse_tau0, parse_threads, parse_time, parse_vec3,
 };
 
 const AFTER_LONG_HELP: &str = "\
@@ -36,7 +36,8 @@ Exit status: 0 rendered; 1 error (one line on stderr: 'error: ...'); 2 invalid c
 Examples:
   render-cli scenes/cornell-box/scene.toml
   render-cli scenes/glossy-caustic/scene.toml --time 60 --regularize uniform -o caustic.exr
-  render-cli model.glb --camera Overview --resolution 1280x720 --exposure 1";
+  render-cli model.glb --camera Overview --resolution 1280x720 --exposure 1
+  render-cli model.glb --env scenes/env-sphere/sky.exr --env-rotation 90";
 
 /// Renders a scene to a linear OpenEXR image and an sRGB PNG preview.
 #[derive(Debug, Parser)]
@@ -169,6 +170,25 @@ pub struct Cli {
     /// mistake: an empty or truncated file, a wrong path, a model without its lights.
     #[arg(long, help_heading = "Scene")]
     pub allow_empty: bool,
+
+    /// Light the scene with this environment map instead of its own environment: an
+    /// equirectangular (latitude-longitude) OpenEXR (.exr) or Radiance (.hdr) image, +y up, the
+    /// image's top row straight up and its left edge looking along -z (Mitsuba 3's envmap
+    /// convention). Works with any scene file; a model without lights then gets no default
+    /// white environment. Importance-sampled by every integrator.
+    #[arg(long, value_name = "FILE", help_heading = "Scene")]
+    pub env: Option<PathBuf>,
+
+    /// Multiplier of the --env map's radiance, >= 0. [default: 1]
+    #[arg(long, value_name = "S", value_parser = parse_env_scale, allow_negative_numbers = true,
+          requires = "env", help_heading = "Scene")]
+    pub env_scale: Option<f32>,
+
+    /// Rotation of the --env map about the up axis (+y), in degrees, right-handed.
+    /// [default: 0]
+    #[arg(long, value_name = "DEG", value_parser = parse_env_rotation, allow_negative_numbers = true,
+          requires = "env", help_heading = "Scene")]
+    pub env_rotation: Option<f32>,
 
     /// Use the glTF camera of this name. [default: the file's first camera]
     #[arg(

@@ -105,6 +105,38 @@ fn regularization(s: &mut String, renderer: &Renderer) {
     let _ = writeln!(s);
 }
 
+/// The scene's environment light and how it is sampled, if it has one;
+/// `from_flag` when `--env` replaced the scene's own.
+pub fn environment(renderer: &Renderer, from_flag: bool) -> Option<String> {
+    let scene = renderer.scene();
+    let light = scene.lights.iter().find(|l| l.is_environment())?;
+    let origin = if from_flag {
+        " (--env: replaces the scene's own environment)"
+    } else {
+        ""
+    };
+    Some(match *light {
+        scene::Light::EnvironmentMap { map } => {
+            let m = &scene.environment_maps[map as usize];
+            let file = m
+                .file
+                .as_ref()
+                .map_or_else(|| "an image".to_string(), |f| f.display().to_string());
+            format!(
+                "environment:      map {file}{origin}: {}x{} texels, scale {}, rotated {} degrees about +y; \
+                 next-event estimation and light subpaths draw texels by luminance x solid angle \
+                 (density proportional to the radiance), MIS with BSDF sampling; light subpaths enter \
+                 through a disk covering the scene's bounding sphere",
+                m.width, m.height, m.scale, m.rotation_degrees
+            )
+        }
+        scene::Light::Environment { radiance } => format!(
+            "environment:      constant radiance {radiance}{origin}, sampled uniformly over the sphere"
+        ),
+        _ => return None,
+    })
+}
+
 /// The code paths the scene does not need, and a warning if it has no light.
 fn left_out(s: &mut String, renderer: &Renderer) {
     let f = renderer.features();

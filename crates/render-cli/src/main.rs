@@ -218,6 +218,9 @@ fn print_explanation(cli: &Cli, renderer: &Renderer, settings: &Settings, output
         text += &format!("ignored:          {line}\n");
     }
     text += &format!("{}\n", explain::integrator(renderer).trim_end());
+    if let Some(line) = explain::environment(renderer, cli.env.is_some()) {
+        text += &format!("{line}\n");
+    }
     text += &explain::settings(settings);
     text += &format!("resolution:       {width}x{height}\n");
     text += &format!("threads:          {}\n", rayon::current_num_threads());

@@ -1,6 +1,7 @@
 //! What the command line says about loading the scene and its camera:
-//! `--camera` (a glTF camera by name), `--resolution`, and a replacement
-//! camera (`--camera-from`, `--camera-at`, `--camera-up`, `--fov`).
+//! `--camera` (a glTF camera by name), `--resolution`, a replacement
+//! camera (`--camera-from`, `--camera-at`, `--camera-up`, `--fov`), and a
+//! replacement environment (`--env`, `--env-scale`, `--env-rotation`).
 
 use glam::{UVec2, Vec3};
 use scene::{Camera, LoadOptions};
@@ -49,6 +50,11 @@ impl Cli {
             resolution: self.resolution,
             allow_outside_paths: self.allow_outside_paths,
             allow_empty: self.allow_empty,
+            environment: self.env.as_ref().map(|file| scene::EnvironmentOption {
+                file: file.clone(),
+                scale: self.env_scale.unwrap_or(1.0),
+                rotation_degrees: self.env_rotation.unwrap_or(0.0),
+            }),
         })
     }
 

@@ -83,6 +83,12 @@ pub fn scene_hash(scene: &Scene) -> u64 {
         floats(&mut h, &mut t.texels.iter().flat_map(|v| v.to_array()));
         h.write(format!("{:?}{:?}", t.wrap_u, t.wrap_v).as_bytes());
     }
+    for m in &scene.environment_maps {
+        h.write_u32(m.width);
+        h.write_u32(m.height);
+        floats(&mut h, &mut m.texels.iter().flat_map(|v| v.to_array()));
+        floats(&mut h, &mut [m.scale, m.rotation_degrees].into_iter());
+    }
     // Small parts: their Debug form lists every field.
     h.write(format!("{:?}{:?}{:?}", scene.materials, scene.lights, scene.camera).as_bytes());
     h.finish()

@@ -145,6 +145,30 @@ pub fn parse_fov(s: &str) -> Result<f32, String> {
     Ok(fov)
 }
 
+/// `--env-scale`: a finite multiplier >= 0.
+pub fn parse_env_scale(s: &str) -> Result<f32, String> {
+    let scale: f32 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{s}' is not a number"))?;
+    if !(scale.is_finite() && scale >= 0.0) {
+        return Err(format!("must be a finite number >= 0, got {s}"));
+    }
+    Ok(scale)
+}
+
+/// `--env-rotation`: a finite number of degrees.
+pub fn parse_env_rotation(s: &str) -> Result<f32, String> {
+    let degrees: f32 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{s}' is not a number"))?;
+    if !degrees.is_finite() {
+        return Err(format!("must be a finite number of degrees, got {s}"));
+    }
+    Ok(degrees)
+}
+
 pub fn parse_exposure(s: &str) -> Result<f32, String> {
     let stops: f32 = s
         .trim()

@@ -225,6 +225,9 @@ fn help_mentions_every_flag() {
         "--shadow-roulette",
         "--virtual-merges",
         "--allow-empty",
+        "--env ",
+        "--env-scale",
+        "--env-rotation",
         "D/4 for reflection",
         "shadow_roulette",
     ] {
@@ -767,4 +770,38 @@ fn unsupported_gltf_extensions_are_named() {
     let output = render_cli(&args);
     assert_eq!(output.status.code(), Some(1), "{}", stderr(&output));
     assert_fails_cleanly(&output, &["model.gltf", "KHR_draco_mesh_compression"], &out);
+/// `--env` lights a scene with a map, replacing its environment, says so
+/// in `--explain`; a missing or undecodable map is one line naming it.
+#[test]
+fn env_lights_any_scene_and_explain_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("out.exr");
+    let sky = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/env-sphere/sky.hdr");
+    let scene = bundled("diffuse-only");
+    let render = |scale: &str| {
+        let mut args = vec![scene.to_str().unwrap(), "-o", exr.to_str().unwrap()];
+        args.extend(TINY);
+        args.extend(["--no-png", "--explain", "--env", sky.to_str().unwrap()]);
+        args.extend(["--env-scale", scale, "--env-rotation", "45"]);
+        let output = render_cli(&args);
+        assert!(output.status.success(), "{}", stderr(&output));
+        let stdout = String::from_utf8(output.stdout).unwrap();
+        let image = read_exr(&exr).unwrap();
+        let mean = image.pixels.iter().map(|p| p.element_sum()).sum::<f32>();
+        (stdout, mean)
+    };
+    let (stdout, bright) = render("1");
+    for line in [
+        "environment:      map",
+        "sky.hdr (--env: replaces the scene's own environment): 128x64 texels, scale 1, rotated 45",
+    ] {
+        assert!(stdout.contains(line), "'{line}' missing from:\n{stdout}");
+    }
+    let (_, dark) = render("0.25");
+    assert!(bright > 2.0 * dark, "{bright} vs {dark}");
+    let missing = dir.path().join("nope.exr");
+    let mut args = vec![scene.to_str().unwrap(), "-o", exr.to_str().unwrap()];
+    args.extend(["--env", missing.to_str().unwrap()]);
+    std::fs::remove_file(&exr).unwrap();
+    assert_fails_cleanly(&render_cli(&args), &["nope.exr"], dir.path());
 }

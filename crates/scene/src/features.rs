@@ -26,8 +26,10 @@ pub struct SceneFeatures {
     pub area_lights: usize,
     /// Point, spot and directional lights.
     pub delta_lights: usize,
-    /// A constant environment light is present.
+    /// An environment light (constant or map) is present.
     pub environment: bool,
+    /// The environment is an image map.
+    pub environment_map: bool,
     /// A used material refracts.
     pub transmission: bool,
     /// Smallest microfacet alpha among used materials (None: all diffuse).
@@ -59,6 +61,10 @@ impl SceneFeatures {
             match light {
                 Light::Area { .. } => f.area_lights += 1,
                 Light::Environment { .. } => f.environment = true,
+                Light::EnvironmentMap { .. } => {
+                    f.environment = true;
+                    f.environment_map = true;
+                }
                 _ => f.delta_lights += 1,
             }
         }
@@ -102,7 +108,11 @@ impl fmt::Display for SceneFeatures {
             "lights:           {} emissive triangles, {} point/spot/directional, environment: {}",
             self.area_lights,
             self.delta_lights,
-            if self.environment { "yes" } else { "no" }
+            match (self.environment, self.environment_map) {
+                (true, true) => "map",
+                (true, false) => "constant",
+                _ => "no",
+            }
         )?;
         writeln!(
             f,

@@ -8,6 +8,7 @@
 //! [`SceneFeatures`] summarises what a scene contains.
 
 pub mod camera;
+pub mod environment;
 pub mod error;
 pub mod features;
 pub mod gltf;
@@ -29,6 +30,7 @@ use crate::error::quoted;
 use microfacet::{NdfKind, Shadowing};
 
 pub use camera::{Camera, CameraSpec};
+pub use environment::EnvironmentMap;
 pub use error::SceneError;
 pub use features::SceneFeatures;
 pub use light::Light;
@@ -57,6 +59,21 @@ pub struct LoadOptions {
     /// Accept a scene with no geometry, or with no light and no environment
     /// (`--allow-empty`): a warning instead of an error (see [`validate`]).
     pub allow_empty: bool,
+    /// Light the scene with this map instead of its own environment
+    /// (`--env`): a model without lights then gets no default environment.
+    pub environment: Option<EnvironmentOption>,
+}
+
+/// An environment map given apart from the scene file (`--env FILE`).
+#[derive(Clone, Debug)]
+pub struct EnvironmentOption {
+    /// The `.exr` or `.hdr` file (a command-line path: not subject to the
+    /// scene's [`paths::ReferencePolicy`]).
+    pub file: std::path::PathBuf,
+    /// Radiance multiplier.
+    pub scale: f32,
+    /// Rotation about +y in degrees.
+    pub rotation_degrees: f32,
 }
 
 /// Loads a scene from a manifest (`.toml`), glTF (`.gltf`, `.glb`) or OBJ (`.obj`) file,
@@ -73,7 +90,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
     } else {
         let (mut builder, camera) = load_model(path, options.camera_name.as_deref(), &policy)?;
         let has_emission = builder.materials.iter().any(Material::is_emissive);
-        if builder.lights.is_empty() && !has_emission {
+        if builder.lights.is_empty() && !has_emission && options.environment.is_none() {
             builder.lights.push(Light::Environment {
                 radiance: Vec3::splat(DEFAULT_ENVIRONMENT),
             });
@@ -101,6 +118,13 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
         })
         .transpose()?;
     let mut scene = builder.finish(camera, resolution, render);
+    if let Some(env) = &options.environment {
+        scene.set_environment(EnvironmentMap::load(
+            &env.file,
+            env.scale,
+            env.rotation_degrees,
+        )?);
+    }
     validate::validate(
         &mut scene,
         path,

@@ -39,6 +39,12 @@ pub enum Light {
         /// Radiance.
         radiance: Vec3,
     },
+    /// Environment radiance from an equirectangular map
+    /// ([`crate::environment::EnvironmentMap`]).
+    EnvironmentMap {
+        /// Index into `Scene::environment_maps`.
+        map: u32,
+    },
     /// An emissive triangle (index into the scene's triangles).
     Area {
         /// Triangle index.
@@ -52,6 +58,15 @@ impl Light {
         matches!(
             self,
             Light::Point { .. } | Light::Spot { .. } | Light::Directional { .. }
+        )
+    }
+
+    /// True for the lights at infinity that escaping rays see (a constant
+    /// environment or a map).
+    pub fn is_environment(&self) -> bool {
+        matches!(
+            self,
+            Light::Environment { .. } | Light::EnvironmentMap { .. }
         )
     }
 }

@@ -47,6 +47,11 @@
 //! position = [0, 1.9, 0]
 //! intensity = [5, 5, 5]         # W/sr (point, spot); irradiance (directional); radiance (environment)
 //! # direction = [..], inner = 20, outer = 30 (degrees, spot)
+//! [[light]]                     # an environment map instead of a constant environment:
+//! type = "environment"          # at most one environment per scene
+//! file = "sky.exr"              # equirectangular, .exr or .hdr, relative to this file; no `intensity`
+//! scale = 1.0                   # optional radiance multiplier, >= 0
+//! rotation = 0                  # optional, degrees about +y (up); orientation in `environment`
 //! ```
 
 use std::collections::HashMap;
@@ -57,6 +62,7 @@ use microfacet::{Fresnel, MicrofacetModel, NdfKind, Shadowing};
 use serde::Deserialize;
 
 use crate::camera::CameraSpec;
+use crate::environment::EnvironmentMap;
 use crate::error::{SceneError, quoted};
 use crate::light::Light;
 use crate::material::{Material, Medium, Surface};
@@ -155,9 +161,12 @@ struct LightSection {
     kind: String,
     position: Option<[f32; 3]>,
     direction: Option<[f32; 3]>,
-    intensity: [f32; 3],
+    intensity: Option<[f32; 3]>,
     inner: Option<f32>,
     outer: Option<f32>,
+    file: Option<String>,
+    scale: Option<f32>,
+    rotation: Option<f32>,
 }
 
 /// A parsed manifest, ready to be turned into a scene.
@@ -214,7 +223,16 @@ pub fn load(
     apply_materials(path, &manifest.materials, &mut builder)?;
     add_shapes(path, &manifest.shapes, &mut builder)?;
     for (i, light) in manifest.lights.iter().enumerate() {
-        builder.lights.push(parse_light(path, i, light)?);
+        let light = match environment_map(path, i, light, policy)? {
+            Some(map) => {
+                builder.environment_maps.push(map);
+                Light::EnvironmentMap {
+                    map: (builder.environment_maps.len() - 1) as u32,
+                }
+            }
+            None => parse_light(path, i, light)?,
+        };
+        builder.lights.push(light);
     }
     if let Some(c) = &manifest.camera
         && c.name.is_none()
@@ -570,10 +588,50 @@ fn add_shapes(
     Ok(())
 }
 
+fn light_element(index: usize, l: &LightSection) -> String {
+    format!("light {}{}", index + 1, kind_name(&l.kind))
+}
+
+/// The environment map of a light section with `file`, or `None` for a
+/// section without one (every other light). Map keys on other lights, and
+/// `intensity` with `file`, are errors.
+fn environment_map(
+    path: &Path,
+    index: usize,
+    l: &LightSection,
+    policy: &ReferencePolicy,
+) -> Result<Option<EnvironmentMap>, SceneError> {
+    let element = light_element(index, l);
+    let invalid = |message: &str| SceneError::invalid(path, element.clone(), message);
+    let Some(file) = &l.file else {
+        return if l.scale.is_some() || l.rotation.is_some() {
+            Err(invalid(
+                "`scale` and `rotation` belong to an environment map (give `file`)",
+            ))
+        } else {
+            Ok(None)
+        };
+    };
+    if l.kind != "environment" {
+        return Err(invalid("only an environment light takes a `file`"));
+    }
+    if l.intensity.is_some() {
+        return Err(invalid(
+            "give `intensity` (a constant environment) or `file` (a map), not both; `scale` multiplies a map",
+        ));
+    }
+    let resolved = policy.resolve(path, &format!("{element} file"), file)?;
+    let map = EnvironmentMap::load(&resolved, l.scale.unwrap_or(1.0), l.rotation.unwrap_or(0.0))?;
+    Ok(Some(map))
+}
+
 fn parse_light(path: &Path, index: usize, l: &LightSection) -> Result<Light, SceneError> {
-    let element = format!("light {}{}", index + 1, kind_name(&l.kind));
+    let element = light_element(index, l);
     let invalid = |message: String| SceneError::invalid(path, element.clone(), message);
-    let intensity = Vec3::from_array(l.intensity);
+    let intensity = Vec3::from_array(
+        l.intensity
+            .ok_or_else(|| invalid("`intensity` is required".into()))?,
+    );
     if !(intensity.is_finite() && intensity.min_element() >= 0.0) {
         return Err(invalid(format!(
             "intensity must be finite and non-negative, got {intensity}"

@@ -5,6 +5,7 @@ use std::path::Path;
 use glam::{DVec3, Vec2, Vec3};
 
 use crate::camera::Camera;
+use crate::environment::EnvironmentMap;
 use crate::error::SceneError;
 use crate::light::Light;
 use crate::material::Material;
@@ -68,6 +69,8 @@ pub struct Scene {
     pub textures: Vec<Texture>,
     /// Lights, including one `Light::Area` per emissive triangle.
     pub lights: Vec<Light>,
+    /// Environment maps referenced by `Light::EnvironmentMap`.
+    pub environment_maps: Vec<EnvironmentMap>,
     /// The camera.
     pub camera: Camera,
     /// Suggested render settings.
@@ -106,7 +109,16 @@ pub fn triangle_normal(t: &[Vec3; 3]) -> Option<Vec3> {
     triangle_cross(t).try_normalize().map(DVec3::as_vec3)
 }
 
-impl Scene {}
+impl Scene {
+    /// Lights the scene with `map`, replacing any environment it had
+    /// (constant or map): `--env` on the command line.
+    pub fn set_environment(&mut self, map: EnvironmentMap) {
+        self.lights.retain(|l| !l.is_environment());
+        self.environment_maps.clear();
+        self.environment_maps.push(map);
+        self.lights.push(Light::EnvironmentMap { map: 0 });
+    }
+}
 
 pub(crate) fn bounds_of(triangles: &[[Vec3; 3]]) -> (Vec3, Vec3) {
     let mut min = Vec3::splat(f32::INFINITY);
@@ -132,6 +144,7 @@ pub struct SceneBuilder {
     pub(crate) materials: Vec<Material>,
     pub(crate) textures: Vec<Texture>,
     pub(crate) lights: Vec<Light>,
+    pub(crate) environment_maps: Vec<EnvironmentMap>,
     pub(crate) report: LoadReport,
 }
 
@@ -203,6 +216,7 @@ impl SceneBuilder {
         let material_offset = self.materials.len() as u32;
         let texture_offset = self.textures.len();
         let triangle_offset = self.triangles.len() as u32;
+        let map_offset = self.environment_maps.len() as u32;
         self.triangles.extend(other.triangles);
         self.normals.extend(other.normals);
         self.uvs.extend(other.uvs);
@@ -223,8 +237,12 @@ impl SceneBuilder {
                 Light::Area { triangle } => Light::Area {
                     triangle: triangle + triangle_offset,
                 },
+                Light::EnvironmentMap { map } => Light::EnvironmentMap {
+                    map: map + map_offset,
+                },
                 other => other,
             }));
+        self.environment_maps.extend(other.environment_maps);
         self.report.degenerate_triangles += other.report.degenerate_triangles;
         self.report.non_manifold_edges += other.report.non_manifold_edges;
         self.report.warnings.extend(other.report.warnings);
@@ -256,6 +274,7 @@ impl SceneBuilder {
             materials: self.materials,
             textures: self.textures,
             lights: self.lights,
+            environment_maps: self.environment_maps,
             camera,
             render,
             report: self.report,

@@ -7,6 +7,8 @@
 //!   colour, intensity or roughness; an index of refraction <= 0; a light
 //!   whose value exceeds [`MAX_LIGHT_VALUE`] or whose power (4 pi I for a
 //!   point or spot light, pi L A for an emissive triangle) does.
+//! - At most one environment light (constant or map): rays that escape see
+//!   one background.
 //! - A scene without geometry, or without any light (an environment counts),
 //!   is refused unless the caller allows it (`--allow-empty`); then it is a
 //!   warning.
@@ -93,6 +95,12 @@ pub fn validate(scene: &mut Scene, path: &Path, allow: Allow) -> Result<(), Scen
         let element = || format!("light {} ({})", i + 1, light_kind(light));
         check_light(scene, light).map_err(|e| invalid(element(), e))?;
     }
+    if scene.lights.iter().filter(|l| l.is_environment()).count() > 1 {
+        return Err(invalid(
+            "lights".into(),
+            "more than one environment light (constant or map): give at most one".into(),
+        ));
+    }
     let c = &scene.camera;
     if !(c.position.is_finite()
         && c.forward.is_finite()
@@ -134,6 +142,7 @@ fn light_kind(light: &Light) -> &'static str {
         Light::Spot { .. } => "spot",
         Light::Directional { .. } => "directional",
         Light::Environment { .. } => "environment",
+        Light::EnvironmentMap { .. } => "environment map",
         Light::Area { .. } => "emissive triangle",
     }
 }
@@ -207,6 +216,15 @@ fn check_light(scene: &Scene, light: &Light) -> Result<(), String> {
             light_value("irradiance", irradiance)
         }
         Light::Environment { radiance } => light_value("radiance", radiance),
+        Light::EnvironmentMap { map } => {
+            let Some(map) = scene.environment_maps.get(map as usize) else {
+                return Err(format!("environment map {map} does not exist"));
+            };
+            // Texels are finite and non-negative by construction
+            // (`EnvironmentMap::new`); the scale can still push them over.
+            let largest = map.max_value();
+            light_value("largest texel times scale", Vec3::splat(largest))
+        }
         Light::Area { triangle } => {
             let i = triangle as usize;
             let (Some(t), Some(&m)) = (scene.triangles.get(i), scene.triangle_materials.get(i))

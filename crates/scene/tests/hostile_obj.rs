@@ -280,6 +280,10 @@ fn assert_finite(scene: &Scene) {
                 irradiance,
             } => direction.is_finite() && irradiance.is_finite(),
             Light::Environment { radiance } => radiance.is_finite(),
+            Light::EnvironmentMap { map } => scene
+                .environment_maps
+                .get(map as usize)
+                .is_some_and(|m| m.max_value().is_finite()),
             Light::Area { triangle } => (triangle as usize) < scene.triangles.len(),
         };
         assert!(ok, "{l:?}");

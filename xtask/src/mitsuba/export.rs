@@ -39,6 +39,7 @@ pub(super) struct Exported {
 ///   direction at the third vertex). Differences left: Mitsuba's roulette
 ///   survival is capped at 0.95 (ours at 1) and its light choice is uniform
 ///   over emitting shapes; both are unbiased, so only the noise differs.
+/// - environment: see [`environment_xml`].
 pub(super) fn export(scene: &Scene, options: &Options, dir: &Path) -> Result<Exported, String> {
     check_lights(scene)?;
     let mesh_dir = dir.join("meshes");
@@ -53,6 +54,7 @@ pub(super) fn export(scene: &Scene, options: &Options, dir: &Path) -> Result<Exp
         emitters += usize::from(mesh.material.is_emissive());
         smooth_meshes += usize::from(mesh.smooth);
     }
+    shapes.push_str(&environment_xml(scene, dir)?);
     let xml_path = dir.join("scene.xml");
     crate::write_file(&xml_path, scene_xml(scene, options, &shapes))?;
     Ok(Exported {
@@ -74,15 +76,16 @@ pub(super) fn export(scene: &Scene, options: &Options, dir: &Path) -> Result<Exp
 /// mesh is written with per-vertex normals.
 const FLAT_COSINE: f32 = 1.0 - 1e-5;
 
-/// An error unless every light is an emissive triangle (Mitsuba's `area`).
+/// An error unless every light is an emissive triangle (Mitsuba's `area`)
+/// or the environment (`constant`, `envmap`).
 fn check_lights(scene: &Scene) -> Result<(), String> {
     match scene
         .lights
         .iter()
-        .find(|l| !matches!(l, Light::Area { .. }))
+        .find(|l| !matches!(l, Light::Area { .. }) && !l.is_environment())
     {
         Some(light) => Err(format!(
-            "the Mitsuba export handles emissive triangles only; the scene has {light:?}"
+            "the Mitsuba export handles emissive triangles and environments only; the scene has {light:?}"
         )),
         None => Ok(()),
     }
@@ -248,6 +251,63 @@ fn ply(scene: &Scene, triangles: &[usize], normals: bool) -> Vec<u8> {
     bytes
 }
 
+/// The scene's environment as a Mitsuba emitter, or nothing.
+///
+/// - `Light::Environment { radiance }`: `constant` with the same RGB
+///   radiance.
+/// - `Light::EnvironmentMap`: `envmap` of a copy of the same file (as
+///   `envmap.exr` or `envmap.hdr` next to `scene.xml`), the same `scale`,
+///   and `to_world` = a rotation about +y by our `rotation` in degrees.
+///   Orientation: our map convention is Mitsuba 3's (`scene::environment`
+///   module docs: +y up, the image's top row up, u = 0 looking along -z,
+///   u = 1/4 along +x; Mitsuba's `envmap.cpp` maps a local direction to
+///   (atan2(x, -z) / 2 pi, acos(y) / pi)), and both rotate right-handed
+///   about +y (`R_y(angle)` takes the map's frame to the world), so no
+///   other transform is needed. What differs: Mitsuba interpolates texels
+///   bilinearly, with texel row r at v = r / (height - 1) and column c at
+///   u = (c + 1/2) / width, where we look up the nearest texel with row r
+///   covering v in [r, r + 1) / height; on smooth maps the two agree
+///   closely, a one-texel sun moves by up to half a texel.
+fn environment_xml(scene: &Scene, dir: &Path) -> Result<String, String> {
+    let Some(light) = scene.lights.iter().find(|l| l.is_environment()) else {
+        return Ok(String::new());
+    };
+    match *light {
+        Light::Environment { radiance } => Ok(format!(
+            "    <emitter type=\"constant\">\n        <rgb name=\"radiance\" value=\"{}\"/>\n    </emitter>\n",
+            rgb(radiance)
+        )),
+        Light::EnvironmentMap { map } => {
+            let map = &scene.environment_maps[map as usize];
+            let source = map
+                .file
+                .as_ref()
+                .ok_or("the Mitsuba export needs the environment map's file")?;
+            let extension = source
+                .extension()
+                .and_then(|e| e.to_str())
+                .map(str::to_ascii_lowercase)
+                .unwrap_or_default();
+            let file = format!("envmap.{extension}");
+            fs::copy(source, dir.join(&file))
+                .map_err(|e| format!("cannot copy {}: {e}", source.display()))?;
+            Ok(format!(
+                r#"    <emitter type="envmap">
+        <string name="filename" value="{file}"/>
+        <float name="scale" value="{scale:?}"/>
+        <transform name="to_world">
+            <rotate y="1" angle="{angle:?}"/>
+        </transform>
+    </emitter>
+"#,
+                scale = map.scale,
+                angle = map.rotation_degrees,
+            ))
+        }
+        _ => Ok(String::new()),
+    }
+}
+
 fn rgb(v: Vec3) -> String {
     format!("{:?}, {:?}, {:?}", v.x, v.y, v.z)
 }
@@ -284,6 +344,30 @@ mod tests {
             + 11;
         // 6 vertices x 3 floats, then 2 faces x (1 + 3 x 4) bytes.
         assert_eq!(bytes.len() - header_end, 6 * 12 + 2 * 13);
+    }
+
+    /// The env-sphere map becomes an `envmap` of a copy of its file with
+    /// its scale and rotation about +y.
+    #[test]
+    fn environment_map_exports_as_envmap() {
+        let mut scene = scene::load(
+            &Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/env-sphere/scene.toml"),
+            &LoadOptions {
+                resolution: Some(UVec2::new(8, 8)),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        scene.environment_maps[0].scale = 2.5;
+        let dir = std::env::temp_dir().join(format!("xtask-mitsuba-env-{}", std::process::id()));
+        fs::create_dir_all(&dir).unwrap();
+        let xml = environment_xml(&scene, &dir).unwrap();
+        assert!(xml.contains(r#"<emitter type="envmap">"#), "{xml}");
+        assert!(xml.contains(r#"<string name="filename" value="envmap.hdr"/>"#));
+        assert!(xml.contains(r#"<float name="scale" value="2.5"/>"#));
+        assert!(xml.contains(r#"<rotate y="1" angle="0.0"/>"#));
+        assert!(dir.join("envmap.hdr").is_file());
+        fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]

@@ -33,8 +33,11 @@ impl Iteration<'_> {
         let mut radiance = Vec3::ZERO;
         for length in 1..=max_depth {
             let Some(hit) = ctx.intersect(walk.origin, walk.direction, f32::INFINITY) else {
-                if let Some(le) = ctx.lights.environment() {
-                    let hit = ctx.lights.environment_pdfs().hit();
+                if let Some(le) = ctx.lights.environment(&ctx.scene, walk.direction) {
+                    let hit = ctx
+                        .lights
+                        .environment_pdfs(&ctx.scene, walk.direction)
+                        .hit();
                     let w = self.mis.environment_hit_weight(&ray, &hit);
                     radiance += walk.escaped_throughput() * le * w as f32;
                 }

@@ -62,7 +62,7 @@ impl Iteration<'_> {
         let mut radiance = Vec3::ZERO;
         for length in 1..=max_depth {
             let Some(hit) = ctx.intersect(walk.origin, walk.direction, f32::INFINITY) else {
-                if let Some(le) = ctx.lights.environment() {
+                if let Some(le) = ctx.lights.environment(&ctx.scene, walk.direction) {
                     radiance += walk.escaped_throughput() * le;
                 }
                 break;
