@@ -12,13 +12,13 @@
 //! with w the specular factor, and F_m(c) = base + (1 - base)(1 - c)^5 the metal's
 //! (Appendix B, `conductor_fresnel`):
 //!
-//! f = (1 - m) [ T(mu_i) T(mu_o) / (1 - T_avg) (base/pi) + F_s(<wi,h>) f_spec ] + m F_m(<wi,h>) f_spec,
+//! f = (1 - m) [ T(mu_i) T(mu_o) / T_avg (base/pi) + F_s(<wi,h>) f_spec ] + m F_m(<wi,h>) f_spec,
 //!
 //! f_spec = D G / (4 mu_i mu_o) the Torrance-Sparrow lobe of `model` (SPEC §3),
 //! m the metallic factor, mu = |<w,n>|, T(mu) = 1 - max_rgb F_s(mu) the coat's
-//! transmittance at the macro cosine, and 1 - T_avg = 1 - 2 int T(mu) mu dmu
-//! its cosine-weighted hemispherical average, in closed form
-//! w (F0 + (1 - F0)/21) for max_rgb F0 (int (1 - mu)^5 2 mu dmu = 1/21).
+//! transmittance at the macro cosine, and T_avg = 2 int T(mu) mu dmu its
+//! cosine-weighted hemispherical average, in closed form
+//! 1 - w (F0 + (1 - F0)/21) for max_rgb F0 (int (1 - mu)^5 2 mu dmu = 1/21).
 //!
 //! **Deviation from Appendix B.** Its `fresnel_mix` weights the base by
 //! 1 - F_s(<wi,h>) at the half vector of the pair. For a white base that
@@ -197,6 +197,16 @@ impl Coated {
                 self.model.pdf_h(wi, h) / (4.0 * wi.dot(h))
             }
             _ => 0.0,
+        }
+    }
+
+    /// The diffuse component of the mixture density, (1 - P_s(mu_i)) mu_o/pi
+    /// (lobe probability included), for the MIS pdf of a regularized vertex.
+    pub fn diffuse_pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
+        if same_hemisphere(wi, wo) {
+            (1.0 - self.specular_probability(wi.z.abs())) * wo.z.abs() * FRAC_1_PI
+        } else {
+            0.0
         }
     }
 
