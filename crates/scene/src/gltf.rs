@@ -22,7 +22,7 @@ use microfacet::{MicrofacetModel, NdfKind, Shadowing};
 use crate::camera::CameraSpec;
 use crate::error::{SceneError, guarded, quoted};
 use crate::light::Light;
-use crate::material::{Material, Surface, TexturedPbr, metal_rough_surface};
+use crate::material::{Material, MetalRough, Surface, TexturedPbr, metal_rough_surface};
 use crate::scene::SceneBuilder;
 use crate::texture::{Texture, Wrap};
 
@@ -647,6 +647,7 @@ impl Loader<'_> {
                 .metallic_roughness_texture()
                 .map(|t| self.texture(&t.texture(), false, &element))
                 .transpose()?;
+            let (specular, specular_color) = specular_extension(m).map_err(invalid)?;
             if base_texture.is_some() || mr_texture.is_some() {
                 Surface::Textured(TexturedPbr {
                     base_color: base,
@@ -654,11 +655,20 @@ impl Loader<'_> {
                     metallic,
                     roughness,
                     metallic_roughness_texture: mr_texture,
+                    specular,
+                    specular_color,
+                    ior,
                     ndf,
                     shadowing,
                 })
             } else {
-                metal_rough_surface(base, metallic, roughness, ndf, shadowing)
+                let factors = MetalRough {
+                    specular,
+                    specular_color,
+                    ior,
+                    ..MetalRough::new(base, metallic, roughness)
+                };
+                metal_rough_surface(factors, ndf, shadowing)
             }
         };
         let factor = Vec3::from_array(m.emissive_factor());
@@ -862,6 +872,30 @@ fn wrap(mode: gltf::texture::WrappingMode) -> Wrap {
 }
 
 /// The NDF and shadowing a material's `extras` choose (GGX and Smith by default).
+/// `KHR_materials_specular`'s (specularFactor, specularColorFactor), glTF's
+/// (1, 1) without it; the factor must be in [0, 1] and the colour finite and
+/// non-negative (the extension's ranges). Its textures are not used.
+fn specular_extension(m: &gltf::Material) -> Result<(f32, Vec3), String> {
+    let Some(ext) = m.specular() else {
+        return Ok((1.0, Vec3::ONE));
+    };
+    let (factor, colour) = (
+        ext.specular_factor(),
+        Vec3::from_array(ext.specular_color_factor()),
+    );
+    if !(0.0..=1.0).contains(&factor) {
+        return Err(format!(
+            "KHR_materials_specular specularFactor must be in [0, 1], got {factor}"
+        ));
+    }
+    if !(colour.is_finite() && colour.min_element() >= 0.0) {
+        return Err(format!(
+            "KHR_materials_specular specularColorFactor must be finite and non-negative, got {colour}"
+        ));
+    }
+    Ok((factor, colour))
+}
+
 fn microfacet_choice(m: &gltf::Material) -> Result<(NdfKind, Shadowing), String> {
     let Some(raw) = m.extras() else {
         return Ok((NdfKind::Ggx, Shadowing::Smith));

@@ -479,6 +479,12 @@ fn override_surface(
             model: remodel(model),
             ior: section.ior.unwrap_or(ior),
         },
+        Surface::Coated(c) => Surface::Coated(microfacet::Coated {
+            model: remodel(c.model),
+            base_color: vec3(section.reflectance).map_or(c.base_color, |r| r.min(Vec3::ONE)),
+            ior: section.ior.unwrap_or(c.ior),
+            ..c
+        }),
         Surface::Textured(mut pbr) => {
             pbr.ndf = ndf.unwrap_or(pbr.ndf);
             pbr.shadowing = shadowing.unwrap_or(pbr.shadowing);

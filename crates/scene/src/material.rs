@@ -7,9 +7,13 @@
 //! - `KHR_materials_transmission` factor > 0: a rough or smooth dielectric with
 //!   index `KHR_materials_ior` (glTF default 1.5). Base colour tint, the
 //!   transmission texture and `KHR_materials_volume` are not used.
-//! - otherwise metallic >= 0.5: a conductor with Schlick's Fresnel, F0 = base colour.
-//! - otherwise: Lambertian with the base colour. The thin specular layer of
-//!   glTF dielectrics (F0 = 0.04) is not modelled: there is no layered lobe yet.
+//! - otherwise: the coated lobe (`microfacet::Coated`, Appendix B's BRDF):
+//!   base colour, metallic as the mix weight of the metal, the coat's index
+//!   from `KHR_materials_ior` (1.5) and its strength and F0 colour from
+//!   `KHR_materials_specular` (specularFactor, specularColorFactor: 1; their
+//!   textures are not used). A material with metallic 0 and specularFactor 0
+//!   is Lambertian (the lobe reduces to it, and a Lambertian vertex has no
+//!   roughness for regularization to change).
 //! - emission = emissiveFactor x `KHR_materials_emissive_strength`; emissive
 //!   textures are not used. Material `extras` may choose `"ndf"`
 //!   (`"ggx"` default, `"beckmann"`, `"blinn-phong"`) and `"shadowing"`
@@ -21,8 +25,17 @@
 //! - `Pm` >= 0.5: conductor with F0 = Kd and alpha = Pr^2.
 //! - `d` < 1 (or `Tr` > 0): dielectric, as `illum 7`. `Tf` is ignored (real files
 //!   put it on opaque materials, lights included).
-//! - max(Ks) > max(Kd) with `Ns`: glossy conductor, Blinn-Phong NDF with
-//!   alpha = sqrt(2 / (Ns + 2)) (supp. eq. 5), F0 = Ks; otherwise Lambertian Kd.
+//! - max(Ks) > 0 (and not one of the above): the coated lobe with a
+//!   Blinn-Phong NDF of alpha = sqrt(2 / (Ns + 2)) (supp. eq. 5; Ns 0 if
+//!   absent), base Kd, metallic 0, and a coat whose F0 is Ks: Phong's Ks is
+//!   the specular reflectance at normal incidence, which is what F0 means.
+//!   Expressed in glTF's terms: specularFactor 1, ior 1.5 and
+//!   specularColor = Ks / 0.04 (0.04 the F0 of ior 1.5; `Ni` is not used
+//!   for opaque materials, where real files often write 1, which would make
+//!   F0 = 0). The coat's Fresnel brightens Ks towards grazing angles, and
+//!   the base loses what the coat reflects (energy stays <= 1; Kd + Ks <= 1
+//!   only approximated that). `map_Ks` and `map_Ns` are not used.
+//! - otherwise Lambertian Kd.
 //! - `Ke`: emission. `map_Kd`: base colour texture (sRGB).
 //!
 //! Emission is one-sided, on the side the geometric normal (counter-clockwise
@@ -30,7 +43,7 @@
 
 use glam::{Vec2, Vec3};
 use microfacet::{
-    Bsdf, Conductor, Dielectric, Fresnel, Lambertian, MicrofacetModel, NdfKind, Shadowing,
+    Bsdf, Coated, Conductor, Dielectric, Fresnel, Lambertian, MicrofacetModel, NdfKind, Shadowing,
 };
 
 use crate::texture::Texture;
@@ -57,6 +70,9 @@ pub enum Surface {
         /// Index of refraction of the inside, > 0 (outside is 1).
         ior: f32,
     },
+    /// glTF metallic-roughness: a specular coat over a diffuse base, mixed
+    /// with a metal (the module docs' mapping).
+    Coated(Coated),
     /// glTF metallic-roughness resolved per shading point from textures.
     Textured(TexturedPbr),
 }
@@ -75,6 +91,12 @@ pub struct TexturedPbr {
     pub roughness: f32,
     /// Metallic-roughness texture: roughness in G, metallic in B.
     pub metallic_roughness_texture: Option<usize>,
+    /// `KHR_materials_specular` specularFactor (0 for an OBJ diffuse texture).
+    pub specular: f32,
+    /// `KHR_materials_specular` specularColorFactor.
+    pub specular_color: Vec3,
+    /// `KHR_materials_ior` index of the coat.
+    pub ior: f32,
     /// NDF and shadowing of the microfacet lobes.
     pub ndf: NdfKind,
     /// Shadowing model.
@@ -106,6 +128,7 @@ impl Surface {
             Surface::Diffuse { reflectance } => Bsdf::Lambertian(Lambertian { reflectance }),
             Surface::Conductor { model, fresnel } => Bsdf::Conductor(Conductor { model, fresnel }),
             Surface::Dielectric { model, ior } => Bsdf::Dielectric(Dielectric { model, eta: ior }),
+            Surface::Coated(coated) => Bsdf::Coated(coated),
             Surface::Textured(pbr) => pbr.resolve(uv, textures).bsdf(uv, textures),
         }
     }
@@ -115,6 +138,7 @@ impl Surface {
         match *self {
             Surface::Diffuse { .. } => None,
             Surface::Conductor { model, .. } | Surface::Dielectric { model, .. } => Some(model),
+            Surface::Coated(coated) => Some(coated.model),
             Surface::Textured(pbr) => Some(MicrofacetModel::new(
                 pbr.ndf,
                 pbr.roughness * pbr.roughness,
@@ -140,28 +164,68 @@ impl TexturedPbr {
             roughness *= texel.y;
             metallic *= texel.z;
         }
-        metal_rough_surface(base, metallic, roughness, self.ndf, self.shadowing)
+        metal_rough_surface(
+            MetalRough {
+                base,
+                metallic,
+                roughness,
+                specular: self.specular,
+                specular_color: self.specular_color,
+                ior: self.ior,
+            },
+            self.ndf,
+            self.shadowing,
+        )
     }
 }
 
-/// The glTF metallic-roughness mapping of the module docs (no transmission).
-pub fn metal_rough_surface(
-    base: Vec3,
-    metallic: f32,
-    roughness: f32,
-    ndf: NdfKind,
-    shadowing: Shadowing,
-) -> Surface {
-    if metallic >= 0.5 {
-        Surface::Conductor {
-            model: MicrofacetModel::new(ndf, roughness * roughness, shadowing),
-            fresnel: Fresnel::Schlick {
-                f0: base.clamp(Vec3::ZERO, Vec3::ONE),
-            },
-        }
-    } else {
-        Surface::Diffuse {
-            reflectance: base.clamp(Vec3::ZERO, Vec3::ONE),
+/// The factors of a glTF metallic-roughness material (textures applied).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MetalRough {
+    /// Base colour (linear).
+    pub base: Vec3,
+    /// Metallic factor.
+    pub metallic: f32,
+    /// Perceptual roughness r (alpha = r^2).
+    pub roughness: f32,
+    /// `KHR_materials_specular` specularFactor (1 without the extension).
+    pub specular: f32,
+    /// `KHR_materials_specular` specularColorFactor (1 without the extension).
+    pub specular_color: Vec3,
+    /// `KHR_materials_ior` ior (1.5 without the extension).
+    pub ior: f32,
+}
+
+impl MetalRough {
+    /// glTF's defaults for the extensions: specular 1, colour 1, ior 1.5.
+    pub fn new(base: Vec3, metallic: f32, roughness: f32) -> Self {
+        Self {
+            base,
+            metallic,
+            roughness,
+            specular: 1.0,
+            specular_color: Vec3::ONE,
+            ior: 1.5,
         }
     }
+}
+
+/// The glTF metallic-roughness mapping of the module docs (no transmission):
+/// the coated lobe, or Lambertian where it reduces to one (metallic 0 and
+/// specular 0). Factors are clamped to [0, 1] (the colour of the coat to
+/// [0, inf), as `KHR_materials_specular` allows).
+pub fn metal_rough_surface(m: MetalRough, ndf: NdfKind, shadowing: Shadowing) -> Surface {
+    let base = m.base.clamp(Vec3::ZERO, Vec3::ONE);
+    let (metallic, specular) = (m.metallic.clamp(0.0, 1.0), m.specular.clamp(0.0, 1.0));
+    if metallic == 0.0 && specular == 0.0 {
+        return Surface::Diffuse { reflectance: base };
+    }
+    Surface::Coated(Coated {
+        model: MicrofacetModel::new(ndf, m.roughness * m.roughness, shadowing),
+        base_color: base,
+        metallic,
+        specular,
+        specular_color: m.specular_color.max(Vec3::ZERO),
+        ior: m.ior,
+    })
 }

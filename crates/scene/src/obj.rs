@@ -8,12 +8,23 @@ use glam::{Vec2, Vec3};
 use microfacet::{Fresnel, MicrofacetModel, NdfKind, Shadowing};
 
 use crate::error::{SceneError, quoted};
-use crate::material::{Material, Surface, TexturedPbr};
+use crate::material::{Material, MetalRough, Surface, TexturedPbr, metal_rough_surface};
 use crate::scene::SceneBuilder;
 use crate::texture::Texture;
 
 /// Materials with a dissolve `d` below this are transparent (glass-like).
 const OPAQUE_DISSOLVE: f32 = 0.999;
+
+/// Index of the coat of an MTL material with Ks (see the `material` module
+/// docs): only the F0 that the specular colour scales depends on it.
+const MTL_COAT_IOR: f32 = 1.5;
+
+/// F0 = ((ior - 1)/(ior + 1))^2 of `MTL_COAT_IOR` (Fresnel at normal
+/// incidence, 0.04), as `microfacet::Coated::dielectric_f0` computes it.
+const MTL_COAT_F0: f32 = {
+    let r = (MTL_COAT_IOR - 1.0) / (MTL_COAT_IOR + 1.0);
+    r * r
+};
 
 /// Material of faces without `usemtl`.
 fn default_material() -> Material {
@@ -511,19 +522,19 @@ fn map_material(
                 f0: kd.min(Vec3::ONE),
             },
         }
-    } else if ks.max_element() > kd.max_element() && m.shininess.is_some() {
+    } else if ks.max_element() > 0.0 {
         let ns = m.shininess.unwrap_or(0.0).max(0.0);
-        Surface::Conductor {
-            // supp. eq. 5: n = 2/alpha^2 - 2.
-            model: MicrofacetModel::new(
-                NdfKind::BlinnPhong,
-                (2.0 / (ns + 2.0)).sqrt(),
-                Shadowing::Smith,
-            ),
-            fresnel: Fresnel::Schlick {
-                f0: ks.min(Vec3::ONE),
+        metal_rough_surface(
+            MetalRough {
+                // supp. eq. 5: n = 2/alpha^2 - 2, i.e. roughness^2 = alpha.
+                roughness: (2.0 / (ns + 2.0)).sqrt().sqrt(),
+                specular_color: ks.min(Vec3::ONE) / MTL_COAT_F0,
+                ior: MTL_COAT_IOR,
+                ..MetalRough::new(kd.min(Vec3::ONE), 0.0, 1.0)
             },
-        }
+            NdfKind::BlinnPhong,
+            Shadowing::Smith,
+        )
     } else {
         Surface::Diffuse {
             reflectance: kd.min(Vec3::ONE),
@@ -538,8 +549,27 @@ fn map_material(
                 metallic: 0.0,
                 roughness: 1.0,
                 metallic_roughness_texture: None,
+                // No coat: the textured surface stays Lambertian.
+                specular: 0.0,
+                specular_color: Vec3::ONE,
+                ior: MTL_COAT_IOR,
                 ndf: NdfKind::Ggx,
                 shadowing: Shadowing::Smith,
+            })
+        }
+        (Some(file), Surface::Coated(c)) if c.metallic == 0.0 => {
+            let id = load_texture(source, &element(), file, builder, textures)?;
+            Surface::Textured(TexturedPbr {
+                base_color: c.base_color,
+                base_color_texture: Some(id),
+                metallic: 0.0,
+                roughness: c.model.alpha().sqrt(),
+                metallic_roughness_texture: None,
+                specular: c.specular,
+                specular_color: c.specular_color,
+                ior: c.ior,
+                ndf: c.model.ndf.kind(),
+                shadowing: c.model.shadowing,
             })
         }
         (Some(file), s) => {

@@ -136,6 +136,39 @@ fn mtl_nan_and_out_of_range_values_name_file_material_and_line() {
     );
 }
 
+/// Kd + Ks is the coated lobe: base Kd, a coat whose F0 is Ks, the
+/// Blinn-Phong alpha of Ns (supp. eq. 5); Ks above Kd stays a coat over
+/// the base, not a grey metal (issue 18).
+#[test]
+fn mtl_kd_and_ks_become_a_coat_over_the_base() {
+    for (kd, ks) in [
+        ([0.6, 0.6, 0.6], [0.3, 0.3, 0.3]),
+        ([0.0, 0.4, 0.4], [0.5, 0.5, 0.5]),
+    ] {
+        let mtl = format!(
+            "newmtl m\nKd {} {} {}\nKs {} {} {}\nNs 98\n",
+            kd[0], kd[1], kd[2], ks[0], ks[1], ks[2]
+        );
+        let files = obj_with_mtl(&mtl);
+        let (result, dir) = load_in(&borrowed(&files), &LoadOptions::default());
+        let _ = std::fs::remove_dir_all(&dir);
+        let scene = result.unwrap();
+        let Surface::Coated(c) = scene.materials[0].surface else {
+            panic!("{:?}", scene.materials[0].surface)
+        };
+        assert_eq!(c.base_color, glam::Vec3::from_array(kd));
+        assert_eq!(c.metallic, 0.0);
+        assert!(
+            (c.dielectric_f0() * c.specular - glam::Vec3::from_array(ks))
+                .abs()
+                .max_element()
+                < 1e-6
+        );
+        assert_eq!(c.model.ndf.kind(), microfacet::NdfKind::BlinnPhong);
+        assert!((c.model.alpha() - (2.0f32 / 100.0).sqrt()).abs() < 1e-6);
+    }
+}
+
 #[test]
 fn empty_files_are_errors_unless_allowed() {
     refused(
@@ -256,6 +289,12 @@ fn assert_finite(scene: &Scene) {
                 assert!(ior.is_finite() && ior > 0.0 && model.alpha().is_finite())
             }
             Surface::Conductor { model, .. } => assert!(model.alpha().is_finite()),
+            Surface::Coated(c) => assert!(
+                c.model.alpha().is_finite()
+                    && c.base_color.is_finite()
+                    && c.specular_color.is_finite()
+                    && c.ior.is_finite()
+            ),
             Surface::Textured(p) => assert!(p.base_color.is_finite() && p.roughness.is_finite()),
         }
     }
