@@ -25,13 +25,14 @@
 //! file = "cornell.obj"          # relative to this file; .obj, .gltf, .glb
 //! [[material]]                  # overrides a model's material of that name,
 //! name = "floor"                # or defines one for shapes
-//! type = "conductor"            # diffuse | conductor | dielectric (optional for overrides)
+//! type = "conductor"            # diffuse | conductor | dielectric | coated (optional for overrides)
 //! alpha = 0.02                  # or roughness = r (alpha = r^2)
 //! ndf = "ggx"                   # ggx | beckmann | blinn-phong
 //! shadowing = "smith"           # smith | v-cavity
-//! reflectance = [0.9, 0.9, 0.9] # diffuse albedo, or conductor F0 (Schlick)
+//! reflectance = [0.9, 0.9, 0.9] # diffuse albedo, conductor F0 (Schlick), or coated base colour
 //! # eta = [..], k = [..]        # conductor complex index instead of F0
-//! # ior = 1.5                   # dielectric
+//! # ior = 1.5                   # dielectric; coated: the coat's index (glTF's
+//! #                             # metallic-roughness lobe with metallic 0, specular 1)
 //! # emission = [10, 10, 10]
 //! [[shape]]
 //! type = "sphere"               # sphere | quad
@@ -424,9 +425,17 @@ fn new_surface(
             model,
             ior: section.ior.unwrap_or(1.5),
         },
+        "coated" => Surface::Coated(microfacet::Coated {
+            model,
+            base_color: reflectance.unwrap_or(Vec3::splat(0.8)).min(Vec3::ONE),
+            metallic: 0.0,
+            specular: 1.0,
+            specular_color: Vec3::ONE,
+            ior: section.ior.unwrap_or(1.5),
+        }),
         other => {
             return Err(format!(
-                "unknown type {} (expected diffuse, conductor or dielectric)",
+                "unknown type {} (expected diffuse, conductor, dielectric or coated)",
                 quoted(other)
             ));
         }
