@@ -658,6 +658,8 @@ impl Loader<'_> {
                     specular,
                     specular_color,
                     ior,
+                    specular_color_texture: None,
+                    shininess_texture: None,
                     ndf,
                     shadowing,
                 })

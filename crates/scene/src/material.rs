@@ -34,7 +34,9 @@
 //!   for opaque materials, where real files often write 1, which would make
 //!   F0 = 0). The coat's Fresnel brightens Ks towards grazing angles, and
 //!   the base loses what the coat reflects (energy stays <= 1; Kd + Ks <= 1
-//!   only approximated that). `map_Ks` and `map_Ns` are not used.
+//!   only approximated that). `map_Ks` (sRGB) multiplies Ks per texel and
+//!   `map_Ns` (a scalar texture, linear) multiplies Ns before the alpha
+//!   above; both only where the material has Ks (a warning otherwise).
 //! - otherwise Lambertian Kd.
 //! - `Ke`: emission. `map_Kd`: base colour texture (sRGB).
 //!
@@ -97,6 +99,13 @@ pub struct TexturedPbr {
     pub specular_color: Vec3,
     /// `KHR_materials_ior` index of the coat.
     pub ior: f32,
+    /// Specular colour texture (sRGB-decoded), multiplied with
+    /// `specular_color`: MTL `map_Ks`.
+    pub specular_color_texture: Option<usize>,
+    /// MTL `map_Ns`: the exponent Ns and a scalar texture (red, linear) that
+    /// multiplies it; the roughness is then that of alpha =
+    /// sqrt(2 / (Ns t + 2)) (supp. eq. 5), in place of `roughness`.
+    pub shininess_texture: Option<(f32, usize)>,
     /// NDF and shadowing of the microfacet lobes.
     pub ndf: NdfKind,
     /// Shadowing model.
@@ -164,13 +173,25 @@ impl TexturedPbr {
             roughness *= texel.y;
             metallic *= texel.z;
         }
+        let mut specular_color = self.specular_color;
+        if let Some(t) = self.specular_color_texture.and_then(|i| textures.get(i)) {
+            specular_color *= t.sample(uv).truncate();
+        }
+        if let Some((ns, t)) = self
+            .shininess_texture
+            .and_then(|(ns, i)| Some((ns, textures.get(i)?)))
+        {
+            let ns = (ns * t.sample(uv).x).max(0.0);
+            // supp. eq. 5: alpha = sqrt(2 / (n + 2)), and alpha = roughness^2.
+            roughness = (2.0 / (ns + 2.0)).sqrt().sqrt();
+        }
         metal_rough_surface(
             MetalRough {
                 base,
                 metallic,
                 roughness,
                 specular: self.specular,
-                specular_color: self.specular_color,
+                specular_color,
                 ior: self.ior,
             },
             self.ndf,

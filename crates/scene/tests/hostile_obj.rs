@@ -169,6 +169,65 @@ fn mtl_kd_and_ks_become_a_coat_over_the_base() {
     }
 }
 
+/// A 1x1 PNG of one RGB colour.
+fn png(rgb: [u8; 3]) -> Vec<u8> {
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    image::RgbImage::from_pixel(1, 1, image::Rgb(rgb))
+        .write_to(&mut bytes, image::ImageFormat::Png)
+        .unwrap();
+    bytes.into_inner()
+}
+
+/// `map_Ks` multiplies Ks (sRGB) and `map_Ns` multiplies Ns (linear) per
+/// texel; on a material without Ks they are ignored with a warning.
+#[test]
+fn mtl_map_ks_and_map_ns_texture_the_coat() {
+    let [obj, mtl] = obj_with_mtl(
+        "newmtl m\nKd 0.5 0.5 0.5\nKs 0.4 0.4 0.4\nNs 198\nmap_Ks ks.png\nmap_Ns ns.png\n",
+    );
+    // sRGB 188 is 0.5 linear; 128 linear is 0.502 (Ns 198 -> 99.4).
+    let (ks, ns) = (png([255, 188, 0]), png([128, 128, 128]));
+    let files = [obj, mtl, ("ks.png", ks), ("ns.png", ns)];
+    let (result, dir) = load_in(&borrowed(&files), &LoadOptions::default());
+    let _ = std::fs::remove_dir_all(&dir);
+    let scene = result.unwrap();
+    let uv = glam::Vec2::splat(0.5);
+    let microfacet::Bsdf::Coated(c) = scene.materials[0].surface.bsdf(uv, &scene.textures) else {
+        panic!("{:?}", scene.materials[0].surface)
+    };
+    let f0 = c.dielectric_f0() * c.specular;
+    assert!(
+        (f0 - glam::Vec3::new(0.4, 0.2, 0.0)).abs().max_element() < 2e-3,
+        "{f0}"
+    );
+    let ns = 198.0 * 128.0 / 255.0;
+    let alpha = (2.0f32 / (ns + 2.0)).sqrt();
+    assert!(
+        (c.model.alpha() - alpha).abs() < 1e-4,
+        "{}",
+        c.model.alpha()
+    );
+
+    let [obj, mtl] = obj_with_mtl("newmtl m\nKd 0.5 0.5 0.5\nmap_Ks ks.png\n");
+    let files = [obj, mtl, ("ks.png", png([255, 255, 255]))];
+    let (result, dir) = load_in(&borrowed(&files), &LoadOptions::default());
+    let _ = std::fs::remove_dir_all(&dir);
+    let scene = result.unwrap();
+    assert!(matches!(
+        scene.materials[0].surface,
+        Surface::Diffuse { .. }
+    ));
+    assert!(
+        scene
+            .report
+            .warnings
+            .iter()
+            .any(|w| w.contains("map_Ks") && w.contains("ignored")),
+        "{:?}",
+        scene.report.warnings
+    );
+}
+
 #[test]
 fn empty_files_are_errors_unless_allowed() {
     refused(
