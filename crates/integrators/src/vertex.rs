@@ -19,7 +19,9 @@ pub struct PathVertex {
     /// The surface point.
     pub point: SurfacePoint,
     /// Shading frame used for the BSDF: the surface's, flipped to the side of
-    /// `wi` for one-sided lobes (conductors and diffuse surfaces are two-sided).
+    /// `wi` for two-sided lobes (conductors, coated and diffuse surfaces;
+    /// only a dielectric's frame keeps its orientation, which says where its
+    /// inside is).
     pub frame: Frame,
     /// Unit direction towards the previous vertex of the subpath.
     pub wi: Vec3,
@@ -146,8 +148,8 @@ impl PathVertex {
     /// c |wo.n_g| for every `wo`: with the shading correction, the cosine a
     /// light subpath carries is the geometric one (Veach 1997, eq. 5.19),
     /// so for a Lambertian lobe c = max(R) / pi |wi.n_s| / |wi.n_g|.
-    /// Infinity for microfacet lobes, whose peak has no cheap bound (it
-    /// grows without limit as alpha shrinks). Lets the bidirectional core
+    /// Infinity for microfacet lobes, coated ones included, whose peak has
+    /// no cheap bound (it grows without limit as alpha shrinks). Lets the bidirectional core
     /// skip work whose outcome the bound already decides.
     pub fn importance_bound(&self) -> f32 {
         let Bsdf::Lambertian(lambertian) = self.bsdf else {

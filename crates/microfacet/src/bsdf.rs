@@ -8,6 +8,7 @@
 
 use glam::{Vec2, Vec3};
 
+use crate::coated::Coated;
 use crate::conductor::Conductor;
 use crate::dielectric::Dielectric;
 use crate::lambertian::Lambertian;
@@ -24,6 +25,9 @@ pub enum Bsdf {
     Conductor(Conductor),
     /// Rough or smooth glass-like interface.
     Dielectric(Dielectric),
+    /// glTF metallic-roughness: a specular coat over a diffuse base, mixed
+    /// with a metal (reflection only).
+    Coated(Coated),
 }
 
 impl Bsdf {
@@ -33,6 +37,8 @@ impl Bsdf {
             Bsdf::Lambertian(l) => l.eval(wi, wo),
             Bsdf::Conductor(c) => c.eval(wi, wo),
             Bsdf::Dielectric(d) => d.eval(wi, wo, mode),
+            // Reflection only: both transport modes see the same value.
+            Bsdf::Coated(c) => c.eval(wi, wo),
         }
     }
 
@@ -43,6 +49,7 @@ impl Bsdf {
             Bsdf::Lambertian(l) => l.sample(wi, u),
             Bsdf::Conductor(c) => c.sample(wi, uc, u),
             Bsdf::Dielectric(d) => d.sample(wi, uc, u, mode),
+            Bsdf::Coated(c) => c.sample(wi, uc, u),
         }
     }
 
@@ -52,6 +59,7 @@ impl Bsdf {
             Bsdf::Lambertian(l) => l.pdf(wi, wo),
             Bsdf::Conductor(c) => c.pdf(wi, wo),
             Bsdf::Dielectric(d) => d.pdf(wi, wo),
+            Bsdf::Coated(c) => c.pdf(wi, wo),
         }
     }
 
@@ -61,11 +69,14 @@ impl Bsdf {
     }
 
     /// True when the lobe is a delta (nothing to evaluate or connect through).
+    /// A smooth coat over a diffuse base is not: its mirror part is reached
+    /// only by `sample` (flagged in `BsdfSample`), its base by everything.
     pub fn is_specular(&self) -> bool {
         match self {
             Bsdf::Lambertian(_) => false,
             Bsdf::Conductor(c) => c.is_specular(),
             Bsdf::Dielectric(d) => d.is_specular(),
+            Bsdf::Coated(c) => c.is_specular(),
         }
     }
 
@@ -75,11 +86,13 @@ impl Bsdf {
             Bsdf::Lambertian(_) => None,
             Bsdf::Conductor(c) => Some(c.model.alpha()),
             Bsdf::Dielectric(d) => Some(d.model.alpha()),
+            Bsdf::Coated(c) => Some(c.model.alpha()),
         }
     }
 
     /// The same BSDF with microfacet width `alpha` (regularization's alpha-hat);
-    /// a Lambertian lobe is returned unchanged.
+    /// a Lambertian lobe is returned unchanged, a coated lobe's diffuse base too
+    /// (only its specular lobe has a width).
     pub fn with_alpha(&self, alpha: f32) -> Self {
         match *self {
             Bsdf::Lambertian(l) => Bsdf::Lambertian(l),
@@ -90,6 +103,10 @@ impl Bsdf {
             Bsdf::Dielectric(d) => Bsdf::Dielectric(Dielectric {
                 model: d.model.with_alpha(alpha),
                 ..d
+            }),
+            Bsdf::Coated(c) => Bsdf::Coated(Coated {
+                model: c.model.with_alpha(alpha),
+                ..c
             }),
         }
     }

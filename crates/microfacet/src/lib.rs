@@ -20,7 +20,8 @@
 //! - [`model`]: an NDF with its shadowing model and sampler.
 //! - [`fresnel`], [`bounds`], [`frame`], [`special`]: building blocks.
 //! - [`sample`]: what lobes return (a sampled direction) and the transport
-//!   mode; [`lambertian`], [`conductor`], [`dielectric`]: the lobes;
+//!   mode; [`lambertian`], [`conductor`], [`dielectric`], [`coated`] (glTF
+//!   metallic-roughness): the lobes;
 //!   [`bsdf`]: the enum that dispatches to them.
 //!
 //! Equation numbers refer to `SPEC.md` (§) and the paper's supplemental
@@ -28,6 +29,7 @@
 
 pub mod bounds;
 pub mod bsdf;
+pub mod coated;
 pub mod conductor;
 pub mod dielectric;
 pub mod frame;
@@ -41,6 +43,7 @@ pub mod special;
 pub mod vndf;
 
 pub use bsdf::Bsdf;
+pub use coated::Coated;
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use fresnel::Fresnel;

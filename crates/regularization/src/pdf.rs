@@ -6,7 +6,7 @@
 //! heuristic compares like with like.
 
 use glam::Vec3;
-use microfacet::{Bsdf, Shadowing};
+use microfacet::{Bsdf, MicrofacetModel, Shadowing};
 
 /// p-hat for sampling `wo` from `wi` at a vertex whose BSDF `bsdf` (original
 /// alpha) is regularized to `alpha_hat`, in closed form (supp. §4, SPEC §6):
@@ -15,16 +15,35 @@ use microfacet::{Bsdf, Shadowing};
 /// - Smith Blinn-Phong (sampled from D cos, no G1 in the pdf):
 ///   p-hat = G_hat(wi, wo)/G(wi, wo) p(wo | alpha-hat);
 /// - Lambertian: p.
+/// - Coated (a mixture P_s p_spec + (1 - P_s) p_diffuse): each component
+///   with its own rule, P_s p-hat_spec + (1 - P_s) p_diffuse. Paper eq. 13
+///   applied to the whole mixture has no closed form (the ratio rho-hat/rho
+///   mixes both lobes' values); SPEC §6 only needs every technique to use
+///   the same pdf at the vertex, and this one reduces to eq. 13 where one
+///   lobe is absent (black or metallic base: the coat alone).
 ///
 /// 0 where the unregularized BSDF is 0 through its shadowing (G = 0), where
 /// the ratio is undefined and the path carries nothing.
 pub fn p_hat(bsdf: &Bsdf, alpha_hat: f32, wi: Vec3, wo: Vec3) -> f32 {
-    let p = bsdf.with_alpha(alpha_hat).pdf(wi, wo);
-    let model = match bsdf {
-        Bsdf::Lambertian(_) => return p,
-        Bsdf::Conductor(c) => c.model,
-        Bsdf::Dielectric(d) => d.model,
-    };
+    let hat = bsdf.with_alpha(alpha_hat);
+    match bsdf {
+        Bsdf::Lambertian(_) => hat.pdf(wi, wo),
+        Bsdf::Conductor(c) => hat.pdf(wi, wo) * shadowing_ratio(&c.model, alpha_hat, wi, wo),
+        Bsdf::Dielectric(d) => hat.pdf(wi, wo) * shadowing_ratio(&d.model, alpha_hat, wi, wo),
+        Bsdf::Coated(c) => {
+            let Bsdf::Coated(c_hat) = hat else {
+                unreachable!("with_alpha keeps the lobe kind")
+            };
+            let specular =
+                c_hat.specular_pdf(wi, wo) * shadowing_ratio(&c.model, alpha_hat, wi, wo);
+            c.specular_probability(wi.z.abs()) * specular + c_hat.diffuse_pdf(wi, wo)
+        }
+    }
+}
+
+/// The factor p-hat / p(wo | alpha-hat) of a microfacet model (see
+/// [`p_hat`]); 0 where it is undefined (G = 0 at the original alpha).
+fn shadowing_ratio(model: &MicrofacetModel, alpha_hat: f32, wi: Vec3, wo: Vec3) -> f32 {
     let hat = model.with_alpha(alpha_hat);
     let ratio = match model.shadowing {
         Shadowing::VCavity => 1.0,
@@ -33,5 +52,5 @@ pub fn p_hat(bsdf: &Bsdf, alpha_hat: f32, wi: Vec3, wo: Vec3) -> f32 {
             (hat.ndf.g1(wi) * hat.ndf.g1(wo)) / (model.ndf.g1(wi) * model.ndf.g1(wo))
         }
     };
-    if ratio.is_finite() { p * ratio } else { 0.0 }
+    if ratio.is_finite() { ratio } else { 0.0 }
 }

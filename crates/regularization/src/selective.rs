@@ -124,9 +124,14 @@ impl PathRegularization {
     }
 
     /// The state after a vertex with BSDF `bsdf` (its original roughness; a
-    /// Lambertian lobe counts as alpha = 1).
+    /// Lambertian lobe counts as alpha = 1, and so does a coated lobe with a
+    /// diffuse base: the path may have left through the base, and rho is
+    /// the largest alpha of the path's lobes, SPEC §5).
     pub fn after_vertex(self, bsdf: &Bsdf) -> Self {
-        let alpha = bsdf.alpha().unwrap_or(1.0).min(1.0);
+        let alpha = match bsdf {
+            Bsdf::Coated(c) if c.has_diffuse() => 1.0,
+            _ => bsdf.alpha().unwrap_or(1.0).min(1.0),
+        };
         Self {
             rho: self.rho.max(alpha),
             ..self
@@ -182,6 +187,26 @@ mod tests {
             PathRegularization::new(Mode::Off, Subpath::Light, 10.0).tau(),
             f64::INFINITY
         );
+    }
+
+    /// A coated lobe counts as diffuse (rho = 1) when it has a base, and as
+    /// its coat's alpha when the base is black (SPEC §5's "diffuse counts 1").
+    #[test]
+    fn coated_vertices_count_their_base() {
+        let coated = |base: Vec3| {
+            Bsdf::Coated(microfacet::Coated {
+                model: MicrofacetModel::new(NdfKind::Ggx, 0.1, Shadowing::Smith),
+                base_color: base,
+                metallic: 0.0,
+                specular: 1.0,
+                specular_color: Vec3::ONE,
+                ior: 1.5,
+            })
+        };
+        let start = PathRegularization::new(Mode::Selective, Subpath::Camera, 10.0);
+        assert_eq!(start.after_vertex(&coated(Vec3::splat(0.5))).tau(), 10.0);
+        let after_coat = start.after_vertex(&coated(Vec3::ZERO)).tau();
+        assert!((after_coat / 1000.0 - 1.0).abs() < 1e-6, "{after_coat}");
     }
 
     #[test]

@@ -250,7 +250,7 @@ pub fn strict_peak(kind: NdfKind, alpha: f32) -> f64 {
 /// frame) under bound `tau`, and the alpha-hat used; `None` for lobes without
 /// a microfacet roughness (Lambertian), which are returned unchanged.
 ///
-/// Conductors bound their reflection; dielectrics both lobes, refraction
+/// Conductors and coated lobes bound their (specular) reflection; dielectrics both lobes, refraction
 /// with the denser side as eta_t whichever side `wi` is on: J_sup is then the
 /// larger of the two directions' (max(eta_i, eta_t)^2/(eta_i - eta_t)^2, supp.
 /// eq. 7), so the bound holds both ways and the interface gets one alpha-hat.
@@ -267,6 +267,9 @@ pub fn regularize(bsdf: &Bsdf, tau: f64) -> (Bsdf, Option<AlphaHat>) {
     let (model, lobe) = match bsdf {
         Bsdf::Lambertian(_) => return (*bsdf, None),
         Bsdf::Conductor(c) => (c.model, Lobe::Reflection),
+        // Its microfacet part is a reflection lobe; the diffuse base has no
+        // roughness and is left as it is (`Bsdf::with_alpha`).
+        Bsdf::Coated(c) => (c.model, Lobe::Reflection),
         Bsdf::Dielectric(d) => {
             let eta_t = d.eta.max(1.0 / d.eta);
             (d.model, Lobe::Dielectric { eta_i: 1.0, eta_t })

@@ -4,7 +4,8 @@
 
 use glam::Vec3;
 use microfacet::{
-    Bsdf, Conductor, Dielectric, Fresnel, MicrofacetModel, NdfKind, Shadowing, TransportMode,
+    Bsdf, Coated, Conductor, Dielectric, Fresnel, MicrofacetModel, NdfKind, Shadowing,
+    TransportMode,
 };
 use regularization::p_hat;
 use stats::Pcg32;
@@ -18,8 +19,18 @@ fn random_direction(rng: &mut Pcg32) -> Vec3 {
     Vec3::new(r * phi.cos(), r * phi.sin(), z)
 }
 
-fn lobes(model: MicrofacetModel) -> [Bsdf; 3] {
+/// The lobes compared; the coated one has a black base, so that it is its
+/// coat alone, where the mixture rule of `p_hat` is paper eq. 13.
+fn lobes(model: MicrofacetModel) -> [Bsdf; 4] {
     [
+        Bsdf::Coated(Coated {
+            model,
+            base_color: Vec3::ZERO,
+            metallic: 0.0,
+            specular: 0.8,
+            specular_color: Vec3::new(1.0, 0.8, 0.6),
+            ior: 1.7,
+        }),
         Bsdf::Conductor(Conductor {
             model,
             fresnel: Fresnel::Schlick {

@@ -770,6 +770,8 @@ fn unsupported_gltf_extensions_are_named() {
     let output = render_cli(&args);
     assert_eq!(output.status.code(), Some(1), "{}", stderr(&output));
     assert_fails_cleanly(&output, &["model.gltf", "KHR_draco_mesh_compression"], &out);
+}
+
 /// `--env` lights a scene with a map, replacing its environment, says so
 /// in `--explain`; a missing or undecodable map is one line naming it.
 #[test]

@@ -27,7 +27,7 @@ use crate::camera::CameraSpec;
 use crate::error::{SceneError, guarded, quoted};
 use crate::light::Light;
 use crate::material::{
-    Material, Medium, Surface, TexturedPbr, is_transmissive, metal_rough_surface,
+    Material, Medium, MetalRough, Surface, TexturedPbr, is_transmissive, metal_rough_surface,
     transmissive_surface,
 };
 use crate::scene::SceneBuilder;
@@ -666,6 +666,7 @@ impl Loader<'_> {
             .filter(|_| transmission > 0.0)
             .map(|t| self.texture(&t.texture(), false, &element))
             .transpose()?;
+        let (specular, specular_color) = specular_extension(m).map_err(invalid)?;
         let surface =
             if base_texture.is_some() || mr_texture.is_some() || transmission_texture.is_some() {
                 Surface::Textured(TexturedPbr {
@@ -677,13 +678,23 @@ impl Loader<'_> {
                     transmission,
                     transmission_texture,
                     ior,
+                    specular,
+                    specular_color,
+                    specular_color_texture: None,
+                    shininess_texture: None,
                     ndf,
                     shadowing,
                 })
             } else if is_transmissive(metallic, transmission) {
                 transmissive_surface(base, roughness, ior, ndf, shadowing)
             } else {
-                metal_rough_surface(base, metallic, roughness, ndf, shadowing)
+                let factors = MetalRough {
+                    specular,
+                    specular_color,
+                    ior,
+                    ..MetalRough::new(base, metallic, roughness)
+                };
+                metal_rough_surface(factors, ndf, shadowing)
             };
         let medium = volume_medium(m, surface.may_transmit()).map_err(invalid)?;
         let factor = Vec3::from_array(m.emissive_factor());
@@ -921,6 +932,30 @@ fn volume_medium(m: &gltf::Material, transmissive: bool) -> Result<Option<Medium
     } else {
         None
     })
+}
+
+/// `KHR_materials_specular`'s (specularFactor, specularColorFactor), glTF's
+/// (1, 1) without it; the factor must be in [0, 1] and the colour finite and
+/// non-negative (the extension's ranges). Its textures are not used.
+fn specular_extension(m: &gltf::Material) -> Result<(f32, Vec3), String> {
+    let Some(ext) = m.specular() else {
+        return Ok((1.0, Vec3::ONE));
+    };
+    let (factor, colour) = (
+        ext.specular_factor(),
+        Vec3::from_array(ext.specular_color_factor()),
+    );
+    if !(0.0..=1.0).contains(&factor) {
+        return Err(format!(
+            "KHR_materials_specular specularFactor must be in [0, 1], got {factor}"
+        ));
+    }
+    if !(colour.is_finite() && colour.min_element() >= 0.0) {
+        return Err(format!(
+            "KHR_materials_specular specularColorFactor must be finite and non-negative, got {colour}"
+        ));
+    }
+    Ok((factor, colour))
 }
 
 fn microfacet_choice(m: &gltf::Material) -> Result<(NdfKind, Shadowing), String> {

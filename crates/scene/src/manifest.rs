@@ -25,13 +25,14 @@
 //! file = "cornell.obj"          # relative to this file; .obj, .gltf, .glb
 //! [[material]]                  # overrides a model's material of that name,
 //! name = "floor"                # or defines one for shapes
-//! type = "conductor"            # diffuse | conductor | dielectric (optional for overrides)
+//! type = "conductor"            # diffuse | conductor | dielectric | coated (optional for overrides)
 //! alpha = 0.02                  # or roughness = r (alpha = r^2)
 //! ndf = "ggx"                   # ggx | beckmann | blinn-phong
 //! shadowing = "smith"           # smith | v-cavity
-//! reflectance = [0.9, 0.9, 0.9] # diffuse albedo, or conductor F0 (Schlick)
+//! reflectance = [0.9, 0.9, 0.9] # diffuse albedo, conductor F0 (Schlick), or coated base colour
 //! # eta = [..], k = [..]        # conductor complex index instead of F0
-//! # ior = 1.5                   # dielectric
+//! # ior = 1.5                   # dielectric; coated: the coat's index (glTF's
+//! #                             # metallic-roughness lobe with metallic 0, specular 1)
 //! # tint = [1, 1, 1]            # dielectric: colour of the refracted part (glTF base colour)
 //! # absorption = [0, 0, 0]      # dielectric: sigma_a per unit length of a closed mesh's inside
 //! # emission = [10, 10, 10]
@@ -463,9 +464,17 @@ fn new_surface(
             ior: section.ior.unwrap_or(1.5),
             tint: vec3(section.tint).unwrap_or(Vec3::ONE),
         },
+        "coated" => Surface::Coated(microfacet::Coated {
+            model,
+            base_color: reflectance.unwrap_or(Vec3::splat(0.8)).min(Vec3::ONE),
+            metallic: 0.0,
+            specular: 1.0,
+            specular_color: Vec3::ONE,
+            ior: section.ior.unwrap_or(1.5),
+        }),
         other => {
             return Err(format!(
-                "unknown type {} (expected diffuse, conductor or dielectric)",
+                "unknown type {} (expected diffuse, conductor, dielectric or coated)",
                 quoted(other)
             ));
         }
@@ -519,6 +528,12 @@ fn override_surface(
             ior: section.ior.unwrap_or(ior),
             tint: vec3(section.tint).unwrap_or(tint),
         },
+        Surface::Coated(c) => Surface::Coated(microfacet::Coated {
+            model: remodel(c.model),
+            base_color: vec3(section.reflectance).map_or(c.base_color, |r| r.min(Vec3::ONE)),
+            ior: section.ior.unwrap_or(c.ior),
+            ..c
+        }),
         Surface::Textured(mut pbr) => {
             pbr.ndf = ndf.unwrap_or(pbr.ndf);
             pbr.shadowing = shadowing.unwrap_or(pbr.shadowing);

@@ -4,19 +4,23 @@
 //!
 //! glTF 2.0 metallic-roughness (per material, or per texel when textured):
 //! - `alpha = roughness^2` (glTF's perceptual roughness r).
-//! - metallic >= 0.5: a conductor with Schlick's Fresnel, F0 = base colour.
-//! - otherwise transmission t >= 0.5 (`KHR_materials_transmission` factor
-//!   times the R channel of its `transmissionTexture`): a rough or smooth
-//!   dielectric with index `KHR_materials_ior` (glTF default 1.5) whose
+//! - transmission t >= 0.5 (`KHR_materials_transmission` factor times the R
+//!   channel of its `transmissionTexture`) where metallic < 0.5: a rough or
+//!   smooth dielectric with index `KHR_materials_ior` (glTF default 1.5) whose
 //!   refracted part is tinted by the base colour (the extension's
-//!   `specular_btdf * baseColor`). glTF mixes the diffuse base and the BTDF
-//!   by t; one lobe per shading point cannot mix them, so the larger weight
-//!   wins, per texel when textured (t = 0.5 is glass). With
-//!   `KHR_materials_volume` and thicknessFactor > 0 the mesh is a closed
-//!   volume that absorbs (`Medium`, from attenuationColor and
-//!   attenuationDistance); the thickness itself and its texture are not used.
-//! - otherwise: Lambertian with the base colour. The thin specular layer of
-//!   glTF dielectrics (F0 = 0.04) is not modelled: there is no layered lobe yet.
+//!   `specular_btdf * baseColor`). glTF mixes the base BRDF and the BTDF by t;
+//!   one lobe per shading point cannot mix them, so the larger weight wins,
+//!   per texel when textured (t = 0.5 is glass). With `KHR_materials_volume`
+//!   and thicknessFactor > 0 the mesh is a closed volume that absorbs
+//!   (`Medium`, from attenuationColor and attenuationDistance); the thickness
+//!   itself and its texture are not used.
+//! - otherwise: the coated lobe (`microfacet::Coated`, Appendix B's BRDF):
+//!   base colour, metallic as the mix weight of the metal, the coat's index
+//!   from `KHR_materials_ior` (1.5) and its strength and F0 colour from
+//!   `KHR_materials_specular` (specularFactor, specularColorFactor: 1; their
+//!   textures are not used). A material with metallic 0 and specularFactor 0
+//!   is Lambertian (the lobe reduces to it, and a Lambertian vertex has no
+//!   roughness for regularization to change).
 //! - emission = emissiveFactor x `KHR_materials_emissive_strength`; emissive
 //!   textures are not used. Material `extras` may choose `"ndf"`
 //!   (`"ggx"` default, `"beckmann"`, `"blinn-phong"`) and `"shadowing"`
@@ -28,8 +32,19 @@
 //! - `Pm` >= 0.5: conductor with F0 = Kd and alpha = Pr^2.
 //! - `d` < 1 (or `Tr` > 0): dielectric, as `illum 7`. `Tf` is ignored (real files
 //!   put it on opaque materials, lights included).
-//! - max(Ks) > max(Kd) with `Ns`: glossy conductor, Blinn-Phong NDF with
-//!   alpha = sqrt(2 / (Ns + 2)) (supp. eq. 5), F0 = Ks; otherwise Lambertian Kd.
+//! - max(Ks) > 0 (and not one of the above): the coated lobe with a
+//!   Blinn-Phong NDF of alpha = sqrt(2 / (Ns + 2)) (supp. eq. 5; Ns 0 if
+//!   absent), base Kd, metallic 0, and a coat whose F0 is Ks: Phong's Ks is
+//!   the specular reflectance at normal incidence, which is what F0 means.
+//!   Expressed in glTF's terms: specularFactor 1, ior 1.5 and
+//!   specularColor = Ks / 0.04 (0.04 the F0 of ior 1.5; `Ni` is not used
+//!   for opaque materials, where real files often write 1, which would make
+//!   F0 = 0). The coat's Fresnel brightens Ks towards grazing angles, and
+//!   the base loses what the coat reflects (energy stays <= 1; Kd + Ks <= 1
+//!   only approximated that). `map_Ks` (sRGB) multiplies Ks per texel and
+//!   `map_Ns` (a scalar texture, linear) multiplies Ns before the alpha
+//!   above; both only where the material has Ks (a warning otherwise).
+//! - otherwise Lambertian Kd.
 //! - `Ke`: emission. `map_Kd`: base colour texture (sRGB).
 //!
 //! Emission is one-sided, on the side the geometric normal (counter-clockwise
@@ -37,7 +52,7 @@
 
 use glam::{Vec2, Vec3};
 use microfacet::{
-    Bsdf, Conductor, Dielectric, Fresnel, Lambertian, MicrofacetModel, NdfKind, Shadowing,
+    Bsdf, Coated, Conductor, Dielectric, Fresnel, Lambertian, MicrofacetModel, NdfKind, Shadowing,
 };
 
 use crate::texture::Texture;
@@ -67,6 +82,9 @@ pub enum Surface {
         /// colour; `Vec3::ONE` for clear glass). Reflection is not tinted.
         tint: Vec3,
     },
+    /// glTF metallic-roughness: a specular coat over a diffuse base, mixed
+    /// with a metal (the module docs' mapping).
+    Coated(Coated),
     /// glTF metallic-roughness resolved per shading point from textures.
     Textured(TexturedPbr),
 }
@@ -89,8 +107,19 @@ pub struct TexturedPbr {
     pub transmission: f32,
     /// Transmission texture: the factor is multiplied by its R channel.
     pub transmission_texture: Option<usize>,
-    /// Index of refraction of a transmissive texel (`KHR_materials_ior`).
+    /// `KHR_materials_ior`: the coat's index, and the glass's where transmissive.
     pub ior: f32,
+    /// `KHR_materials_specular` specularFactor (0 for an OBJ diffuse texture).
+    pub specular: f32,
+    /// `KHR_materials_specular` specularColorFactor.
+    pub specular_color: Vec3,
+    /// Specular colour texture (sRGB-decoded), multiplied with
+    /// `specular_color`: MTL `map_Ks`.
+    pub specular_color_texture: Option<usize>,
+    /// MTL `map_Ns`: the exponent Ns and a scalar texture (red, linear) that
+    /// multiplies it; the roughness is then that of alpha =
+    /// sqrt(2 / (Ns t + 2)) (supp. eq. 5), in place of `roughness`.
+    pub shininess_texture: Option<(f32, usize)>,
     /// NDF and shadowing of the microfacet lobes.
     pub ndf: NdfKind,
     /// Shadowing model.
@@ -181,6 +210,7 @@ impl Surface {
             Surface::Dielectric { model, ior, tint } => {
                 Bsdf::Dielectric(Dielectric::new(model, ior).with_tint(tint))
             }
+            Surface::Coated(coated) => Bsdf::Coated(coated),
             Surface::Textured(pbr) => pbr.resolve(uv, textures).bsdf(uv, textures),
         }
     }
@@ -198,7 +228,7 @@ impl Surface {
                 };
                 is_transmissive(metallic, pbr.transmission)
             }
-            Surface::Diffuse { .. } | Surface::Conductor { .. } => false,
+            Surface::Diffuse { .. } | Surface::Conductor { .. } | Surface::Coated(_) => false,
         }
     }
 
@@ -207,6 +237,7 @@ impl Surface {
         match *self {
             Surface::Diffuse { .. } => None,
             Surface::Conductor { model, .. } | Surface::Dielectric { model, .. } => Some(model),
+            Surface::Coated(coated) => Some(coated.model),
             Surface::Textured(pbr) => Some(MicrofacetModel::new(
                 pbr.ndf,
                 pbr.roughness * pbr.roughness,
@@ -232,15 +263,37 @@ impl TexturedPbr {
             roughness *= texel.y;
             metallic *= texel.z;
         }
+        let mut specular_color = self.specular_color;
+        if let Some(t) = self.specular_color_texture.and_then(|i| textures.get(i)) {
+            specular_color *= t.sample(uv).truncate();
+        }
+        if let Some((ns, t)) = self
+            .shininess_texture
+            .and_then(|(ns, i)| Some((ns, textures.get(i)?)))
+        {
+            let ns = (ns * t.sample(uv).x).max(0.0);
+            // supp. eq. 5: alpha = sqrt(2 / (n + 2)), and alpha = roughness^2.
+            roughness = (2.0 / (ns + 2.0)).sqrt().sqrt();
+        }
         let mut transmission = self.transmission;
         if let Some(t) = self.transmission_texture.and_then(|i| textures.get(i)) {
             transmission *= t.sample(uv).x;
         }
         if is_transmissive(metallic, transmission) {
-            transmissive_surface(base, roughness, self.ior, self.ndf, self.shadowing)
-        } else {
-            metal_rough_surface(base, metallic, roughness, self.ndf, self.shadowing)
+            return transmissive_surface(base, roughness, self.ior, self.ndf, self.shadowing);
         }
+        metal_rough_surface(
+            MetalRough {
+                base,
+                metallic,
+                roughness,
+                specular: self.specular,
+                specular_color,
+                ior: self.ior,
+            },
+            self.ndf,
+            self.shadowing,
+        )
     }
 }
 
@@ -266,26 +319,55 @@ pub fn transmissive_surface(
     }
 }
 
-/// The glTF metallic-roughness mapping of the module docs (no transmission).
-pub fn metal_rough_surface(
-    base: Vec3,
-    metallic: f32,
-    roughness: f32,
-    ndf: NdfKind,
-    shadowing: Shadowing,
-) -> Surface {
-    if metallic >= 0.5 {
-        Surface::Conductor {
-            model: MicrofacetModel::new(ndf, roughness * roughness, shadowing),
-            fresnel: Fresnel::Schlick {
-                f0: base.clamp(Vec3::ZERO, Vec3::ONE),
-            },
-        }
-    } else {
-        Surface::Diffuse {
-            reflectance: base.clamp(Vec3::ZERO, Vec3::ONE),
+/// The factors of a glTF metallic-roughness material (textures applied).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MetalRough {
+    /// Base colour (linear).
+    pub base: Vec3,
+    /// Metallic factor.
+    pub metallic: f32,
+    /// Perceptual roughness r (alpha = r^2).
+    pub roughness: f32,
+    /// `KHR_materials_specular` specularFactor (1 without the extension).
+    pub specular: f32,
+    /// `KHR_materials_specular` specularColorFactor (1 without the extension).
+    pub specular_color: Vec3,
+    /// `KHR_materials_ior` ior (1.5 without the extension).
+    pub ior: f32,
+}
+
+impl MetalRough {
+    /// glTF's defaults for the extensions: specular 1, colour 1, ior 1.5.
+    pub fn new(base: Vec3, metallic: f32, roughness: f32) -> Self {
+        Self {
+            base,
+            metallic,
+            roughness,
+            specular: 1.0,
+            specular_color: Vec3::ONE,
+            ior: 1.5,
         }
     }
+}
+
+/// The glTF metallic-roughness mapping of the module docs (no transmission):
+/// the coated lobe, or Lambertian where it reduces to one (metallic 0 and
+/// specular 0). Factors are clamped to [0, 1] (the colour of the coat to
+/// [0, inf), as `KHR_materials_specular` allows).
+pub fn metal_rough_surface(m: MetalRough, ndf: NdfKind, shadowing: Shadowing) -> Surface {
+    let base = m.base.clamp(Vec3::ZERO, Vec3::ONE);
+    let (metallic, specular) = (m.metallic.clamp(0.0, 1.0), m.specular.clamp(0.0, 1.0));
+    if metallic == 0.0 && specular == 0.0 {
+        return Surface::Diffuse { reflectance: base };
+    }
+    Surface::Coated(Coated {
+        model: MicrofacetModel::new(ndf, m.roughness * m.roughness, shadowing),
+        base_color: base,
+        metallic,
+        specular,
+        specular_color: m.specular_color.max(Vec3::ZERO),
+        ior: m.ior,
+    })
 }
 
 #[cfg(test)]

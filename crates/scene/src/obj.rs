@@ -8,12 +8,23 @@ use glam::{Vec2, Vec3};
 use microfacet::{Fresnel, MicrofacetModel, NdfKind, Shadowing};
 
 use crate::error::{SceneError, quoted};
-use crate::material::{Material, Surface, TexturedPbr};
+use crate::material::{Material, MetalRough, Surface, TexturedPbr, metal_rough_surface};
 use crate::scene::SceneBuilder;
 use crate::texture::Texture;
 
 /// Materials with a dissolve `d` below this are transparent (glass-like).
 const OPAQUE_DISSOLVE: f32 = 0.999;
+
+/// Index of the coat of an MTL material with Ks (see the `material` module
+/// docs): only the F0 that the specular colour scales depends on it.
+const MTL_COAT_IOR: f32 = 1.5;
+
+/// F0 = ((ior - 1)/(ior + 1))^2 of `MTL_COAT_IOR` (Fresnel at normal
+/// incidence, 0.04), as `microfacet::Coated::dielectric_f0` computes it.
+const MTL_COAT_F0: f32 = {
+    let r = (MTL_COAT_IOR - 1.0) / (MTL_COAT_IOR + 1.0);
+    r * r
+};
 
 /// Material of faces without `usemtl`.
 fn default_material() -> Material {
@@ -26,6 +37,10 @@ fn default_material() -> Material {
         medium: None,
     }
 }
+
+/// Textures loaded so far, by file and colour space (a file used both as a
+/// colour and as a scalar map is decoded twice).
+type TextureCache = HashMap<(PathBuf, bool), usize>;
 
 /// Where each material came from: its MTL file and the line of its `newmtl`.
 type Origins = HashMap<String, (PathBuf, usize)>;
@@ -92,7 +107,7 @@ pub fn load(
             quoted(&name)
         ));
     }
-    let mut texture_cache: HashMap<PathBuf, usize> = HashMap::new();
+    let mut texture_cache: TextureCache = HashMap::new();
     let mut material_ids = Vec::with_capacity(mtl_materials.len());
     for m in &mtl_materials {
         let (mtl_file, line) = origins
@@ -438,7 +453,7 @@ fn map_material(
     source: &Source,
     m: &tobj::Material,
     builder: &mut SceneBuilder,
-    textures: &mut HashMap<PathBuf, usize>,
+    textures: &mut TextureCache,
 ) -> Result<Material, SceneError> {
     let path = source.file;
     let element = || {
@@ -513,51 +528,25 @@ fn map_material(
                 f0: kd.min(Vec3::ONE),
             },
         }
-    } else if ks.max_element() > kd.max_element() && m.shininess.is_some() {
+    } else if ks.max_element() > 0.0 {
         let ns = m.shininess.unwrap_or(0.0).max(0.0);
-        Surface::Conductor {
-            // supp. eq. 5: n = 2/alpha^2 - 2.
-            model: MicrofacetModel::new(
-                NdfKind::BlinnPhong,
-                (2.0 / (ns + 2.0)).sqrt(),
-                Shadowing::Smith,
-            ),
-            fresnel: Fresnel::Schlick {
-                f0: ks.min(Vec3::ONE),
+        metal_rough_surface(
+            MetalRough {
+                // supp. eq. 5: n = 2/alpha^2 - 2, i.e. roughness^2 = alpha.
+                roughness: (2.0 / (ns + 2.0)).sqrt().sqrt(),
+                specular_color: ks.min(Vec3::ONE) / MTL_COAT_F0,
+                ior: MTL_COAT_IOR,
+                ..MetalRough::new(kd.min(Vec3::ONE), 0.0, 1.0)
             },
-        }
+            NdfKind::BlinnPhong,
+            Shadowing::Smith,
+        )
     } else {
         Surface::Diffuse {
             reflectance: kd.min(Vec3::ONE),
         }
     };
-    let surface = match (&m.diffuse_texture, surface) {
-        (Some(file), Surface::Diffuse { reflectance }) => {
-            let id = load_texture(source, &element(), file, builder, textures)?;
-            Surface::Textured(TexturedPbr {
-                base_color: reflectance,
-                base_color_texture: Some(id),
-                metallic: 0.0,
-                roughness: 1.0,
-                metallic_roughness_texture: None,
-                transmission: 0.0,
-                transmission_texture: None,
-                ior: 1.5,
-                ndf: NdfKind::Ggx,
-                shadowing: Shadowing::Smith,
-            })
-        }
-        (Some(file), s) => {
-            builder.report.warnings.push(format!(
-                "{}: {}: map_Kd {} ignored on a non-diffuse material",
-                path.display(),
-                element(),
-                quoted(file)
-            ));
-            s
-        }
-        (None, s) => s,
-    };
+    let surface = textured(source, m, surface, builder, textures)?;
     Ok(Material {
         name: m.name.clone(),
         surface,
@@ -566,34 +555,119 @@ fn map_material(
     })
 }
 
+/// The textures of the `material` module docs: `map_Kd` on a diffuse or
+/// coated surface, `map_Ks` and `map_Ns` on a coated one; a warning names
+/// every map that does not apply.
+fn textured(
+    source: &Source,
+    m: &tobj::Material,
+    surface: Surface,
+    builder: &mut SceneBuilder,
+    textures: &mut TextureCache,
+) -> Result<Surface, SceneError> {
+    let element = if source.line > 0 {
+        format!("material {} (line {})", quoted(&m.name), source.line)
+    } else {
+        format!("material {}", quoted(&m.name))
+    };
+    let coat = match surface {
+        Surface::Coated(c) if c.metallic == 0.0 => Some(c),
+        _ => None,
+    };
+    let takes_kd = coat.is_some() || matches!(surface, Surface::Diffuse { .. });
+    let mut ignored = Vec::new();
+    let mut load = |key: &str, file: &Option<String>, applies: bool, srgb: bool| match file {
+        Some(file) if applies => {
+            load_texture(source, &element, key, file, srgb, builder, textures).map(Some)
+        }
+        Some(file) => {
+            ignored.push(format!("{key} {}", quoted(file)));
+            Ok(None)
+        }
+        None => Ok(None),
+    };
+    let kd_map = load("map_Kd", &m.diffuse_texture, takes_kd, true)?;
+    let ks_map = load("map_Ks", &m.specular_texture, coat.is_some(), true)?;
+    let ns_map = load("map_Ns", &m.shininess_texture, coat.is_some(), false)?;
+    for what in ignored {
+        builder.report.warnings.push(format!(
+            "{}: {element}: {what} ignored: it applies to diffuse (map_Kd) or Kd + Ks materials only",
+            source.file.display()
+        ));
+    }
+    if kd_map.is_none() && ks_map.is_none() && ns_map.is_none() {
+        return Ok(surface);
+    }
+    Ok(match (coat, surface) {
+        (Some(c), _) => Surface::Textured(TexturedPbr {
+            base_color: c.base_color,
+            base_color_texture: kd_map,
+            metallic: 0.0,
+            roughness: c.model.alpha().sqrt(),
+            metallic_roughness_texture: None,
+            transmission: 0.0,
+            transmission_texture: None,
+            specular: c.specular,
+            specular_color: c.specular_color,
+            ior: c.ior,
+            specular_color_texture: ks_map,
+            shininess_texture: ns_map.map(|t| (m.shininess.unwrap_or(0.0).max(0.0), t)),
+            ndf: c.model.ndf.kind(),
+            shadowing: c.model.shadowing,
+        }),
+        (None, Surface::Diffuse { reflectance }) => Surface::Textured(TexturedPbr {
+            base_color: reflectance,
+            base_color_texture: kd_map,
+            metallic: 0.0,
+            roughness: 1.0,
+            metallic_roughness_texture: None,
+            transmission: 0.0,
+            transmission_texture: None,
+            // No coat: the textured surface stays Lambertian.
+            specular: 0.0,
+            specular_color: Vec3::ONE,
+            ior: MTL_COAT_IOR,
+            specular_color_texture: None,
+            shininess_texture: None,
+            ndf: NdfKind::Ggx,
+            shadowing: Shadowing::Smith,
+        }),
+        (None, other) => other,
+    })
+}
+
+/// Loads the texture of MTL key `key` (`map_Kd`, ...) through the cache.
 fn load_texture(
     source: &Source,
     element: &str,
+    key: &str,
     file: &str,
+    srgb: bool,
     builder: &mut SceneBuilder,
-    cache: &mut HashMap<PathBuf, usize>,
+    cache: &mut TextureCache,
 ) -> Result<usize, SceneError> {
     let path = source.file;
     let texture_path = source
         .policy
-        .resolve(path, &format!("{element}: map_Kd"), file.trim())?;
+        .resolve(path, &format!("{element}: {key}"), file.trim())?;
+    let texture_path = (texture_path, srgb);
     if let Some(&id) = cache.get(&texture_path) {
         return Ok(id);
     }
-    let image = image::open(&texture_path)
+    let image = image::open(&texture_path.0)
         .map_err(|e| {
             SceneError::invalid(
                 path,
-                format!("{element}: map_Kd {}", quoted(file)),
+                format!("{element}: {key} {}", quoted(file)),
                 e.to_string(),
             )
         })?
         .to_rgba8();
-    let texture = Texture::from_u8(image.width(), image.height(), 4, image.as_raw(), true)
+    let texture = Texture::from_u8(image.width(), image.height(), 4, image.as_raw(), srgb)
         .ok_or_else(|| {
             SceneError::invalid(
                 path,
-                format!("{element}: map_Kd {}", quoted(file)),
+                format!("{element}: {key} {}", quoted(file)),
                 "the image is empty",
             )
         })?;

@@ -228,6 +228,11 @@ impl SceneBuilder {
                     pbr.base_color_texture = pbr.base_color_texture.map(|t| t + texture_offset);
                     pbr.metallic_roughness_texture =
                         pbr.metallic_roughness_texture.map(|t| t + texture_offset);
+                    pbr.specular_color_texture =
+                        pbr.specular_color_texture.map(|t| t + texture_offset);
+                    pbr.shininess_texture = pbr
+                        .shininess_texture
+                        .map(|(ns, t)| (ns, t + texture_offset));
                 }
                 m
             }));

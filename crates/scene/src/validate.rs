@@ -266,6 +266,24 @@ fn model(m: &MicrofacetModel) -> Result<(), String> {
     }
 }
 
+/// A mix weight: finite and in [0, 1].
+fn unit_interval(name: &str, v: f32) -> Result<(), String> {
+    if (0.0..=1.0).contains(&v) {
+        Ok(())
+    } else {
+        Err(format!("{name} must be in [0, 1], got {v}"))
+    }
+}
+
+/// The index of a coat: finite and >= 0 (`KHR_materials_ior`'s 0 means F0 = 1).
+fn coat_ior(ior: f32) -> Result<(), String> {
+    if ior.is_finite() && ior >= 0.0 {
+        Ok(())
+    } else {
+        Err(format!("ior must be finite and >= 0, got {ior}"))
+    }
+}
+
 fn check_material(surface: &Surface, emission: Vec3) -> Result<(), String> {
     light_value("emission", emission)?;
     match surface {
@@ -293,8 +311,19 @@ fn check_material(surface: &Surface, emission: Vec3) -> Result<(), String> {
                 Err(format!("ior must be finite and > 0, got {ior}"))
             }
         }
+        Surface::Coated(c) => {
+            model(&c.model)?;
+            colour("base colour", c.base_color)?;
+            colour("specular colour", c.specular_color)?;
+            unit_interval("metallic", c.metallic)?;
+            unit_interval("specular", c.specular)?;
+            coat_ior(c.ior)
+        }
         Surface::Textured(pbr) => {
             colour("base colour", pbr.base_color)?;
+            colour("specular colour", pbr.specular_color)?;
+            unit_interval("specular", pbr.specular)?;
+            coat_ior(pbr.ior)?;
             for (name, v) in [
                 ("metallic", pbr.metallic),
                 ("roughness", pbr.roughness),

@@ -84,8 +84,10 @@ fn box_loads_identically_from_gltf_glb_and_embedded() {
     assert_eq!(a.triangles.len(), 12);
     assert_eq!(a.triangles, b.triangles);
     assert_eq!(a.triangles, c.triangles);
+    // A non-metal: the coated lobe (glTF's default coat, ior 1.5) over the base.
     assert!(
-        matches!(a.materials[0].surface, Surface::Diffuse { reflectance } if reflectance == Vec3::new(0.8, 0.0, 0.0))
+        matches!(a.materials[0].surface, Surface::Coated(c) if c.base_color == Vec3::new(0.8, 0.0, 0.0)
+            && c.metallic == 0.0 && c.specular == 1.0 && c.ior == 1.5)
     );
     // The root node's matrix turns Z-up into Y-up: the unit cube stays a unit cube.
     let (min, max) = a.bounds();
@@ -108,7 +110,7 @@ fn cameras_first_perspective_and_orthographic_refused() {
     assert_eq!(s.camera.resolution, UVec2::new(512, 512));
     // glTF's default material: metallic 1, roughness 1.
     assert!(
-        matches!(s.materials[0].surface, Surface::Conductor { model, .. } if model.alpha() == 1.0)
+        matches!(s.materials[0].surface, Surface::Coated(c) if c.model.alpha() == 1.0 && c.metallic == 1.0)
     );
     let embedded = load_default("Cameras/glTF-Embedded/Cameras.gltf");
     assert_eq!(embedded.triangles, s.triangles);
@@ -135,30 +137,30 @@ fn metal_rough_spheres_map_metallic_and_roughness() {
     assert_eq!(s.triangles.len(), 1_040_213);
     assert_eq!(s.report.degenerate_triangles, 196);
     let f = SceneFeatures::of(&s);
-    // 7 x 7 x 2 spheres: metallic >= 0.5 gives conductors with alpha = r^2.
-    let conductors = s
+    // 7 x 7 x 2 spheres: every one the coated lobe, metallic a mix weight
+    // in steps of 1/6, alpha = r^2 in steps of r = 1/6.
+    let coated: Vec<_> = s
         .materials
         .iter()
-        .filter(|m| matches!(m.surface, Surface::Conductor { .. }))
-        .count();
-    let diffuse = s
-        .materials
-        .iter()
-        .filter(|m| matches!(m.surface, Surface::Diffuse { .. }))
-        .count();
-    assert!(conductors >= 56 && diffuse >= 42, "{conductors} {diffuse}");
-    for m in &s.materials {
-        if let Surface::Conductor { model, .. } = m.surface {
-            assert_eq!(model.ndf.kind(), NdfKind::Ggx);
-            let r = model.alpha().sqrt();
-            // Roughness steps of 1/6 (alpha clamps to 1e-7 at r = 0).
-            assert!(
-                ((r * 6.0).round() - r * 6.0).abs() < 1e-3 || model.alpha() <= 1e-6,
-                "{}",
-                m.name
-            );
-        }
+        .filter_map(|m| match m.surface {
+            Surface::Coated(c) => Some((m, c)),
+            _ => None,
+        })
+        .collect();
+    assert!(coated.len() >= 98, "{}", coated.len());
+    let sixths = |x: f32| ((x * 6.0).round() - x * 6.0).abs() < 1e-3;
+    for (m, c) in &coated {
+        assert_eq!(c.model.ndf.kind(), NdfKind::Ggx);
+        let r = c.model.alpha().sqrt();
+        // alpha clamps to 1e-7 at r = 0.
+        assert!(sixths(r) || c.model.alpha() <= 1e-6, "{}", m.name);
+        assert!(sixths(c.metallic), "{}: metallic {}", m.name, c.metallic);
     }
+    assert!(
+        coated
+            .iter()
+            .any(|(_, c)| c.metallic > 0.0 && c.metallic < 1.0)
+    );
     assert!(f.smallest_alpha.unwrap() <= 1e-6 && f.environment && !f.transmission);
 }
 

@@ -9,9 +9,10 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
+use glam::Vec3;
 use proptest::prelude::*;
 use proptest::test_runner::RngSeed;
-use scene::{LoadOptions, Scene, SceneError, load};
+use scene::{LoadOptions, Scene, SceneError, Surface, load};
 use serde_json::{Value, json};
 
 /// A fresh directory under the system's temporary folder (with a `scene`
@@ -402,6 +403,14 @@ fn out_of_range_material_factors_are_refused() {
             json!({"KHR_materials_emissive_strength": {"emissiveStrength": 1e39}}),
             "emissive_strength",
         ),
+        (
+            json!({"KHR_materials_specular": {"specularFactor": 1.5}}),
+            "specularFactor",
+        ),
+        (
+            json!({"KHR_materials_specular": {"specularColorFactor": [1, -1, 1]}}),
+            "specularColorFactor",
+        ),
     ] {
         let g = edited(|g| g["materials"][0]["extensions"] = extensions);
         assert_error(
@@ -426,6 +435,37 @@ fn out_of_range_material_factors_are_refused() {
         invalid,
         &["material 0", "emissiveFactor"],
     );
+}
+
+/// KHR_materials_specular and KHR_materials_ior reach the coated lobe of a
+/// non-transmissive material; metallic is a mix weight, not a threshold.
+#[test]
+fn specular_and_ior_extensions_set_the_coat() {
+    let g = edited(|g| {
+        g["materials"][0]["pbrMetallicRoughness"] = json!({"metallicFactor": 0.25});
+        g["materials"][0]["extensions"] = json!({
+            "KHR_materials_specular": {"specularFactor": 0.5, "specularColorFactor": [1, 0.5, 0.25]},
+            "KHR_materials_ior": {"ior": 1.8}
+        });
+    });
+    let scene = load_gltf(&g, &valid_bin()).unwrap();
+    let Surface::Coated(c) = scene.materials[0].surface else {
+        panic!("{:?}", scene.materials[0].surface)
+    };
+    assert_eq!(
+        (c.metallic, c.specular, c.specular_color, c.ior),
+        (0.25, 0.5, Vec3::new(1.0, 0.5, 0.25), 1.8)
+    );
+    // Specular 0 and metallic 0: nothing but the base, a Lambertian surface.
+    let g = edited(|g| {
+        g["materials"][0]["pbrMetallicRoughness"] = json!({"metallicFactor": 0});
+        g["materials"][0]["extensions"] = json!({"KHR_materials_specular": {"specularFactor": 0}});
+    });
+    let scene = load_gltf(&g, &valid_bin()).unwrap();
+    assert!(matches!(
+        scene.materials[0].surface,
+        Surface::Diffuse { .. }
+    ));
 }
 
 #[test]

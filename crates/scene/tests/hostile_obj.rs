@@ -136,6 +136,98 @@ fn mtl_nan_and_out_of_range_values_name_file_material_and_line() {
     );
 }
 
+/// Kd + Ks is the coated lobe: base Kd, a coat whose F0 is Ks, the
+/// Blinn-Phong alpha of Ns (supp. eq. 5); Ks above Kd stays a coat over
+/// the base, not a grey metal (issue 18).
+#[test]
+fn mtl_kd_and_ks_become_a_coat_over_the_base() {
+    for (kd, ks) in [
+        ([0.6, 0.6, 0.6], [0.3, 0.3, 0.3]),
+        ([0.0, 0.4, 0.4], [0.5, 0.5, 0.5]),
+    ] {
+        let mtl = format!(
+            "newmtl m\nKd {} {} {}\nKs {} {} {}\nNs 98\n",
+            kd[0], kd[1], kd[2], ks[0], ks[1], ks[2]
+        );
+        let files = obj_with_mtl(&mtl);
+        let (result, dir) = load_in(&borrowed(&files), &LoadOptions::default());
+        let _ = std::fs::remove_dir_all(&dir);
+        let scene = result.unwrap();
+        let Surface::Coated(c) = scene.materials[0].surface else {
+            panic!("{:?}", scene.materials[0].surface)
+        };
+        assert_eq!(c.base_color, glam::Vec3::from_array(kd));
+        assert_eq!(c.metallic, 0.0);
+        assert!(
+            (c.dielectric_f0() * c.specular - glam::Vec3::from_array(ks))
+                .abs()
+                .max_element()
+                < 1e-6
+        );
+        assert_eq!(c.model.ndf.kind(), microfacet::NdfKind::BlinnPhong);
+        assert!((c.model.alpha() - (2.0f32 / 100.0).sqrt()).abs() < 1e-6);
+    }
+}
+
+/// A 1x1 PNG of one RGB colour.
+fn png(rgb: [u8; 3]) -> Vec<u8> {
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    image::RgbImage::from_pixel(1, 1, image::Rgb(rgb))
+        .write_to(&mut bytes, image::ImageFormat::Png)
+        .unwrap();
+    bytes.into_inner()
+}
+
+/// `map_Ks` multiplies Ks (sRGB) and `map_Ns` multiplies Ns (linear) per
+/// texel; on a material without Ks they are ignored with a warning.
+#[test]
+fn mtl_map_ks_and_map_ns_texture_the_coat() {
+    let [obj, mtl] = obj_with_mtl(
+        "newmtl m\nKd 0.5 0.5 0.5\nKs 0.4 0.4 0.4\nNs 198\nmap_Ks ks.png\nmap_Ns ns.png\n",
+    );
+    // sRGB 188 is 0.5 linear; 128 linear is 0.502 (Ns 198 -> 99.4).
+    let (ks, ns) = (png([255, 188, 0]), png([128, 128, 128]));
+    let files = [obj, mtl, ("ks.png", ks), ("ns.png", ns)];
+    let (result, dir) = load_in(&borrowed(&files), &LoadOptions::default());
+    let _ = std::fs::remove_dir_all(&dir);
+    let scene = result.unwrap();
+    let uv = glam::Vec2::splat(0.5);
+    let microfacet::Bsdf::Coated(c) = scene.materials[0].surface.bsdf(uv, &scene.textures) else {
+        panic!("{:?}", scene.materials[0].surface)
+    };
+    let f0 = c.dielectric_f0() * c.specular;
+    assert!(
+        (f0 - glam::Vec3::new(0.4, 0.2, 0.0)).abs().max_element() < 2e-3,
+        "{f0}"
+    );
+    let ns = 198.0 * 128.0 / 255.0;
+    let alpha = (2.0f32 / (ns + 2.0)).sqrt();
+    assert!(
+        (c.model.alpha() - alpha).abs() < 1e-4,
+        "{}",
+        c.model.alpha()
+    );
+
+    let [obj, mtl] = obj_with_mtl("newmtl m\nKd 0.5 0.5 0.5\nmap_Ks ks.png\n");
+    let files = [obj, mtl, ("ks.png", png([255, 255, 255]))];
+    let (result, dir) = load_in(&borrowed(&files), &LoadOptions::default());
+    let _ = std::fs::remove_dir_all(&dir);
+    let scene = result.unwrap();
+    assert!(matches!(
+        scene.materials[0].surface,
+        Surface::Diffuse { .. }
+    ));
+    assert!(
+        scene
+            .report
+            .warnings
+            .iter()
+            .any(|w| w.contains("map_Ks") && w.contains("ignored")),
+        "{:?}",
+        scene.report.warnings
+    );
+}
+
 #[test]
 fn empty_files_are_errors_unless_allowed() {
     refused(
@@ -256,6 +348,12 @@ fn assert_finite(scene: &Scene) {
                 assert!(ior.is_finite() && ior > 0.0 && model.alpha().is_finite())
             }
             Surface::Conductor { model, .. } => assert!(model.alpha().is_finite()),
+            Surface::Coated(c) => assert!(
+                c.model.alpha().is_finite()
+                    && c.base_color.is_finite()
+                    && c.specular_color.is_finite()
+                    && c.ior.is_finite()
+            ),
             Surface::Textured(p) => assert!(p.base_color.is_finite() && p.roughness.is_finite()),
         }
     }

@@ -7,8 +7,8 @@ use glam::{Vec2, Vec3};
 use microfacet::fresnel;
 use microfacet::special;
 use microfacet::{
-    Bsdf, Conductor, Dielectric, Fresnel, Lambertian, MicrofacetModel, Ndf, NdfKind, Shadowing,
-    TransportMode,
+    Bsdf, Coated, Conductor, Dielectric, Fresnel, Lambertian, MicrofacetModel, Ndf, NdfKind,
+    Shadowing, TransportMode,
 };
 use rayon::prelude::*;
 
@@ -360,6 +360,7 @@ fn lobe_case(bsdf: &Bsdf) -> String {
         Bsdf::Lambertian(_) => "Lambertian".into(),
         Bsdf::Conductor(_) => format!("conductor{alpha}"),
         Bsdf::Dielectric(d) => format!("dielectric {}{alpha}", eta_case(d.eta)),
+        Bsdf::Coated(_) => format!("coated{alpha}"),
     }
 }
 
@@ -430,6 +431,7 @@ fn lobes(alphas: &[f32], etas: &[f32]) -> Vec<Lobe> {
                         },
                     });
                 }
+                out.extend(coated_lobes(model, &m));
                 for &eta in etas {
                     let d = Dielectric::new(model, eta);
                     out.push(Lobe {
@@ -451,11 +453,40 @@ fn lobes(alphas: &[f32], etas: &[f32]) -> Vec<Lobe> {
     out
 }
 
+/// The glTF metallic-roughness lobes of one model: a plastic; a half metal
+/// whose coat has `KHR_materials_ior`'s special 0 (F0 = 1), weakened by a
+/// specular factor; and a coat that reflects everything (specular 1, ior 0:
+/// no diffuse part left, a delta when smooth).
+fn coated_lobes(model: MicrofacetModel, m: &str) -> Vec<Lobe> {
+    [
+        (Vec3::new(0.8, 0.5, 0.2), 0.0, 1.0, 1.5),
+        (Vec3::new(0.3, 0.6, 0.9), 0.5, 0.6, 0.0),
+        (Vec3::splat(0.5), 0.0, 1.0, 0.0),
+    ]
+    .into_iter()
+    .map(|(base_color, metallic, specular, ior)| Lobe {
+        bsdf: Bsdf::Coated(Coated {
+            model,
+            base_color,
+            metallic,
+            specular,
+            specular_color: Vec3::ONE,
+            ior,
+        }),
+        repro: format!(
+            "Bsdf::Coated(Coated {{ model: {m}, base_color: Vec3::new({:?}, {:?}, {:?}), metallic: {metallic:?}, specular: {specular:?}, specular_color: Vec3::ONE, ior: {ior:?} }})",
+            base_color.x, base_color.y, base_color.z
+        ),
+        reference: LobeReference::None,
+    })
+    .collect()
+}
+
 fn modes(bsdf: &Bsdf) -> &'static [TransportMode] {
     match bsdf {
         Bsdf::Dielectric(_) => &[TransportMode::Radiance, TransportMode::Importance],
         // The mode only matters for refraction.
-        Bsdf::Conductor(_) | Bsdf::Lambertian(_) => &[TransportMode::Radiance],
+        Bsdf::Conductor(_) | Bsdf::Lambertian(_) | Bsdf::Coated(_) => &[TransportMode::Radiance],
     }
 }
 
@@ -677,7 +708,7 @@ fn bsdf_rows(budget: Budget) -> [Row; 3] {
         );
     let seconds = start.elapsed().as_secs_f64();
     let domain = format!(
-        "{} lobes: Lambertian; conductor (Schlick 0.9, complex gold-like) and dielectric (eta 1, 1 + (1e-7..9), 1.5 and inverses: {} values) \
+        "{} lobes: Lambertian; conductor (Schlick 0.9, complex gold-like), coated (plastic, half metal with ior 0, full-reflecting coat) and dielectric (eta 1, 1 + (1e-7..9), 1.5 and inverses: {} values) \
          x GGX/Beckmann/Blinn-Phong x Smith/V-cavity x alpha {} values 1e-8..10 (with 1e-4 +- 1 ulp, 0.01, 1/sqrt2, 1); \
          directions: cos = +-({} values 1e-9..1) and 0 at {} azimuths (incl. the mirror azimuth), both hemispheres",
         lobes.len(),
@@ -734,8 +765,8 @@ mod tests {
     #[test]
     fn lobe_list_has_references_only_for_rough_ggx_smith() {
         let lobes = lobes(&[1e-5, 0.3], &[1.5, 1.0]);
-        // Lambertian + 3 kinds x 2 shadowing x 2 alphas x (2 conductors + 2 dielectrics).
-        assert_eq!(lobes.len(), 1 + 3 * 2 * 2 * 4);
+        // Lambertian + 3 kinds x 2 shadowing x 2 alphas x (2 conductors + 3 coated + 2 dielectrics).
+        assert_eq!(lobes.len(), 1 + 3 * 2 * 2 * 7);
         let with_reference: Vec<&str> = lobes
             .iter()
             .filter(|l| !matches!(l.reference, LobeReference::None))
