@@ -286,11 +286,31 @@ impl Bvh {
     /// edge), one of them is returned; which one depends only on the BVH.
     #[must_use]
     pub fn intersect(&self, origin: Vec3, direction: Vec3, t_max: f32) -> Option<Hit> {
+        self.intersect_where(origin, direction, t_max, |_, _, _| true)
+    }
+
+    /// [`Bvh::intersect`] among the hits that `accept(triangle, b1, b2)`
+    /// (caller id and barycentrics) keeps: a rejected hit is passed through
+    /// as if the triangle were not there (alpha cut-outs, stochastic
+    /// transparency). `accept` may be called for any triangle the ray hits
+    /// before the closest accepted one, in any order; it should depend only
+    /// on its arguments (and the ray).
+    #[must_use]
+    #[inline]
+    pub fn intersect_where(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        t_max: f32,
+        mut accept: impl FnMut(u32, f32, f32) -> bool,
+    ) -> Option<Hit> {
         let r = self.prepare(origin, direction, t_max)?;
         let mut best: Option<(usize, f32, f32)> = None;
         let mut t_int = r.t_max;
         let test = |slot: usize, t_max: &mut f32| {
-            if let Some((t, b1, b2)) = r.transform.intersect(&self.triangles[slot], *t_max) {
+            if let Some((t, b1, b2)) = r.transform.intersect(&self.triangles[slot], *t_max)
+                && accept(self.ids[slot], b1, b2)
+            {
                 *t_max = t;
                 t_int = t;
                 best = Some((slot, b1, b2));
@@ -366,6 +386,20 @@ impl Bvh {
     /// occluded.
     #[must_use]
     pub fn occluded(&self, origin: Vec3, direction: Vec3, t_max: f32) -> bool {
+        self.occluded_where(origin, direction, t_max, |_, _, _| true)
+    }
+
+    /// [`Bvh::occluded`] by the hits that `accept(triangle, b1, b2)` keeps
+    /// (see [`Bvh::intersect_where`]).
+    #[must_use]
+    #[inline]
+    pub fn occluded_where(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        t_max: f32,
+        mut accept: impl FnMut(u32, f32, f32) -> bool,
+    ) -> bool {
         let Some(r) = self.prepare(origin, direction, t_max) else {
             return false;
         };
@@ -373,7 +407,7 @@ impl Bvh {
         let test = |slot: usize, t_max: &mut f32| {
             if r.transform
                 .intersect(&self.triangles[slot], *t_max)
-                .is_some()
+                .is_some_and(|(_, b1, b2)| accept(self.ids[slot], b1, b2))
             {
                 occluded = true;
                 ControlFlow::Break(())
