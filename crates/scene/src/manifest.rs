@@ -362,10 +362,18 @@ fn apply_materials(
         let emission = vec3(section.emission)
             .or(base.as_ref().map(|b| b.emission))
             .unwrap_or(Vec3::ZERO);
+        // An overridden model material keeps its normal and alpha maps (they
+        // belong to the geometry), and its emissive texture unless the
+        // manifest gives the emission.
+        let mut maps = base.as_ref().map_or_else(Default::default, |b| b.maps);
+        if section.emission.is_some() {
+            maps.emission = None;
+        }
         let material = Material {
             name: section.name.clone(),
             surface,
             emission,
+            maps,
         };
         match target {
             Some(i) => builder.materials[i] = material,

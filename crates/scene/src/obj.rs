@@ -8,7 +8,7 @@ use glam::{Vec2, Vec3};
 use microfacet::{Fresnel, MicrofacetModel, NdfKind, Shadowing};
 
 use crate::error::{SceneError, quoted};
-use crate::material::{Material, Surface, TexturedPbr};
+use crate::material::{Maps, Material, NormalMap, NormalMapKind, Surface, TexturedPbr};
 use crate::scene::SceneBuilder;
 use crate::texture::Texture;
 
@@ -23,6 +23,7 @@ fn default_material() -> Material {
             reflectance: Vec3::splat(0.8),
         },
         emission: Vec3::ZERO,
+        maps: Default::default(),
     }
 }
 
@@ -91,7 +92,7 @@ pub fn load(
             quoted(&name)
         ));
     }
-    let mut texture_cache: HashMap<PathBuf, usize> = HashMap::new();
+    let mut texture_cache: HashMap<(PathBuf, bool), usize> = HashMap::new();
     let mut material_ids = Vec::with_capacity(mtl_materials.len());
     for m in &mtl_materials {
         let (mtl_file, line) = origins
@@ -437,7 +438,7 @@ fn map_material(
     source: &Source,
     m: &tobj::Material,
     builder: &mut SceneBuilder,
-    textures: &mut HashMap<PathBuf, usize>,
+    textures: &mut HashMap<(PathBuf, bool), usize>,
 ) -> Result<Material, SceneError> {
     let path = source.file;
     let element = || {
@@ -531,7 +532,7 @@ fn map_material(
     };
     let surface = match (&m.diffuse_texture, surface) {
         (Some(file), Surface::Diffuse { reflectance }) => {
-            let id = load_texture(source, &element(), file, builder, textures)?;
+            let id = load_texture(source, &element(), "map_Kd", file, true, builder, textures)?;
             Surface::Textured(TexturedPbr {
                 base_color: reflectance,
                 base_color_texture: Some(id),
@@ -557,41 +558,124 @@ fn map_material(
         name: m.name.clone(),
         surface,
         emission: ke,
+        maps: Maps {
+            normal: normal_map(source, m, &element(), builder, textures)?,
+            ..Maps::default()
+        },
     })
 }
 
+/// The material's `norm` (tangent-space normal map) or, without one, its
+/// `bump`/`map_Bump` (height map; `-bm` scales it, 1 by default). Other
+/// options of the statement are skipped with a warning.
+fn normal_map(
+    source: &Source,
+    m: &tobj::Material,
+    element: &str,
+    builder: &mut SceneBuilder,
+    textures: &mut HashMap<(PathBuf, bool), usize>,
+) -> Result<Option<NormalMap>, SceneError> {
+    let (key, statement) = match (m.unknown_param.get("norm"), &m.normal_texture) {
+        (Some(norm), _) => ("norm", norm),
+        (None, Some(bump)) => ("bump", bump),
+        (None, None) => return Ok(None),
+    };
+    let (file, scale, ignored) = texture_options(statement);
+    let scale = match scale {
+        Some(s) => s
+            .parse::<f32>()
+            .ok()
+            .filter(|s| s.is_finite())
+            .ok_or_else(|| {
+                SceneError::invalid(
+                    source.file,
+                    element,
+                    format!("{key}: -bm needs a finite number, got {}", quoted(s)),
+                )
+            })?,
+        None => 1.0,
+    };
+    if !ignored.is_empty() {
+        builder.report.warnings.push(format!(
+            "{}: {element}: {key}: options {} ignored",
+            source.file.display(),
+            quoted(&ignored.join(" "))
+        ));
+    }
+    let texture = load_texture(source, element, key, file, false, builder, textures)?;
+    let kind = if key == "norm" {
+        NormalMapKind::Tangent { scale }
+    } else {
+        NormalMapKind::Height { scale }
+    };
+    Ok(Some(NormalMap { texture, kind }))
+}
+
+/// A texture statement's file (the text after its options), its `-bm`
+/// value, and the other options (MTL options start with `-`; all but
+/// `-bm`, `-clamp`, `-imfchan` and the three-number `-o`/`-s`/`-t` are taken
+/// to have one value). Without options the whole text is the file name.
+fn texture_options(statement: &str) -> (&str, Option<&str>, Vec<&str>) {
+    let text = statement.trim();
+    if !text.starts_with('-') {
+        return (text, None, Vec::new());
+    }
+    let words: Vec<&str> = text.split_whitespace().collect();
+    let (mut i, mut bm, mut ignored) = (0, None, Vec::new());
+    while i + 1 < words.len() && words[i].starts_with('-') {
+        let values = match words[i] {
+            "-o" | "-s" | "-t" => 3,
+            _ => 1,
+        };
+        let end = (i + 1 + values).min(words.len() - 1);
+        if words[i] == "-bm" {
+            bm = Some(words[i + 1]);
+        } else {
+            ignored.extend_from_slice(&words[i..end]);
+        }
+        i = end;
+    }
+    // The file name is the rest (it may contain spaces).
+    let rest = words[i..].join(" ");
+    let file = text.rfind(&rest).map_or(text, |at| &text[at..]);
+    (file, bm, ignored)
+}
+
+#[allow(clippy::too_many_arguments)]
 fn load_texture(
     source: &Source,
     element: &str,
+    key: &str,
     file: &str,
+    srgb: bool,
     builder: &mut SceneBuilder,
-    cache: &mut HashMap<PathBuf, usize>,
+    cache: &mut HashMap<(PathBuf, bool), usize>,
 ) -> Result<usize, SceneError> {
     let path = source.file;
     let texture_path = source
         .policy
-        .resolve(path, &format!("{element}: map_Kd"), file.trim())?;
-    if let Some(&id) = cache.get(&texture_path) {
+        .resolve(path, &format!("{element}: {key}"), file.trim())?;
+    if let Some(&id) = cache.get(&(texture_path.clone(), srgb)) {
         return Ok(id);
     }
     let image = image::open(&texture_path)
         .map_err(|e| {
             SceneError::invalid(
                 path,
-                format!("{element}: map_Kd {}", quoted(file)),
+                format!("{element}: {key} {}", quoted(file)),
                 e.to_string(),
             )
         })?
         .to_rgba8();
-    let texture = Texture::from_u8(image.width(), image.height(), 4, image.as_raw(), true)
+    let texture = Texture::from_u8(image.width(), image.height(), 4, image.as_raw(), srgb)
         .ok_or_else(|| {
             SceneError::invalid(
                 path,
-                format!("{element}: map_Kd {}", quoted(file)),
+                format!("{element}: {key} {}", quoted(file)),
                 "the image is empty",
             )
         })?;
     let id = builder.add_texture(texture);
-    cache.insert(texture_path, id);
+    cache.insert((texture_path, srgb), id);
     Ok(id)
 }
