@@ -22,6 +22,7 @@ mod integrator;
 pub mod lights;
 pub mod merge_radius;
 mod nee;
+pub mod normal_map;
 mod pt;
 pub mod render;
 pub mod roulette;
