@@ -286,7 +286,25 @@ impl Bvh {
     /// edge), one of them is returned; which one depends only on the BVH.
     #[must_use]
     pub fn intersect(&self, origin: Vec3, direction: Vec3, t_max: f32) -> Option<Hit> {
-        self.intersect_where(origin, direction, t_max, |_, _, _| true)
+        let r = self.prepare(origin, direction, t_max)?;
+        let mut best: Option<(usize, f32, f32)> = None;
+        let mut t_int = r.t_max;
+        let test = |slot: usize, t_max: &mut f32| {
+            if let Some((t, b1, b2)) = r.transform.intersect(&self.triangles[slot], *t_max) {
+                *t_max = t;
+                t_int = t;
+                best = Some((slot, b1, b2));
+            }
+            ControlFlow::Continue(())
+        };
+        match &self.tree {
+            Tree::Empty => {}
+            Tree::Wide(bvh) => traverse_wide(bvh, &r.node, r.t_max, test),
+            Tree::Binary(bvh, depth) => traverse_binary(bvh, *depth, &r.node, r.t_max, test),
+        }
+        let (slot, b1, b2) = best?;
+        let t = t_int * r.to_caller.0 * r.to_caller.1;
+        self.refine(slot, origin, direction, t_max, (t, b1, b2))
     }
 
     /// [`Bvh::intersect`] among the hits that `accept(triangle, b1, b2)`
@@ -304,6 +322,8 @@ impl Bvh {
         t_max: f32,
         mut accept: impl FnMut(u32, f32, f32) -> bool,
     ) -> Option<Hit> {
+        // The traversal of `intersect` with the test added (kept separate,
+        // so that the plain query's code is exactly what it was).
         let r = self.prepare(origin, direction, t_max)?;
         let mut best: Option<(usize, f32, f32)> = None;
         let mut t_int = r.t_max;
@@ -386,7 +406,27 @@ impl Bvh {
     /// occluded.
     #[must_use]
     pub fn occluded(&self, origin: Vec3, direction: Vec3, t_max: f32) -> bool {
-        self.occluded_where(origin, direction, t_max, |_, _, _| true)
+        let Some(r) = self.prepare(origin, direction, t_max) else {
+            return false;
+        };
+        let mut occluded = false;
+        let test = |slot: usize, t_max: &mut f32| {
+            if r.transform
+                .intersect(&self.triangles[slot], *t_max)
+                .is_some()
+            {
+                occluded = true;
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        };
+        match &self.tree {
+            Tree::Empty => {}
+            Tree::Wide(bvh) => traverse_wide(bvh, &r.node, r.t_max, test),
+            Tree::Binary(bvh, depth) => traverse_binary(bvh, *depth, &r.node, r.t_max, test),
+        }
+        occluded
     }
 
     /// [`Bvh::occluded`] by the hits that `accept(triangle, b1, b2)` keeps

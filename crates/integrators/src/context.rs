@@ -138,11 +138,18 @@ impl SceneContext {
         if self.alpha_tested.is_empty() {
             self.bvh.intersect(origin, direction, t_max)
         } else {
-            self.bvh
-                .intersect_where(origin, direction, t_max, |triangle, b1, b2| {
-                    self.meets(origin, direction, triangle, b1, b2)
-                })
+            self.intersect_alpha(origin, direction, t_max)
         }
+    }
+
+    /// [`SceneContext::intersect`] with the alpha test (out of line: scenes
+    /// without alpha keep the plain query inlined).
+    #[inline(never)]
+    fn intersect_alpha(&self, origin: Vec3, direction: Vec3, t_max: f32) -> Option<Hit> {
+        self.bvh
+            .intersect_where(origin, direction, t_max, |triangle, b1, b2| {
+                self.meets(origin, direction, triangle, b1, b2)
+            })
     }
 
     /// Whether anything lies along `origin + t direction`, t in (0, t_max)
@@ -153,11 +160,17 @@ impl SceneContext {
         if self.alpha_tested.is_empty() {
             self.bvh.occluded(origin, direction, t_max)
         } else {
-            self.bvh
-                .occluded_where(origin, direction, t_max, |triangle, b1, b2| {
-                    self.meets(origin, direction, triangle, b1, b2)
-                })
+            self.occluded_alpha(origin, direction, t_max)
         }
+    }
+
+    /// [`SceneContext::occluded`] with the alpha test (out of line).
+    #[inline(never)]
+    fn occluded_alpha(&self, origin: Vec3, direction: Vec3, t_max: f32) -> bool {
+        self.bvh
+            .occluded_where(origin, direction, t_max, |triangle, b1, b2| {
+                self.meets(origin, direction, triangle, b1, b2)
+            })
     }
 
     /// Whether the ray `origin + t direction` meets triangle `triangle` at
@@ -272,8 +285,13 @@ impl SceneContext {
     #[inline]
     pub fn emitted(&self, point: &SurfacePoint, wi: Vec3) -> Option<Vec3> {
         let material = &self.scene.materials[point.material as usize];
-        (material.is_emissive() && point.n_winding.dot(wi) > 0.0)
-            .then(|| material.emission_at(point.uv, &self.scene.textures))
+        if !(material.is_emissive() && point.n_winding.dot(wi) > 0.0) {
+            return None;
+        }
+        Some(match material.maps.emission {
+            None => material.emission,
+            Some(_) => material.emission_at(point.uv, &self.scene.textures),
+        })
     }
 }
 

@@ -362,7 +362,6 @@ impl Lights {
             },
             Light::Area { triangle } => {
                 let q = uniform_triangle(scene.triangles[triangle as usize], u);
-                let li = area_radiance(scene, triangle, u);
                 let n = self.area_normal[index];
                 let d = q - p;
                 let wi = d.try_normalize()?;
@@ -375,7 +374,7 @@ impl Lights {
                 }
                 LightSample {
                     wi,
-                    li,
+                    li: area_radiance(scene, triangle, u),
                     pdf,
                     point: Some(LightPoint {
                         p: q,
@@ -553,12 +552,20 @@ pub fn uniform_triangle_barycentrics(u: Vec2) -> (f32, f32) {
 /// factor only lowers the sample's value: the estimator stays unbiased.
 /// Coverage enters as a factor: a cut-out part emits nothing, a blended
 /// one alpha times the radiance (what a ray reaching it sees on average).
+#[inline(always)]
 fn area_radiance(scene: &Scene, triangle: u32, u: Vec2) -> Vec3 {
-    let i = triangle as usize;
-    let material = &scene.materials[scene.triangle_materials[i] as usize];
+    let material = &scene.materials[scene.triangle_materials[triangle as usize] as usize];
     if material.maps.emission.is_none() && material.maps.alpha.is_opaque() {
-        return material.emission;
+        material.emission
+    } else {
+        mapped_area_radiance(scene, material, triangle as usize, u)
     }
+}
+
+/// [`area_radiance`] of a material with an emissive texture or alpha (out
+/// of line: untextured lights stay a lookup).
+#[inline(never)]
+fn mapped_area_radiance(scene: &Scene, material: &scene::Material, i: usize, u: Vec2) -> Vec3 {
     let (b1, b2) = uniform_triangle_barycentrics(u);
     let [t0, t1, t2] = scene.uvs[i];
     let uv = t0 * (1.0 - b1 - b2) + t1 * b1 + t2 * b2;
