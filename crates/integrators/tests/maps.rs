@@ -240,6 +240,35 @@ fn mask_cuts_the_surface_out_for_every_ray() {
     }
 }
 
+/// An emitter cut out by MASK emits only where it exists: light samples
+/// (next-event estimation, light subpaths' starts) on the cut half carry
+/// nothing, as camera rays pass through it.
+#[test]
+fn masked_light_emits_only_where_it_exists() {
+    let reference = render(half_light_geometry(false), Algorithm::Pt, 14, 96);
+    let masked = || {
+        let mut scene = floor_scene(&light("light", -0.5, 0.5));
+        let t = add_texture(&mut scene, halves(Vec4::new(1.0, 1.0, 1.0, 0.0), Vec4::ONE));
+        let m = material(&scene, "light");
+        scene.materials[m].maps.alpha = Alpha::Mask {
+            factor: 1.0,
+            texture: Some(t),
+            cutoff: 0.5,
+        };
+        scene
+    };
+    for (algorithm, seed) in [(Algorithm::Pt, 15), (Algorithm::Bpt, 16)] {
+        let film = render(masked(), algorithm, seed, 96);
+        let p = common::assert_films_agree(
+            &reference,
+            &film,
+            4,
+            &format!("masked light {algorithm:?}"),
+        );
+        eprintln!("masked light, {algorithm:?}: smallest p {p:.3}");
+    }
+}
+
 /// A black BLEND occluder of alpha 0.5 transmits half: with everything
 /// above it black, each path crosses it at most once, so its image is the
 /// mean of the images with and without an opaque occluder (per block,
