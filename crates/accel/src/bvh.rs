@@ -307,6 +307,46 @@ impl Bvh {
         self.refine(slot, origin, direction, t_max, (t, b1, b2))
     }
 
+    /// [`Bvh::intersect`] among the hits that `accept(triangle, b1, b2)`
+    /// (caller id and barycentrics) keeps: a rejected hit is passed through
+    /// as if the triangle were not there (alpha cut-outs, stochastic
+    /// transparency). `accept` may be called for any triangle the ray hits
+    /// before the closest accepted one, in any order; it should depend only
+    /// on its arguments (and the ray).
+    #[must_use]
+    #[inline]
+    pub fn intersect_where(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        t_max: f32,
+        mut accept: impl FnMut(u32, f32, f32) -> bool,
+    ) -> Option<Hit> {
+        // The traversal of `intersect` with the test added (kept separate,
+        // so that the plain query's code is exactly what it was).
+        let r = self.prepare(origin, direction, t_max)?;
+        let mut best: Option<(usize, f32, f32)> = None;
+        let mut t_int = r.t_max;
+        let test = |slot: usize, t_max: &mut f32| {
+            if let Some((t, b1, b2)) = r.transform.intersect(&self.triangles[slot], *t_max)
+                && accept(self.ids[slot], b1, b2)
+            {
+                *t_max = t;
+                t_int = t;
+                best = Some((slot, b1, b2));
+            }
+            ControlFlow::Continue(())
+        };
+        match &self.tree {
+            Tree::Empty => {}
+            Tree::Wide(bvh) => traverse_wide(bvh, &r.node, r.t_max, test),
+            Tree::Binary(bvh, depth) => traverse_binary(bvh, *depth, &r.node, r.t_max, test),
+        }
+        let (slot, b1, b2) = best?;
+        let t = t_int * r.to_caller.0 * r.to_caller.1;
+        self.refine(slot, origin, direction, t_max, (t, b1, b2))
+    }
+
     /// The hit on the triangle in `slot` recomputed in f64 (Möller–Trumbore
     /// on the f32 inputs). The watertight f32 test decides which triangle is
     /// hit; its distance and barycentrics carry an absolute error
@@ -374,6 +414,40 @@ impl Bvh {
             if r.transform
                 .intersect(&self.triangles[slot], *t_max)
                 .is_some()
+            {
+                occluded = true;
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        };
+        match &self.tree {
+            Tree::Empty => {}
+            Tree::Wide(bvh) => traverse_wide(bvh, &r.node, r.t_max, test),
+            Tree::Binary(bvh, depth) => traverse_binary(bvh, *depth, &r.node, r.t_max, test),
+        }
+        occluded
+    }
+
+    /// [`Bvh::occluded`] by the hits that `accept(triangle, b1, b2)` keeps
+    /// (see [`Bvh::intersect_where`]).
+    #[must_use]
+    #[inline]
+    pub fn occluded_where(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        t_max: f32,
+        mut accept: impl FnMut(u32, f32, f32) -> bool,
+    ) -> bool {
+        let Some(r) = self.prepare(origin, direction, t_max) else {
+            return false;
+        };
+        let mut occluded = false;
+        let test = |slot: usize, t_max: &mut f32| {
+            if r.transform
+                .intersect(&self.triangles[slot], *t_max)
+                .is_some_and(|(_, b1, b2)| accept(self.ids[slot], b1, b2))
             {
                 occluded = true;
                 ControlFlow::Break(())

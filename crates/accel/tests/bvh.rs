@@ -754,3 +754,51 @@ fn no_self_intersection_near_the_origin_on_large_triangles() {
     }
     assert!(self_hits.is_empty(), "{}", self_hits.join("\n"));
 }
+
+/// `intersect_where` / `occluded_where` skip rejected hits as if the
+/// triangle were absent: accepting only even ids matches a BVH whose odd
+/// triangles are degenerate (never hit, same ids), on every layout; a
+/// barycentric filter (half of each triangle cut away) never returns a hit
+/// in the cut half, and occlusion agrees with the closest accepted hit.
+#[test]
+fn filtered_queries_skip_rejected_hits() {
+    let mut rng = Pcg32::new(11, 0);
+    let tris = random_soup(&mut rng, 600, 0.3);
+    let even_only: Vec<[Vec3; 3]> = tris
+        .iter()
+        .enumerate()
+        .map(|(i, t)| if i % 2 == 0 { *t } else { [t[0]; 3] })
+        .collect();
+    let rays = random_rays(&mut rng, 600, Vec3::splat(-1.5), Vec3::splat(1.5));
+    let (mut hits, mut cut_hits) = (0, 0);
+    for options in option_sets() {
+        let bvh = Bvh::build_with(&tris, options);
+        let reference = Bvh::build_with(&even_only, options);
+        for &(o, d, t_max) in &rays {
+            let even = |id: u32, _: f32, _: f32| id.is_multiple_of(2);
+            let got = bvh.intersect_where(o, d, t_max, even);
+            let want = reference.intersect(o, d, t_max);
+            assert_eq!(got.map(|h| h.triangle), want.map(|h| h.triangle), "{o} {d}");
+            assert_eq!(bvh.occluded_where(o, d, t_max, even), want.is_some());
+            hits += usize::from(want.is_some());
+
+            let half = |_: u32, b1: f32, _: f32| b1 < 0.5;
+            let cut = bvh.intersect_where(o, d, t_max, half);
+            if let Some(h) = cut {
+                // Refined barycentrics differ from the test's by rounding only.
+                assert!(h.b1 < 0.5 + 1e-4, "hit in the cut half: b1 = {}", h.b1);
+                cut_hits += 1;
+            }
+            assert_eq!(bvh.occluded_where(o, d, t_max, half), cut.is_some());
+            // Accepting everything is the plain query.
+            assert_eq!(
+                bvh.intersect_where(o, d, t_max, |_, _, _| true),
+                bvh.intersect(o, d, t_max)
+            );
+        }
+    }
+    assert!(
+        hits > 300 && cut_hits > 300,
+        "{hits} {cut_hits} hits: the rays must test something"
+    );
+}

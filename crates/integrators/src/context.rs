@@ -50,6 +50,11 @@ pub struct SceneContext {
     /// [`vertex_scale`] of each triangle, for ray-origin offsets: computed
     /// once, like the normals, not at every hit.
     vertex_scales: Vec<f32>,
+    /// Per triangle: its material has an alpha mode other than opaque.
+    /// Empty when no triangle has one: ray queries then skip the test.
+    alpha_tested: Vec<bool>,
+    /// Some used material has a normal or bump map.
+    normal_mapped: bool,
     /// Rays traced by finished tasks (closest-hit and shadow rays).
     rays: AtomicU64,
 }
@@ -71,6 +76,19 @@ impl SceneContext {
         let geometric_normals = (0..scene.triangles.len())
             .map(|i| scene.geometric_normal(i))
             .collect();
+        let material_of = |&m: &u32| &scene.materials[m as usize];
+        let mut alpha_tested: Vec<bool> = scene
+            .triangle_materials
+            .iter()
+            .map(|m| !material_of(m).maps.alpha.is_opaque())
+            .collect();
+        if !alpha_tested.contains(&true) {
+            alpha_tested = Vec::new();
+        }
+        let normal_mapped = scene
+            .triangle_materials
+            .iter()
+            .any(|m| material_of(m).maps.normal.is_some());
         Self {
             features: SceneFeatures::of(&scene),
             scene,
@@ -81,6 +99,8 @@ impl SceneContext {
             merge_radius,
             geometric_normals,
             vertex_scales,
+            alpha_tested,
+            normal_mapped,
             rays: AtomicU64::new(0),
         }
     }
@@ -110,10 +130,26 @@ impl SceneContext {
 
     /// Closest hit along `origin + t direction`, t in (0, t_max): every
     /// integrator's ray query, counted for [`SceneContext::rays_traced`].
+    /// Surfaces cut out by their alpha are passed through
+    /// ([`SceneContext::meets`]).
     #[inline]
     pub fn intersect(&self, origin: Vec3, direction: Vec3, t_max: f32) -> Option<Hit> {
         THREAD_RAYS.set(THREAD_RAYS.get() + 1);
-        self.bvh.intersect(origin, direction, t_max)
+        if self.alpha_tested.is_empty() {
+            self.bvh.intersect(origin, direction, t_max)
+        } else {
+            self.intersect_alpha(origin, direction, t_max)
+        }
+    }
+
+    /// [`SceneContext::intersect`] with the alpha test (out of line: scenes
+    /// without alpha keep the plain query inlined).
+    #[inline(never)]
+    fn intersect_alpha(&self, origin: Vec3, direction: Vec3, t_max: f32) -> Option<Hit> {
+        self.bvh
+            .intersect_where(origin, direction, t_max, |triangle, b1, b2| {
+                self.meets(origin, direction, triangle, b1, b2)
+            })
     }
 
     /// Whether anything lies along `origin + t direction`, t in (0, t_max)
@@ -121,19 +157,68 @@ impl SceneContext {
     #[inline]
     pub fn occluded(&self, origin: Vec3, direction: Vec3, t_max: f32) -> bool {
         THREAD_RAYS.set(THREAD_RAYS.get() + 1);
-        self.bvh.occluded(origin, direction, t_max)
+        if self.alpha_tested.is_empty() {
+            self.bvh.occluded(origin, direction, t_max)
+        } else {
+            self.occluded_alpha(origin, direction, t_max)
+        }
     }
 
-    /// The surface point of a hit.
+    /// [`SceneContext::occluded`] with the alpha test (out of line).
+    #[inline(never)]
+    fn occluded_alpha(&self, origin: Vec3, direction: Vec3, t_max: f32) -> bool {
+        self.bvh
+            .occluded_where(origin, direction, t_max, |triangle, b1, b2| {
+                self.meets(origin, direction, triangle, b1, b2)
+            })
+    }
+
+    /// Whether the ray `origin + t direction` meets triangle `triangle` at
+    /// barycentrics (b1, b2), given its material's alpha (glTF 2.0 spec,
+    /// 3.9.4): always for opaque materials; where alpha >= alphaCutoff for
+    /// MASK; with probability alpha for BLEND, decided by a hash of the ray
+    /// and the triangle (stochastic alpha as pbrt-v4's
+    /// `GeometricPrimitive::Intersect` does it with `HashFloat(ray.o, ray.d)`):
+    /// every query of the same ray decides the same, so a shadow ray and a
+    /// path ray see the surface with the same probability, and light
+    /// transport through it is alpha x opaque + (1 - alpha) x absent in
+    /// expectation.
+    #[inline]
+    pub fn meets(&self, origin: Vec3, direction: Vec3, triangle: u32, b1: f32, b2: f32) -> bool {
+        let i = triangle as usize;
+        if !self.alpha_tested[i] {
+            return true;
+        }
+        let uvs = self.scene.uvs[i];
+        let uv = uvs[0] * (1.0 - b1 - b2) + uvs[1] * b1 + uvs[2] * b2;
+        let material = &self.scene.materials[self.scene.triangle_materials[i] as usize];
+        let coverage = material.maps.alpha.coverage(uv, &self.scene.textures);
+        if coverage >= 1.0 {
+            true
+        } else if coverage <= 0.0 {
+            false
+        } else {
+            ray_hash(origin, direction, triangle) < coverage
+        }
+    }
+
+    /// The surface point of a hit (its shading normal perturbed by the
+    /// material's normal map, if any).
     #[inline]
     pub fn surface_point(&self, hit: &Hit) -> SurfacePoint {
         let i = hit.triangle as usize;
-        SurfacePoint::new(
+        let point = SurfacePoint::new(
             &self.scene,
             self.geometric_normals[i],
             self.vertex_scales[i],
             hit,
-        )
+        );
+        if self.normal_mapped
+            && let Some(map) = &self.scene.materials[point.material as usize].maps.normal
+        {
+            return crate::normal_map::apply(&self.scene, map, &point, hit.b1, hit.b2);
+        }
+        point
     }
 
     /// Adds this thread's ray count to the total; called at the end of every
@@ -196,9 +281,41 @@ impl SceneContext {
 
     /// The light emitted by the surface at `point` towards `wi` (emitters
     /// emit on the side their winding faces), if any.
+    /// The emissive texture, if any, is read at the point's uv.
     #[inline]
     pub fn emitted(&self, point: &SurfacePoint, wi: Vec3) -> Option<Vec3> {
-        let emission = self.scene.materials[point.material as usize].emission;
-        (emission.max_element() > 0.0 && point.n_winding.dot(wi) > 0.0).then_some(emission)
+        let material = &self.scene.materials[point.material as usize];
+        if !(material.is_emissive() && point.n_winding.dot(wi) > 0.0) {
+            return None;
+        }
+        Some(match material.maps.emission {
+            None => material.emission,
+            Some(_) => material.emission_at(point.uv, &self.scene.textures),
+        })
     }
+}
+
+/// A uniform number in [0, 1) from the bits of a ray and a triangle id:
+/// the random decision of stochastic alpha, a pure function of its
+/// arguments (SplitMix64's finaliser, Steele et al. 2014, mixes the words).
+fn ray_hash(origin: Vec3, direction: Vec3, triangle: u32) -> f32 {
+    let mix = |mut z: u64| {
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    };
+    let words = [
+        origin.x,
+        origin.y,
+        origin.z,
+        direction.x,
+        direction.y,
+        direction.z,
+    ];
+    let mut h = mix(u64::from(triangle) ^ 0x9e37_79b9_7f4a_7c15);
+    for w in words {
+        h = mix(h ^ u64::from(w.to_bits()));
+    }
+    // The top 24 bits as a float in [0, 1).
+    (h >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
 }

@@ -24,6 +24,7 @@ pub mod lights;
 pub mod medium;
 pub mod merge_radius;
 mod nee;
+pub mod normal_map;
 mod pt;
 pub mod render;
 pub mod roulette;

@@ -423,15 +423,13 @@ impl Lights {
                 if n.dot(-wi) <= 0.0 {
                     return None; // One-sided emitter seen from behind.
                 }
-                let material =
-                    &scene.materials[scene.triangle_materials[triangle as usize] as usize];
                 let pdf = self.area_pdf_w(triangle, p, q, n);
                 if pdf <= 0.0 {
                     return None;
                 }
                 LightSample {
                     wi,
-                    li: material.emission,
+                    li: area_radiance(scene, triangle, u),
                     pdf,
                     point: Some(LightPoint {
                         p: q,
@@ -597,13 +595,12 @@ impl Lights {
                 if local.z <= 0.0 {
                     return None;
                 }
-                let material =
-                    &scene.materials[scene.triangle_materials[triangle as usize] as usize];
                 let mis = self.area_pdfs(triangle, local.z);
                 Emission {
                     origin: accel::offset_ray_origin_scaled(p, n, self.area_scale[index]),
                     direction: crate::geometry::Frame::from_normal(n).to_world(local),
-                    throughput: material.emission * local.z / mis.emission_pdf_w,
+                    throughput: area_radiance(scene, triangle, u_position) * local.z
+                        / mis.emission_pdf_w,
                     mis,
                 }
             }
@@ -616,9 +613,41 @@ impl Lights {
 /// A uniformly distributed point of triangle [a, b, c] (square-root
 /// parametrisation, pbrt-v4 `SampleUniformTriangle`'s classic form).
 pub fn uniform_triangle([a, b, c]: [Vec3; 3], u: Vec2) -> Vec3 {
-    let su = u.x.sqrt();
-    let (b1, b2) = (u.y * su, 1.0 - su);
+    let (b1, b2) = uniform_triangle_barycentrics(u);
     a * (1.0 - b1 - b2) + b * b1 + c * b2
+}
+
+/// The barycentrics (b1, b2) of the point [`uniform_triangle`] samples from `u`.
+pub fn uniform_triangle_barycentrics(u: Vec2) -> (f32, f32) {
+    let su = u.x.sqrt();
+    (u.y * su, 1.0 - su)
+}
+
+/// Radiance emitted at the point of emissive triangle `triangle` sampled
+/// from `u` ([`uniform_triangle`]): the material's factor, times its
+/// emissive texture and its alpha coverage there when it has them. The
+/// triangle was chosen by its factor's power, so a texel darker than the
+/// factor only lowers the sample's value: the estimator stays unbiased.
+/// Coverage enters as a factor: a cut-out part emits nothing, a blended
+/// one alpha times the radiance (what a ray reaching it sees on average).
+#[inline(always)]
+fn area_radiance(scene: &Scene, triangle: u32, u: Vec2) -> Vec3 {
+    let material = &scene.materials[scene.triangle_materials[triangle as usize] as usize];
+    if material.maps.emission.is_none() && material.maps.alpha.is_opaque() {
+        material.emission
+    } else {
+        mapped_area_radiance(scene, material, triangle as usize, u)
+    }
+}
+
+/// [`area_radiance`] of a material with an emissive texture or alpha (out
+/// of line: untextured lights stay a lookup).
+#[inline(never)]
+fn mapped_area_radiance(scene: &Scene, material: &scene::Material, i: usize, u: Vec2) -> Vec3 {
+    let (b1, b2) = uniform_triangle_barycentrics(u);
+    let [t0, t1, t2] = scene.uvs[i];
+    let uv = t0 * (1.0 - b1 - b2) + t1 * b1 + t2 * b2;
+    material.emission_at(uv, &scene.textures) * material.maps.alpha.coverage(uv, &scene.textures)
 }
 
 /// Density of [`uniform_sphere`]: 1 / (4 pi).

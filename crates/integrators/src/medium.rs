@@ -66,13 +66,12 @@ mod tests {
         assert_eq!(towards(glass, ng, Vec3::new(0.3, 0.0, -0.9)), glass);
         assert_eq!(towards(glass, ng, Vec3::new(0.3, 0.0, 0.9)), None);
         assert_eq!(towards(None, ng, -Vec3::Z), None);
+        let surface = Surface::Diffuse {
+            reflectance: Vec3::ZERO,
+        };
         let mut material = Material {
-            name: "glass".into(),
-            surface: Surface::Diffuse {
-                reflectance: Vec3::ZERO,
-            },
-            emission: Vec3::ZERO,
             medium: glass,
+            ..Material::new("glass".into(), surface, Vec3::ZERO)
         };
         assert_eq!(of(&material), glass);
         material.emission = Vec3::ONE;

@@ -74,6 +74,10 @@ pub fn scene_hash(scene: &Scene) -> u64 {
         &mut h,
         &mut scene.uvs.iter().flatten().flat_map(|v| v.to_array()),
     );
+    floats(
+        &mut h,
+        &mut scene.tangents.iter().flatten().flat_map(|v| v.to_array()),
+    );
     for &m in &scene.triangle_materials {
         h.write_u32(m);
     }
@@ -82,6 +86,9 @@ pub fn scene_hash(scene: &Scene) -> u64 {
         h.write_u32(t.height);
         floats(&mut h, &mut t.texels.iter().flat_map(|v| v.to_array()));
         h.write(format!("{:?}{:?}", t.wrap_u, t.wrap_v).as_bytes());
+        if let Some(transform) = t.transform {
+            h.write(format!("{transform:?}").as_bytes());
+        }
     }
     for m in &scene.environment_maps {
         h.write_u32(m.width);

@@ -19,7 +19,7 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-use glam::{Mat3, Mat4, Vec2, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use gltf::khr_lights_punctual::Kind;
 use microfacet::{NdfKind, Shadowing};
 
@@ -27,11 +27,11 @@ use crate::camera::CameraSpec;
 use crate::error::{SceneError, guarded, quoted};
 use crate::light::Light;
 use crate::material::{
-    Material, Medium, MetalRough, Surface, TexturedPbr, is_transmissive, metal_rough_surface,
-    transmissive_surface,
+    Alpha, Maps, Material, Medium, MetalRough, NormalMap, NormalMapKind, Surface, TexturedPbr,
+    is_transmissive, metal_rough_surface, transmissive_surface,
 };
 use crate::scene::SceneBuilder;
-use crate::texture::{Texture, Wrap};
+use crate::texture::{Texture, UvTransform, Wrap};
 
 mod extensions;
 mod validate;
@@ -90,6 +90,8 @@ fn load_unguarded(
                 .is_some()
             || m.transmission()
                 .is_some_and(|t| t.transmission_texture().is_some())
+            || m.emissive_texture().is_some()
+            || m.normal_texture().is_some()
     });
     let images = if uses_textures {
         load_images(path, &document, &buffers, policy)?
@@ -320,6 +322,7 @@ struct PrimitiveAccessors {
     position: (usize, String),
     normal: Option<(usize, String)>,
     tex_coord: Option<(usize, String)>,
+    tangent: Option<(usize, String)>,
     indices: Option<(usize, String)>,
 }
 
@@ -339,8 +342,8 @@ struct Loader<'a> {
     builder: &'a mut SceneBuilder,
     /// glTF material index (None = default material) -> scene material.
     materials: HashMap<Option<usize>, u32>,
-    /// (glTF texture index, sRGB) -> scene texture.
-    textures: HashMap<(usize, bool), usize>,
+    /// (glTF texture index, sRGB, uv transform's bits) -> scene texture.
+    textures: HashMap<(usize, bool, Option<[u32; 5]>), usize>,
     /// Cameras met: (name, node index, camera, world transform).
     cameras: Vec<(Option<String>, usize, Result<CameraSpec, String>)>,
     /// Nodes met so far: a node reached twice (two parents, or a root that
@@ -451,6 +454,31 @@ impl Loader<'_> {
                 ),
                 None => None,
             };
+            // Tangents matter only under a normal map.
+            let tangents: Option<Vec<Vec4>> = match &accessors.tangent {
+                Some(a)
+                    if self.builder.materials[material as usize]
+                        .maps
+                        .normal
+                        .is_some() =>
+                {
+                    let read: Vec<Vec4> = reader
+                        .read_tangents()
+                        .ok_or_else(|| unreadable(a))?
+                        .map(Vec4::from_array)
+                        .collect();
+                    let (tangents, replaced) = world_tangents(&read, world);
+                    if replaced > 0 {
+                        self.builder.report.warnings.push(format!(
+                            "{}: {}: {replaced} zero or non-finite tangents replaced by ones derived from the texture coordinates",
+                            self.path.display(),
+                            a.1
+                        ));
+                    }
+                    Some(tangents)
+                }
+                _ => None,
+            };
             let indices: Vec<u32> = match &accessors.indices {
                 Some(a) => reader
                     .read_indices()
@@ -471,6 +499,7 @@ impl Loader<'_> {
             for attribute in [
                 raw_normals.as_ref().map(Vec::len),
                 uvs.as_ref().map(Vec::len),
+                tangents.as_ref().map(Vec::len),
             ]
             .into_iter()
             .flatten()
@@ -521,8 +550,12 @@ impl Loader<'_> {
                 let p = ids.map(|i| positions[i]);
                 let n = normals.as_ref().map(|ns| ids.map(|i| ns[i]));
                 let uv = uvs.as_ref().map(|us| ids.map(|i| us[i]));
+                let before = self.builder.triangles.len();
                 self.builder
                     .add_triangle(self.path, &element, p, n, uv, material)?;
+                if let Some(ts) = &tangents {
+                    self.builder.set_last_tangents(before, ids.map(|i| ts[i]));
+                }
             }
         }
         Ok(())
@@ -553,8 +586,9 @@ impl Loader<'_> {
             })?;
         let normal = check(primitive.get(&S::Normals), Semantic::Normal)?;
         let tex_coord = check(primitive.get(&S::TexCoords(0)), Semantic::TexCoord)?;
+        let tangent = check(primitive.get(&S::Tangents), Semantic::Tangent)?;
         let indices = check(primitive.indices(), Semantic::Indices)?;
-        for (index, label, count) in [&normal, &tex_coord].into_iter().flatten() {
+        for (index, label, count) in [&normal, &tex_coord, &tangent].into_iter().flatten() {
             if *count != position.2 {
                 return Err(SceneError::malformed(
                     self.path,
@@ -571,6 +605,7 @@ impl Loader<'_> {
             position: (position.0, position.1),
             normal: strip(normal),
             tex_coord: strip(tex_coord),
+            tangent: strip(tangent),
             indices: strip(indices),
         })
     }
@@ -654,17 +689,17 @@ impl Loader<'_> {
         }
         let base_texture = pbr
             .base_color_texture()
-            .map(|t| self.texture(&t.texture(), true, &element))
+            .map(|t| self.texture_info(&t, true, &element, "baseColorTexture"))
             .transpose()?;
         let mr_texture = pbr
             .metallic_roughness_texture()
-            .map(|t| self.texture(&t.texture(), false, &element))
+            .map(|t| self.texture_info(&t, false, &element, "metallicRoughnessTexture"))
             .transpose()?;
         let transmission_texture = m
             .transmission()
             .and_then(|t| t.transmission_texture())
             .filter(|_| transmission > 0.0)
-            .map(|t| self.texture(&t.texture(), false, &element))
+            .map(|t| self.texture_info(&t, false, &element, "transmissionTexture"))
             .transpose()?;
         let (specular, specular_color) = specular_extension(m).map_err(invalid)?;
         let surface =
@@ -709,24 +744,173 @@ impl Loader<'_> {
                 "emission (emissiveFactor x emissiveStrength) overflows, got {emission}"
             )));
         }
+        let maps = self.maps(m, &element)?;
         let name = m.name().map_or_else(|| element.clone(), str::to_string);
         let id = self.builder.add_material(Material {
             name,
             surface,
             emission,
             medium,
+            maps,
         });
         self.materials.insert(m.index(), id);
         Ok(id)
+    }
+
+    /// The emissive, normal and alpha maps of `m` (material module docs).
+    fn maps(&mut self, m: &gltf::Material, element: &str) -> Result<Maps, SceneError> {
+        let path = self.path;
+        let invalid = |message: String| SceneError::invalid(path, element, message);
+        let emission = m
+            .emissive_texture()
+            .map(|t| self.texture_info(&t, true, element, "emissiveTexture"))
+            .transpose()?;
+        let normal = match m.normal_texture() {
+            Some(n) => {
+                let scale = n.scale();
+                if !scale.is_finite() {
+                    return Err(invalid(format!(
+                        "normalTexture.scale must be finite, got {scale}"
+                    )));
+                }
+                // gltf 1.4.1 has no typed transform on normalTexture.
+                let raw = n
+                    .extension_value("KHR_texture_transform")
+                    .map(|v| {
+                        RawTransform::from_json(v).map_err(|e| {
+                            invalid(format!(
+                                "normalTexture.extensions.KHR_texture_transform: {e}"
+                            ))
+                        })
+                    })
+                    .transpose()?;
+                let transform = self.uv_transform(raw, n.tex_coord(), element, "normalTexture")?;
+                let texture = self.texture(&n.texture(), false, transform, element)?;
+                Some(NormalMap {
+                    texture,
+                    kind: NormalMapKind::Tangent { scale },
+                })
+            }
+            None => None,
+        };
+        let pbr = m.pbr_metallic_roughness();
+        let factor = pbr.base_color_factor()[3];
+        if !(0.0..=1.0).contains(&factor) {
+            return Err(invalid(format!(
+                "baseColorFactor's alpha must be in [0, 1], got {factor}"
+            )));
+        }
+        let cutoff = m.alpha_cutoff().unwrap_or(0.5);
+        if !(cutoff.is_finite() && cutoff >= 0.0) {
+            return Err(invalid(format!(
+                "alphaCutoff must be finite and >= 0, got {cutoff}"
+            )));
+        }
+        let mode = m.alpha_mode();
+        let texture = match (mode, pbr.base_color_texture()) {
+            (gltf::material::AlphaMode::Opaque, _) | (_, None) => None,
+            (_, Some(t)) => Some(self.texture_info(&t, true, element, "baseColorTexture")?),
+        };
+        // Without a texture a mask that keeps everything, or a blend of
+        // alpha 1, is opaque: no test at render time.
+        let alpha = match mode {
+            gltf::material::AlphaMode::Mask if texture.is_some() || factor < cutoff => {
+                Alpha::Mask {
+                    factor,
+                    texture,
+                    cutoff,
+                }
+            }
+            gltf::material::AlphaMode::Blend if texture.is_some() || factor < 1.0 => {
+                Alpha::Blend { factor, texture }
+            }
+            _ => Alpha::Opaque,
+        };
+        Ok(Maps {
+            emission,
+            normal,
+            alpha,
+        })
+    }
+
+    /// A `textureInfo`'s texture, read through its `KHR_texture_transform`.
+    fn texture_info(
+        &mut self,
+        info: &gltf::texture::Info,
+        srgb: bool,
+        element: &str,
+        slot: &str,
+    ) -> Result<usize, SceneError> {
+        let transform = info.texture_transform().map(|t| RawTransform {
+            offset: t.offset(),
+            rotation: t.rotation(),
+            scale: t.scale(),
+            tex_coord: t.tex_coord(),
+        });
+        let transform = self.uv_transform(transform, info.tex_coord(), element, slot)?;
+        self.texture(&info.texture(), srgb, transform, element)
+    }
+
+    /// The uv transform of texture slot `slot` (identity when absent), its
+    /// numbers checked. Only TEXCOORD_0 is loaded: a slot reading another
+    /// set (`tex_coord`, or the extension's `texCoord` override) is read
+    /// with TEXCOORD_0 and warned about.
+    fn uv_transform(
+        &mut self,
+        raw: Option<RawTransform>,
+        tex_coord: u32,
+        element: &str,
+        slot: &str,
+    ) -> Result<Option<UvTransform>, SceneError> {
+        let tex_coord = raw.and_then(|r| r.tex_coord).unwrap_or(tex_coord);
+        if tex_coord != 0 {
+            self.builder.report.warnings.push(format!(
+                "{}: {element}: {slot} uses TEXCOORD_{tex_coord}; only TEXCOORD_0 is loaded and used instead",
+                self.path.display()
+            ));
+        }
+        let Some(raw) = raw else {
+            return Ok(None);
+        };
+        let numbers = [
+            raw.offset[0],
+            raw.offset[1],
+            raw.rotation,
+            raw.scale[0],
+            raw.scale[1],
+        ];
+        if !numbers.iter().all(|x| x.is_finite()) {
+            return Err(SceneError::invalid(
+                self.path,
+                element,
+                format!(
+                    "{slot}.extensions.KHR_texture_transform: offset, rotation and scale must be finite, got {:?}, {}, {:?}",
+                    raw.offset, raw.rotation, raw.scale
+                ),
+            ));
+        }
+        Ok(Some(UvTransform {
+            offset: Vec2::from_array(raw.offset),
+            rotation: raw.rotation,
+            scale: Vec2::from_array(raw.scale),
+        }))
     }
 
     fn texture(
         &mut self,
         texture: &gltf::Texture,
         srgb: bool,
+        transform: Option<UvTransform>,
         element: &str,
     ) -> Result<usize, SceneError> {
-        if let Some(&id) = self.textures.get(&(texture.index(), srgb)) {
+        let key = (
+            texture.index(),
+            srgb,
+            transform.map(|t| {
+                [t.offset.x, t.offset.y, t.rotation, t.scale.x, t.scale.y].map(f32::to_bits)
+            }),
+        );
+        if let Some(&id) = self.textures.get(&key) {
             return Ok(id);
         }
         let image_index = texture.source().index();
@@ -764,8 +948,9 @@ impl Loader<'_> {
         let sampler = texture.sampler();
         t.wrap_u = wrap(sampler.wrap_s());
         t.wrap_v = wrap(sampler.wrap_t());
+        t.transform = transform;
         let id = self.builder.add_texture(t);
-        self.textures.insert((texture.index(), srgb), id);
+        self.textures.insert(key, id);
         Ok(id)
     }
 
@@ -843,6 +1028,71 @@ impl Loader<'_> {
         self.builder.lights.push(l);
         Ok(())
     }
+}
+
+/// A `KHR_texture_transform` object as written (defaults filled in).
+#[derive(Clone, Copy)]
+struct RawTransform {
+    offset: [f32; 2],
+    rotation: f32,
+    scale: [f32; 2],
+    tex_coord: Option<u32>,
+}
+
+impl RawTransform {
+    /// Parses the extension's JSON object (where the `gltf` crate has no
+    /// typed accessor).
+    fn from_json(v: &serde_json::Value) -> Result<Self, String> {
+        let pair = |key: &str, default: [f32; 2]| -> Result<[f32; 2], String> {
+            match v.get(key) {
+                None => Ok(default),
+                Some(x) => x
+                    .as_array()
+                    .filter(|a| a.len() == 2)
+                    .and_then(|a| Some([a[0].as_f64()? as f32, a[1].as_f64()? as f32]))
+                    .ok_or_else(|| format!("{key} must be two numbers")),
+            }
+        };
+        let rotation = match v.get("rotation") {
+            None => 0.0,
+            Some(x) => x.as_f64().ok_or("rotation must be a number")? as f32,
+        };
+        let tex_coord = match v.get("texCoord") {
+            None => None,
+            Some(x) => Some(
+                x.as_u64()
+                    .and_then(|t| u32::try_from(t).ok())
+                    .ok_or("texCoord must be a non-negative integer")?,
+            ),
+        };
+        Ok(Self {
+            offset: pair("offset", [0.0, 0.0])?,
+            rotation,
+            scale: pair("scale", [1.0, 1.0])?,
+            tex_coord,
+        })
+    }
+}
+
+/// Object-space tangents to world space: xyz by the node's linear part
+/// (tangents are surface directions, unlike normals), the handedness w
+/// flipped by a mirroring transform. A non-finite or zero tangent becomes
+/// zero (derived from the uvs at render time); returns how many did.
+fn world_tangents(tangents: &[Vec4], world: Mat4) -> (Vec<Vec4>, usize) {
+    let linear = Mat3::from_mat4(world);
+    let sign = linear.determinant().signum();
+    let mut replaced = 0;
+    let out = tangents
+        .iter()
+        .map(|t| match (linear * t.truncate()).try_normalize() {
+            Some(xyz) if t.is_finite() => xyz.extend(if t.w < 0.0 { -sign } else { sign }),
+            _ => {
+                replaced += 1;
+                Vec4::ZERO
+            }
+        })
+        .collect();
+    (out, replaced)
 }
 
 fn check_position_accessors(path: &Path, root: &gltf::json::Root) -> Result<(), SceneError> {

@@ -394,11 +394,19 @@ fn apply_materials(
             Some(sigma_a) => Medium::absorbing(sigma_a),
             None => base.as_ref().and_then(|b| b.medium),
         };
+        // An overridden model material keeps its normal and alpha maps (they
+        // belong to the geometry), and its emissive texture unless the
+        // manifest gives the emission.
+        let mut maps = base.as_ref().map_or_else(Default::default, |b| b.maps);
+        if section.emission.is_some() {
+            maps.emission = None;
+        }
         let material = Material {
             name: section.name.clone(),
             surface,
             emission,
             medium,
+            maps,
         };
         match target {
             Some(i) => builder.materials[i] = material,

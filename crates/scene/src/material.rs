@@ -21,8 +21,9 @@
 //!   textures are not used). A material with metallic 0 and specularFactor 0
 //!   is Lambertian (the lobe reduces to it, and a Lambertian vertex has no
 //!   roughness for regularization to change).
-//! - emission = emissiveFactor x `KHR_materials_emissive_strength`; emissive
-//!   textures are not used. Material `extras` may choose `"ndf"`
+//! - emission = emissiveFactor x `KHR_materials_emissive_strength`, times the
+//!   sRGB-decoded `emissiveTexture` where there is one ([`Maps::emission`]).
+//!   Material `extras` may choose `"ndf"`
 //!   (`"ggx"` default, `"beckmann"`, `"blinn-phong"`) and `"shadowing"`
 //!   (`"smith"` default, `"v-cavity"`).
 //!
@@ -46,6 +47,12 @@
 //!   above; both only where the material has Ks (a warning otherwise).
 //! - otherwise Lambertian Kd.
 //! - `Ke`: emission. `map_Kd`: base colour texture (sRGB).
+//!
+//! Maps on every material ([`Maps`], both formats): glTF `normalTexture`
+//! (with `scale`), `alphaMode` MASK (with `alphaCutoff`) and BLEND from the
+//! base colour's alpha, `KHR_texture_transform` on every texture read (in
+//! [`Texture`]); MTL `norm` (tangent-space normal map) and `bump`/`map_Bump`
+//! (height map).
 //!
 //! Emission is one-sided, on the side the geometric normal (counter-clockwise
 //! winding) points to.
@@ -133,12 +140,126 @@ pub struct Material {
     pub name: String,
     /// Scattering.
     pub surface: Surface,
-    /// Emitted radiance (W sr^-1 m^-2 per channel), zero for non-emitters.
+    /// Emitted radiance (W sr^-1 m^-2 per channel), zero for non-emitters;
+    /// the emissive texture, if any, multiplies it.
     pub emission: Vec3,
     /// What fills the inside of a closed dielectric mesh with this material
     /// (behind the geometric normal); `None` for clear glass and for every
     /// opaque material.
     pub medium: Option<Medium>,
+    /// Emission, normal and alpha maps.
+    pub maps: Maps,
+}
+
+/// The textures of a material other than its lobe's: emission, shading
+/// normal and coverage. All absent by default (no cost at render time).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Maps {
+    /// Emissive texture (sRGB-decoded), multiplied with `Material::emission`.
+    pub emission: Option<usize>,
+    /// Perturbation of the shading normal.
+    pub normal: Option<NormalMap>,
+    /// Coverage (cut-outs and stochastic transparency).
+    pub alpha: Alpha,
+}
+
+impl Maps {
+    /// The maps with every texture index shifted by `offset` (scenes appended).
+    pub fn with_texture_offset(mut self, offset: usize) -> Self {
+        self.emission = self.emission.map(|t| t + offset);
+        if let Some(n) = &mut self.normal {
+            n.texture += offset;
+        }
+        if let Alpha::Mask { texture, .. } | Alpha::Blend { texture, .. } = &mut self.alpha {
+            *texture = texture.map(|t| t + offset);
+        }
+        self
+    }
+}
+
+/// A texture that perturbs the shading normal.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NormalMap {
+    /// The texture (linear values).
+    pub texture: usize,
+    /// What the texture holds.
+    pub kind: NormalMapKind,
+}
+
+/// How a [`NormalMap`]'s texels become a shading normal.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum NormalMapKind {
+    /// Tangent-space normals, rgb = (n + 1) / 2 (glTF 2.0 spec, 3.9.3
+    /// "Additional Textures"): x along the tangent (+u), y along the bitangent,
+    /// z along the normal; x and y are multiplied by `scale`.
+    Tangent {
+        /// glTF `normalTexture.scale`.
+        scale: f32,
+    },
+    /// A height map (its first channel) displacing the surface along the
+    /// normal by `scale` x height, in uv units (Blinn 1978; pbrt-v3 §9.3).
+    Height {
+        /// MTL `-bm` multiplier.
+        scale: f32,
+    },
+}
+
+/// glTF `alphaMode` (glTF 2.0 spec, 3.9.4 "Alpha Coverage"): the coverage
+/// alpha is `factor` x the alpha of `texture` (the base colour texture).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Alpha {
+    /// Alpha is ignored (the default): the surface is everywhere.
+    #[default]
+    Opaque,
+    /// Cut-out: where alpha < `cutoff` the surface does not exist for any ray.
+    Mask {
+        /// Base colour factor's alpha.
+        factor: f32,
+        /// Base colour texture (its alpha channel).
+        texture: Option<usize>,
+        /// `alphaCutoff` (glTF default 0.5).
+        cutoff: f32,
+    },
+    /// Stochastic transparency: a ray meets the surface with probability alpha.
+    Blend {
+        /// Base colour factor's alpha.
+        factor: f32,
+        /// Base colour texture (its alpha channel).
+        texture: Option<usize>,
+    },
+}
+
+impl Alpha {
+    /// True for `Opaque`, whose surface every ray meets.
+    pub fn is_opaque(&self) -> bool {
+        matches!(self, Alpha::Opaque)
+    }
+
+    /// The fraction of rays that meet the surface at `uv`: 1 (opaque), 0 or
+    /// 1 (mask), alpha in [0, 1] (blend).
+    pub fn coverage(&self, uv: Vec2, textures: &[Texture]) -> f32 {
+        let alpha = |factor: f32, texture: Option<usize>| {
+            let texel = texture
+                .and_then(|i| textures.get(i))
+                .map_or(1.0, |t| t.sample(uv).w);
+            (factor * texel).clamp(0.0, 1.0)
+        };
+        match *self {
+            Alpha::Opaque => 1.0,
+            Alpha::Mask {
+                factor,
+                texture,
+                cutoff,
+            } => {
+                if alpha(factor, texture) < cutoff {
+                    0.0
+                } else {
+                    1.0
+                }
+            }
+            Alpha::Blend { factor, texture } => alpha(factor, texture),
+        }
+    }
 }
 
 /// A homogeneous absorbing medium (no scattering): Beer-Lambert
@@ -195,9 +316,31 @@ impl Medium {
 pub const OPAQUE_SIGMA_A: f32 = 1e30;
 
 impl Material {
-    /// True when the material emits light.
+    /// A material with no maps and no medium.
+    pub fn new(name: String, surface: Surface, emission: Vec3) -> Self {
+        Self {
+            name,
+            surface,
+            emission,
+            medium: None,
+            maps: Maps::default(),
+        }
+    }
+
+    /// True when the material emits light (its factor; a texture may still
+    /// be black in places).
     pub fn is_emissive(&self) -> bool {
         self.emission.max_element() > 0.0
+    }
+
+    /// Emitted radiance at texture coordinate `uv`: the factor, times the
+    /// emissive texture where there is one (glTF 2.0 spec, 3.9.5).
+    #[inline]
+    pub fn emission_at(&self, uv: Vec2, textures: &[Texture]) -> Vec3 {
+        match self.maps.emission.and_then(|i| textures.get(i)) {
+            Some(t) => self.emission * t.sample(uv).truncate(),
+            None => self.emission,
+        }
     }
 }
 

@@ -8,7 +8,9 @@ use glam::{Vec2, Vec3};
 use microfacet::{Fresnel, MicrofacetModel, NdfKind, Shadowing};
 
 use crate::error::{SceneError, quoted};
-use crate::material::{Material, MetalRough, Surface, TexturedPbr, metal_rough_surface};
+use crate::material::{
+    Maps, Material, MetalRough, NormalMap, NormalMapKind, Surface, TexturedPbr, metal_rough_surface,
+};
 use crate::scene::SceneBuilder;
 use crate::texture::Texture;
 
@@ -35,6 +37,7 @@ fn default_material() -> Material {
         },
         emission: Vec3::ZERO,
         medium: None,
+        maps: Default::default(),
     }
 }
 
@@ -552,7 +555,87 @@ fn map_material(
         surface,
         emission: ke,
         medium: None,
+        maps: Maps {
+            normal: normal_map(source, m, &element(), builder, textures)?,
+            ..Maps::default()
+        },
     })
+}
+
+/// The material's `norm` (tangent-space normal map) or, without one, its
+/// `bump`/`map_Bump` (height map; `-bm` scales it, 1 by default). Other
+/// options of the statement are skipped with a warning.
+fn normal_map(
+    source: &Source,
+    m: &tobj::Material,
+    element: &str,
+    builder: &mut SceneBuilder,
+    textures: &mut HashMap<(PathBuf, bool), usize>,
+) -> Result<Option<NormalMap>, SceneError> {
+    let (key, statement) = match (m.unknown_param.get("norm"), &m.normal_texture) {
+        (Some(norm), _) => ("norm", norm),
+        (None, Some(bump)) => ("bump", bump),
+        (None, None) => return Ok(None),
+    };
+    let (file, scale, ignored) = texture_options(statement);
+    let scale = match scale {
+        Some(s) => s
+            .parse::<f32>()
+            .ok()
+            .filter(|s| s.is_finite())
+            .ok_or_else(|| {
+                SceneError::invalid(
+                    source.file,
+                    element,
+                    format!("{key}: -bm needs a finite number, got {}", quoted(s)),
+                )
+            })?,
+        None => 1.0,
+    };
+    if !ignored.is_empty() {
+        builder.report.warnings.push(format!(
+            "{}: {element}: {key}: options {} ignored",
+            source.file.display(),
+            quoted(&ignored.join(" "))
+        ));
+    }
+    let texture = load_texture(source, element, key, file, false, builder, textures)?;
+    let kind = if key == "norm" {
+        NormalMapKind::Tangent { scale }
+    } else {
+        NormalMapKind::Height { scale }
+    };
+    Ok(Some(NormalMap { texture, kind }))
+}
+
+/// A texture statement's file (the text after its options), its `-bm`
+/// value, and the other options (MTL options start with `-`; all but
+/// `-bm`, `-clamp`, `-imfchan` and the three-number `-o`/`-s`/`-t` are taken
+/// to have one value). Without options the whole text is the file name.
+fn texture_options(statement: &str) -> (&str, Option<&str>, Vec<&str>) {
+    let text = statement.trim();
+    if !text.starts_with('-') {
+        return (text, None, Vec::new());
+    }
+    let words: Vec<&str> = text.split_whitespace().collect();
+    let (mut i, mut bm, mut ignored) = (0, None, Vec::new());
+    while i + 1 < words.len() && words[i].starts_with('-') {
+        let values = match words[i] {
+            "-o" | "-s" | "-t" => 3,
+            _ => 1,
+        };
+        let end = (i + 1 + values).min(words.len() - 1);
+        if words[i] == "-bm" {
+            bm = Some(words[i + 1]);
+        } else {
+            ignored.extend_from_slice(&words[i..end]);
+        }
+        i = end;
+    }
+    // The file name is the rest (it may contain spaces).
+    let rest = words[i..].join(" ");
+    let file = text.rfind(&rest).map_or(text, |at| &text[at..]);
+    (file, bm, ignored)
 }
 
 /// The textures of the `material` module docs: `map_Kd` on a diffuse or
@@ -637,6 +720,7 @@ fn textured(
 }
 
 /// Loads the texture of MTL key `key` (`map_Kd`, ...) through the cache.
+#[allow(clippy::too_many_arguments)]
 fn load_texture(
     source: &Source,
     element: &str,

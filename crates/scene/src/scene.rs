@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use glam::{DVec3, Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3, Vec4};
 
 use crate::camera::Camera;
 use crate::environment::EnvironmentMap;
@@ -61,6 +61,10 @@ pub struct Scene {
     pub normals: Vec<[Vec3; 3]>,
     /// Texture coordinates per triangle vertex (zero where the file has none).
     pub uvs: Vec<[Vec2; 3]>,
+    /// Tangents per triangle vertex from the file (glTF TANGENT: xyz, w the
+    /// bitangent's sign), for normal maps. Empty when no file gives any;
+    /// zero for triangles without (their tangent is derived from the uvs).
+    pub tangents: Vec<[Vec4; 3]>,
     /// Material index per triangle.
     pub triangle_materials: Vec<u32>,
     /// Materials.
@@ -140,6 +144,7 @@ pub struct SceneBuilder {
     pub(crate) triangles: Vec<[Vec3; 3]>,
     pub(crate) normals: Vec<[Vec3; 3]>,
     pub(crate) uvs: Vec<[Vec2; 3]>,
+    pub(crate) tangents: Vec<[Vec4; 3]>,
     pub(crate) triangle_materials: Vec<u32>,
     pub(crate) materials: Vec<Material>,
     pub(crate) textures: Vec<Texture>,
@@ -211,12 +216,28 @@ impl SceneBuilder {
         Ok(())
     }
 
+    /// Sets the file's tangents of the triangle just added, if
+    /// [`SceneBuilder::add_triangle`] kept it (it had `before` triangles).
+    pub(crate) fn set_last_tangents(&mut self, before: usize, tangents: [Vec4; 3]) {
+        if self.triangles.len() > before {
+            self.tangents.resize(before, [Vec4::ZERO; 3]);
+            self.tangents.push(tangents);
+        }
+    }
+
     /// Appends everything of `other`, re-indexing its materials and textures.
-    pub(crate) fn append(&mut self, other: SceneBuilder) {
+    pub(crate) fn append(&mut self, mut other: SceneBuilder) {
         let material_offset = self.materials.len() as u32;
         let texture_offset = self.textures.len();
         let triangle_offset = self.triangles.len() as u32;
         let map_offset = self.environment_maps.len() as u32;
+        if !(self.tangents.is_empty() && other.tangents.is_empty()) {
+            self.tangents.resize(self.triangles.len(), [Vec4::ZERO; 3]);
+            other
+                .tangents
+                .resize(other.triangles.len(), [Vec4::ZERO; 3]);
+            self.tangents.extend(other.tangents);
+        }
         self.triangles.extend(other.triangles);
         self.normals.extend(other.normals);
         self.uvs.extend(other.uvs);
@@ -234,6 +255,7 @@ impl SceneBuilder {
                         .shininess_texture
                         .map(|(ns, t)| (ns, t + texture_offset));
                 }
+                m.maps = m.maps.with_texture_offset(texture_offset);
                 m
             }));
         self.textures.extend(other.textures);
@@ -268,6 +290,9 @@ impl SceneBuilder {
             }
         }
         self.report.non_manifold_edges = count_non_manifold_edges(&self.triangles);
+        if !self.tangents.is_empty() {
+            self.tangents.resize(self.triangles.len(), [Vec4::ZERO; 3]);
+        }
         // An empty scene is refused or warned about by `validate`.
         let (min, max) = bounds_of(&self.triangles);
         let camera = camera.unwrap_or_else(|| Camera::framing(min, max, resolution));
@@ -275,6 +300,7 @@ impl SceneBuilder {
             triangles: self.triangles,
             normals: self.normals,
             uvs: self.uvs,
+            tangents: self.tangents,
             triangle_materials: self.triangle_materials,
             materials: self.materials,
             textures: self.textures,

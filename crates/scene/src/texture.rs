@@ -1,6 +1,7 @@
-//! Image textures: linear RGBA texels, bilinear lookup, glTF wrap modes.
+//! Image textures: linear RGBA texels, bilinear lookup, glTF wrap modes,
+//! and the uv transform of `KHR_texture_transform`.
 
-use glam::{Vec2, Vec4};
+use glam::{Mat2, Vec2, Vec4};
 
 /// How texture coordinates outside [0, 1] are mapped (glTF sampler wrap modes).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -26,6 +27,29 @@ pub struct Texture {
     pub wrap_u: Wrap,
     /// Wrap mode along v.
     pub wrap_v: Wrap,
+    /// Applied to the uv before every lookup (`None`: identity, no cost).
+    pub transform: Option<UvTransform>,
+}
+
+/// `KHR_texture_transform` (Khronos extension spec, "Overview"): the uv a
+/// texture is read at is `T * R * S * uv`, with S = diag(scale), R the
+/// rotation by `rotation` radians written there column-major as
+/// ((cos, sin), (-sin, cos)) (glam's `Mat2::from_angle`), T the offset.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UvTransform {
+    /// Translation of the uv origin, in texture widths and heights.
+    pub offset: Vec2,
+    /// Rotation in radians.
+    pub rotation: f32,
+    /// Scale per axis.
+    pub scale: Vec2,
+}
+
+impl UvTransform {
+    /// The transformed uv: offset + R(rotation) (scale * uv).
+    pub fn apply(&self, uv: Vec2) -> Vec2 {
+        self.offset + Mat2::from_angle(self.rotation) * (self.scale * uv)
+    }
 }
 
 /// sRGB electro-optical transfer function (IEC 61966-2-1): encoded -> linear.
@@ -86,12 +110,18 @@ impl Texture {
             texels,
             wrap_u: Wrap::Repeat,
             wrap_v: Wrap::Repeat,
+            transform: None,
         })
     }
 
-    /// Bilinear lookup at `uv` (texel centres at half-integers; v = 0 is the
-    /// top row, as in glTF). Non-finite coordinates read texel (0, 0).
+    /// Bilinear lookup at `uv` (after [`Texture::transform`]; texel centres
+    /// at half-integers; v = 0 is the top row, as in glTF). Non-finite
+    /// coordinates read texel (0, 0).
     pub fn sample(&self, uv: Vec2) -> Vec4 {
+        let uv = match self.transform {
+            Some(t) => t.apply(uv),
+            None => uv,
+        };
         let uv = if uv.is_finite() { uv } else { Vec2::ZERO };
         let x = uv.x * self.width as f32 - 0.5;
         let y = uv.y * self.height as f32 - 0.5;
@@ -148,6 +178,29 @@ mod tests {
         t.wrap_u = Wrap::Mirror;
         assert_eq!(t.sample(Vec2::new(1.25, 0.5)).x, 1.0);
         assert_eq!(t.sample(Vec2::new(f32::NAN, 0.5)).x, 0.0);
+    }
+
+    /// The extension's order T * R * S: scale first, then rotate, then offset.
+    #[test]
+    fn uv_transform_order() {
+        let t = UvTransform {
+            offset: Vec2::new(0.5, 0.0),
+            rotation: std::f32::consts::FRAC_PI_2,
+            scale: Vec2::new(2.0, 1.0),
+        };
+        // (1, 0) -> scale (2, 0) -> rotate by +90 degrees (0, 2) -> offset (0.5, 2).
+        assert!((t.apply(Vec2::new(1.0, 0.0)) - Vec2::new(0.5, 2.0)).length() < 1e-6);
+        // (0, 1) -> (0, 1) -> (-1, 0) -> (-0.5, 0).
+        assert!((t.apply(Vec2::new(0.0, 1.0)) - Vec2::new(-0.5, 0.0)).length() < 1e-6);
+        // On a lookup: the left half (black) read where the right one is.
+        let mut tex = checker();
+        tex.transform = Some(UvTransform {
+            offset: Vec2::new(0.5, 0.0),
+            rotation: 0.0,
+            scale: Vec2::ONE,
+        });
+        assert_eq!(tex.sample(Vec2::new(0.25, 0.5)).x, 1.0);
+        assert_eq!(tex.sample(Vec2::new(0.75, 0.5)).x, 0.0);
     }
 
     #[test]

@@ -460,12 +460,7 @@ mod tests {
 
     #[test]
     fn materials_map_to_mitsuba_bsdfs() {
-        let material = |surface| Material {
-            name: "m".into(),
-            surface,
-            emission: Vec3::ZERO,
-            medium: None,
-        };
+        let material = |surface| Material::new("m".into(), surface, Vec3::ZERO);
         let model = MicrofacetModel::new(NdfKind::Ggx, 0.25, Shadowing::Smith);
         let coated = Coated {
             model,

@@ -16,8 +16,10 @@ pub const SUPPORTED: &[&str] = &[
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
+    "KHR_materials_specular",
     "KHR_materials_transmission",
     "KHR_materials_volume",
+    "KHR_texture_transform",
 ];
 
 /// At most this many material names are listed per ignored extension, so a

@@ -29,6 +29,8 @@ pub(super) enum Semantic {
     Normal,
     /// `TEXCOORD_0`: FLOAT, or normalized UNSIGNED_BYTE/UNSIGNED_SHORT, VEC2.
     TexCoord,
+    /// `TANGENT`: FLOAT VEC4.
+    Tangent,
     /// `indices`: UNSIGNED_BYTE/SHORT/INT SCALAR.
     Indices,
 }
@@ -39,6 +41,7 @@ impl Semantic {
             Self::Position => "POSITION",
             Self::Normal => "NORMAL",
             Self::TexCoord => "TEXCOORD_0",
+            Self::Tangent => "TANGENT",
             Self::Indices => "indices",
         }
     }
@@ -128,6 +131,7 @@ pub(super) fn check_accessor(
     let (ty, shape) = (accessor.data_type(), accessor.dimensions());
     let (types_ok, expected_type, expected_shape) = match semantic {
         Semantic::Position | Semantic::Normal => (ty == DataType::F32, "FLOAT", Dimensions::Vec3),
+        Semantic::Tangent => (ty == DataType::F32, "FLOAT", Dimensions::Vec4),
         Semantic::TexCoord => (
             ty == DataType::F32
                 || (matches!(ty, DataType::U8 | DataType::U16) && accessor.normalized()),
