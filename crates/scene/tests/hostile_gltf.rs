@@ -540,11 +540,11 @@ fn transmission_is_tinted_glass_and_volume_absorbs() {
     let mut thin = volume.clone();
     thin["KHR_materials_volume"]["thicknessFactor"] = json!(0);
     assert_eq!(material_with(base, thin).medium, None);
-    // Transmission below one half: the diffuse base wins, nothing to fill.
+    // Transmission below one half: the base (the coated lobe) wins, nothing to fill.
     let mut weak = volume;
     weak["KHR_materials_transmission"]["transmissionFactor"] = json!(0.3);
     let weak = material_with(base, weak);
-    assert!(matches!(weak.surface, scene::Surface::Diffuse { .. }));
+    assert!(matches!(weak.surface, scene::Surface::Coated(_)));
     assert_eq!(weak.medium, None);
 }
 
