@@ -13,6 +13,7 @@ error. Errors are one line on standard error and exit status 1.
 
 import argparse
 import json
+import pathlib
 import sys
 import time
 
@@ -46,6 +47,10 @@ def main():
         mi.set_variant("scalar_rgb")
     except Exception as e:  # noqa: BLE001 - any failure is reported as one line
         fail(f"variant scalar_rgb is not available: {e}")
+    # Our coated lobe as a plugin (`rlt_coated`, see rlt_coated.py), which the exporter writes.
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+    import rlt_coated  # noqa: F401 - registers the plugin
+
     # Keep Mitsuba's log (and progress bar) off standard output, which carries the JSON.
     mi.set_log_level(mi.LogLevel.Warn)
 
