@@ -115,6 +115,15 @@ fn cores() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
 }
 
+/// `<target>/release/<name>` of this workspace, honouring `CARGO_TARGET_DIR`
+/// (a relative one is relative to `root`, where xtask runs cargo).
+fn release_binary(root: &Path, name: &str) -> PathBuf {
+    std::env::var_os("CARGO_TARGET_DIR")
+        .map_or_else(|| root.join("target"), |dir| root.join(dir))
+        .join("release")
+        .join(name)
+}
+
 /// The first three fields of /proc/loadavg ("?" where unavailable).
 fn load_average() -> String {
     std::fs::read_to_string("/proc/loadavg")

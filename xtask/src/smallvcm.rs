@@ -56,7 +56,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
         .map_err(|e| format!("cannot create {}: {e}", options.out.display()))?;
     let theirs = build_smallvcm(&options.src, &options.out)?;
     crate::cargo(root, &["build", "--release", "-p", "render-cli"])?;
-    let ours = release_binary(root, "render-cli");
+    let ours = crate::release_binary(root, "render-cli");
     let mut rows = Vec::new();
     for &scene in &options.scenes {
         for algorithm in &options.algorithms {
@@ -172,14 +172,6 @@ fn build_smallvcm(src: &Path, out: &Path) -> Result<PathBuf, String> {
         }
     }
     Ok(binary)
-}
-
-/// `<target>/release/<name>`, honouring `CARGO_TARGET_DIR`.
-fn release_binary(root: &Path, name: &str) -> PathBuf {
-    std::env::var_os("CARGO_TARGET_DIR")
-        .map_or_else(|| root.join("target"), PathBuf::from)
-        .join("release")
-        .join(name)
 }
 
 /// (t(1 + k) - t(1)) / k for a timing function of the iteration count.

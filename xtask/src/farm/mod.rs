@@ -176,7 +176,7 @@ fn slurm_render(root: &Path, args: &[String]) -> Result<(), String> {
         iterations,
         ranges: shard_ranges(iterations, shards)?,
         render_flags: o.render_flags.clone(),
-        render_cli: root.join("target/release/render-cli"),
+        render_cli: crate::release_binary(root, "render-cli"),
         folder,
         resources: o.resources.clone(),
     };
@@ -288,7 +288,7 @@ pub fn render_film(root: &Path, job: &FilmJob<'_>) -> Result<(integrators::Film,
         iterations: job.iterations,
         ranges: shard_ranges(job.iterations, job.shards)?,
         render_flags: job.render_flags.clone(),
-        render_cli: root.join("target/release/render-cli"),
+        render_cli: crate::release_binary(root, "render-cli"),
         folder: std::path::absolute(&job.folder).map_err(|e| e.to_string())?,
         resources: job.resources.clone(),
     };

@@ -82,7 +82,7 @@ fn plan(root: &Path, folder: PathBuf, iterations: u64) -> Result<Plan, String> {
         iterations,
         ranges: shard_ranges(iterations, SHARDS)?,
         render_flags: FLAGS.iter().map(|f| f.to_string()).collect(),
-        render_cli: root.join("target/release/render-cli"),
+        render_cli: crate::release_binary(root, "render-cli"),
         folder,
         resources: Resources {
             cpus_per_task: 1,
