@@ -60,18 +60,7 @@ scale = 0.3
 /// The scene above with the bundled sky map, and a floor whose tangent-space
 /// normal map tilts the normal by up to 45 degrees in ridges along u.
 fn scene() -> scene::Scene {
-    let dir: PathBuf =
-        std::env::temp_dir().join(format!("rlt-real-materials-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    std::fs::copy(
-        common::bundled("env-sphere").with_file_name("sky.hdr"),
-        dir.join("sky.hdr"),
-    )
-    .unwrap();
-    let path = dir.join("scene.toml");
-    std::fs::write(&path, SCENE).unwrap();
-    let mut s = common::load(&path, 16, 12);
-    std::fs::remove_dir_all(&dir).unwrap();
+    let mut s = load_manifest("real-materials", SCENE, (16, 12));
 
     let mut ridges = Texture::from_u8(1, 1, 1, &[0], false).unwrap();
     ridges.width = 64;
@@ -88,6 +77,20 @@ fn scene() -> scene::Scene {
         kind: NormalMapKind::Tangent { scale: 1.0 },
     });
     s
+}
+
+/// Loads `manifest` at `resolution` from a temporary folder named after
+/// `what`, with the bundled sky map beside it.
+fn load_manifest(what: &str, manifest: &str, (w, h): (u32, u32)) -> scene::Scene {
+    let dir: PathBuf = std::env::temp_dir().join(format!("rlt-{what}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let sky = common::bundled("env-sphere").with_file_name("sky.hdr");
+    std::fs::copy(sky, dir.join("sky.hdr")).unwrap();
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, manifest).unwrap();
+    let scene = common::load(&path, w, h);
+    std::fs::remove_dir_all(&dir).unwrap();
+    scene
 }
 
 fn render(algorithm: Algorithm, seed: u64) -> Film {
