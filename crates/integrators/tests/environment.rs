@@ -5,8 +5,6 @@
 
 mod common;
 
-use std::path::PathBuf;
-
 use glam::{Vec2, Vec3};
 use integrators::environment::EnvironmentDistribution;
 use integrators::{Algorithm, Film, Mode, RenderConfig, Strategies};
@@ -150,15 +148,9 @@ rings = 12
     )
 }
 
-/// Loads `manifest` from a temporary folder named after `what`.
+/// Loads `manifest` at 16x12.
 fn load_manifest(what: &str, manifest: &str) -> scene::Scene {
-    let dir = std::env::temp_dir().join(format!("rlt-env-{what}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path: PathBuf = dir.join("scene.toml");
-    std::fs::write(&path, manifest).unwrap();
-    let scene = common::load(&path, 16, 12);
-    std::fs::remove_dir_all(&dir).unwrap();
-    scene
+    common::load_manifest(&format!("env-{what}"), manifest, &[], (16, 12))
 }
 
 fn config(algorithm: Algorithm, strategies: Strategies, seed: u64) -> RenderConfig {

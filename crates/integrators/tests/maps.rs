@@ -24,10 +24,6 @@ const SIZE: (u32, u32) = (32, 24);
 /// front and above, and `shapes` (manifest `[[shape]]` and `[[material]]`
 /// tables).
 fn floor_scene(shapes: &str) -> scene::Scene {
-    static COUNTER: AtomicUsize = AtomicUsize::new(0);
-    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let dir: PathBuf = std::env::temp_dir().join(format!("maps-{}-{n}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
     let text = format!(
         r#"
 [camera]
@@ -56,11 +52,7 @@ v = [0, 0, -2]
 {shapes}
 "#
     );
-    let path = dir.join("scene.toml");
-    std::fs::write(&path, text).unwrap();
-    let scene = common::load(&path, SIZE.0, SIZE.1);
-    let _ = std::fs::remove_dir_all(&dir);
-    scene
+    common::load_manifest("maps", &text, &[], SIZE)
 }
 
 /// A quad shape of `material`: `origin + s u + t v`; its uv u runs along `u`.

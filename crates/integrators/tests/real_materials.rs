@@ -60,7 +60,7 @@ scale = 0.3
 /// The scene above with the bundled sky map, and a floor whose tangent-space
 /// normal map tilts the normal by up to 45 degrees in ridges along u.
 fn scene() -> scene::Scene {
-    let mut s = load_manifest("real-materials", SCENE, (16, 12));
+    let mut s = common::load_manifest("real-materials", SCENE, &[&sky()], (16, 12));
 
     let mut ridges = Texture::from_u8(1, 1, 1, &[0], false).unwrap();
     ridges.width = 64;
@@ -79,18 +79,9 @@ fn scene() -> scene::Scene {
     s
 }
 
-/// Loads `manifest` at `resolution` from a temporary folder named after
-/// `what`, with the bundled sky map beside it.
-fn load_manifest(what: &str, manifest: &str, (w, h): (u32, u32)) -> scene::Scene {
-    let dir: PathBuf = std::env::temp_dir().join(format!("rlt-{what}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let sky = common::bundled("env-sphere").with_file_name("sky.hdr");
-    std::fs::copy(sky, dir.join("sky.hdr")).unwrap();
-    let path = dir.join("scene.toml");
-    std::fs::write(&path, manifest).unwrap();
-    let scene = common::load(&path, w, h);
-    std::fs::remove_dir_all(&dir).unwrap();
-    scene
+/// The bundled sky map, which the manifests above name.
+fn sky() -> PathBuf {
+    common::bundled("env-sphere").with_file_name("sky.hdr")
 }
 
 fn render(algorithm: Algorithm, seed: u64) -> Film {

@@ -28,6 +28,30 @@ pub fn load(path: &Path, width: u32, height: u32) -> scene::Scene {
     .unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// Writes `manifest` as `scene.toml` into a temporary folder of its own
+/// (named after `what`, the process and a counter: tests run in parallel),
+/// with copies of `files` beside it, loads it at `width` x `height`, and
+/// removes the folder.
+pub fn load_manifest(
+    what: &str,
+    manifest: &str,
+    files: &[&Path],
+    (width, height): (u32, u32),
+) -> scene::Scene {
+    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("rlt-{what}-{}-{call}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for file in files {
+        std::fs::copy(file, dir.join(file.file_name().unwrap())).unwrap();
+    }
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, manifest).unwrap();
+    let scene = load(&path, width, height);
+    std::fs::remove_dir_all(&dir).unwrap();
+    scene
+}
+
 /// A PT configuration.
 pub fn config(strategies: Strategies, mode: Mode, max_depth: u32) -> RenderConfig {
     RenderConfig {
