@@ -1,12 +1,15 @@
-"""Renders a Mitsuba 3 scene with the scalar_rgb variant and reports timings.
+"""Renders a Mitsuba 3 scene with one variant and sampler and reports timings.
 
 Run by `cargo xtask mitsuba` (xtask/src/mitsuba/), which writes the scene
 XML; usable alone too:
 
-    python mitsuba_pt.py --scene scene.xml --out image.exr --spp 64 --seed 1 --threads 2
+    python mitsuba_pt.py --scene scene.xml --out image.exr --spp 64 --seed 1 --threads 2 \
+        --variant llvm_ad_rgb --sampler multijitter
 
 Only the render call is timed: "render_s" lists one time per repeat (scene
-loading, which builds Mitsuba's BVH, is "load_s"). The last line of standard
+loading, which builds Mitsuba's BVH, is "load_s"). With an LLVM variant the
+first render also compiles its kernels (Dr.Jit caches them on disk, in
+~/.drjit, so later processes skip most of it); repeats give the warm time. The last line of standard
 output is one JSON object; Mitsuba's log (warnings only) goes to standard
 error. Errors are one line on standard error and exit status 1.
 """
@@ -35,6 +38,10 @@ def main():
     parser.add_argument(
         "--threads", type=int, default=0, help="worker threads (0: Mitsuba's default, all cores)"
     )
+    parser.add_argument("--variant", default="scalar_rgb", help="Mitsuba variant")
+    parser.add_argument(
+        "--sampler", default="independent", help="sampler plugin (the XML's $sampler)"
+    )
     args = parser.parse_args()
 
     try:
@@ -44,9 +51,9 @@ def main():
         fail(f"cannot import mitsuba: {e}")
 
     try:
-        mi.set_variant("scalar_rgb")
+        mi.set_variant(args.variant)
     except Exception as e:  # noqa: BLE001 - any failure is reported as one line
-        fail(f"variant scalar_rgb is not available: {e}")
+        fail(f"variant {args.variant} is not available: {e}")
     # Our coated lobe as a plugin (`rlt_coated`, see rlt_coated.py), which the exporter writes.
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
     import rlt_coated  # noqa: F401 - registers the plugin
@@ -56,7 +63,7 @@ def main():
 
     try:
         t0 = time.perf_counter()
-        scene = mi.load_file(args.scene)
+        scene = mi.load_file(args.scene, sampler=args.sampler)
         load_s = time.perf_counter() - t0
 
         # After loading: with one thread set before mi.load_file, Mitsuba
@@ -89,6 +96,7 @@ def main():
                 "mitsuba_version": mi.__version__,
                 "drjit_version": dr.__version__,
                 "variant": mi.variant(),
+                "sampler": str(scene.sensors()[0].sampler()).split("[")[0],
                 "threads": threads,
                 "integrator": str(integrator).replace("\n", " "),
                 "width": int(width),

@@ -36,7 +36,8 @@ fn area_lights(scene: &Scene) -> usize {
 
 #[test]
 fn cornell_box_original() {
-    let s = load_default("cornell-box-original/CornellBox-Original.obj");
+    // Moved to the bundled scenes (it is `scenes/cornell-mcguire` too).
+    let s = load_default("../../../../scenes/cornell-mcguire/CornellBox-Original.obj");
     assert_eq!(s.triangles.len(), 36);
     assert_eq!(s.materials.len(), 8);
     // The ceiling light is one quad: two emissive triangles, facing down.

@@ -306,6 +306,7 @@ fn scene_xml(scene: &Scene, options: &Options, shapes: &str) -> String {
         r#"<?xml version="1.0" encoding="utf-8"?>
 <!-- Written by `cargo xtask mitsuba` from {source}; mapping in xtask/src/mitsuba/export.rs. -->
 <scene version="3.0.0">
+    <default name="sampler" value="independent"/>
     <integrator type="path">
         <integer name="max_depth" value="{max_depth}"/>
         <integer name="rr_depth" value="3"/>
@@ -318,7 +319,7 @@ fn scene_xml(scene: &Scene, options: &Options, shapes: &str) -> String {
         <transform name="to_world">
             <lookat origin="{origin}" target="{target}" up="{up}"/>
         </transform>
-        <sampler type="independent">
+        <sampler type="$sampler">
             <integer name="sample_count" value="{spp}"/>
         </sampler>
         <film type="hdrfilm">

@@ -58,11 +58,22 @@ use render::render_all;
 use report::Report;
 
 pub const USAGE: &str =
-    "  mitsuba [options] compare our path tracer with Mitsuba 3 (scalar_rgb `path`)
+    "  mitsuba [options] compare our path tracer with Mitsuba 3's `path` integrator
                     on one scene: export, render both, error against a
-                    reference of ours; writes <out>/report.md and report.json.
-                    Runs itself in release (timings need it).
+                    reference of ours, time to equal error; writes
+                    <out>/report.md and report.json. Runs itself in release
+                    (timings need it).
       --scene PATH          scene (default scenes/cornell-box/scene.toml)
+      --mitsuba LIST        Mitsuba configurations, comma-separated, each
+                            VARIANT[:SAMPLER]: variant scalar_rgb or
+                            llvm_ad_rgb (vectorized; needs libLLVM, installed
+                            with apt-get when missing and run as root),
+                            sampler independent, stratified, multijitter,
+                            orthogonal or ldsampler (default independent).
+                            The first is the one ratios are taken against
+                            (default scalar_rgb:independent). Time to equal
+                            error against Mitsuba's fastest:
+                            --mitsuba llvm_ad_rgb:multijitter,scalar_rgb
       --spp N               samples per pixel of the timed renders (default 64)
       --resolution WxH      image size (default 512x512)
       --max-depth D         longest path in segments, both renderers (default 16)
@@ -97,6 +108,60 @@ pub(super) struct Options {
     pub(super) repeat: u32,
     pub(super) single_thread: bool,
     pub(super) out: PathBuf,
+    /// Mitsuba's configurations; ratios are against the first.
+    pub(super) mitsuba: Vec<MitsubaConfig>,
+}
+
+/// Mitsuba variants this task knows how to run (`mi.set_variant`).
+const VARIANTS: [&str; 2] = ["scalar_rgb", "llvm_ad_rgb"];
+
+/// Mitsuba 3 samplers (plugin names) that take `sample_count`.
+const SAMPLERS: [&str; 5] = [
+    "independent",
+    "stratified",
+    "multijitter",
+    "orthogonal",
+    "ldsampler",
+];
+
+/// One Mitsuba configuration: a variant and a sampler.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(super) struct MitsubaConfig {
+    pub(super) variant: String,
+    pub(super) sampler: String,
+}
+
+impl MitsubaConfig {
+    /// `VARIANT[:SAMPLER]`.
+    fn parse(s: &str) -> Result<Self, String> {
+        let (variant, sampler) = s.trim().split_once(':').unwrap_or((s.trim(), "independent"));
+        if !VARIANTS.contains(&variant) {
+            return Err(format!(
+                "--mitsuba: unknown variant `{variant}` (expected {})",
+                VARIANTS.join(" or ")
+            ));
+        }
+        if !SAMPLERS.contains(&sampler) {
+            return Err(format!(
+                "--mitsuba: unknown sampler `{sampler}` (expected one of {})",
+                SAMPLERS.join(", ")
+            ));
+        }
+        Ok(Self {
+            variant: variant.into(),
+            sampler: sampler.into(),
+        })
+    }
+
+    /// The name of its rows in the report.
+    pub(super) fn label(&self) -> String {
+        format!("mitsuba 3 (path, {}, {})", self.variant, self.sampler)
+    }
+
+    /// Whether this is the vectorized LLVM variant (JIT-compiled kernels).
+    pub(super) fn is_llvm(&self) -> bool {
+        self.variant.starts_with("llvm")
+    }
 }
 
 impl Options {
@@ -112,6 +177,7 @@ impl Options {
             repeat: 2,
             single_thread: true,
             out: root.join("target/mitsuba"),
+            mitsuba: vec![MitsubaConfig::parse("scalar_rgb")?],
         };
         let mut it = args.iter();
         while let Some(flag) = it.next() {
@@ -135,6 +201,16 @@ impl Options {
                 "--check-spp" => o.check_spp = number("--check-spp")?,
                 "--repeat" => o.repeat = number("--repeat")?.max(1),
                 "--out" => o.out = root.join(value),
+                "--mitsuba" => {
+                    o.mitsuba = value
+                        .split(',')
+                        .map(MitsubaConfig::parse)
+                        .collect::<Result<_, _>>()?;
+                    let repeated = (1..o.mitsuba.len()).any(|i| o.mitsuba[..i].contains(&o.mitsuba[i]));
+                    if repeated {
+                        return Err("--mitsuba: give each configuration once".into());
+                    }
+                }
                 "--resolution" => {
                     let size = crate::study::parse_resolution(value)?;
                     (o.width, o.height) = (size.x, size.y);
@@ -183,7 +259,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
     }
     let (scene, scene_load_s) = load_scene(&options)?;
     let exported = export_scene(&scene, &options, scene_load_s)?;
-    let mitsuba = ensure_mitsuba(&options.out)?;
+    let mitsuba = ensure_mitsuba(&options.out, &options.mitsuba)?;
     println!("mitsuba: {} ({})", mitsuba.version, mitsuba.how);
     let reference = reference(&scene, &options)?;
     let runs = render_all(root, &scene, &options, &mitsuba, &exported)?;
@@ -269,12 +345,28 @@ mod tests {
             (8, 64, 32, false)
         );
         assert_eq!(o.out, Path::new("/r/target/mitsuba"));
+        assert_eq!(o.mitsuba[0].label(), "mitsuba 3 (path, scalar_rgb, independent)");
+        let args: Vec<String> = ["--mitsuba", "llvm_ad_rgb:multijitter,scalar_rgb"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        let o = Options::parse(root, &args).unwrap();
+        assert_eq!(
+            o.mitsuba.iter().map(|c| c.label()).collect::<Vec<_>>(),
+            [
+                "mitsuba 3 (path, llvm_ad_rgb, multijitter)",
+                "mitsuba 3 (path, scalar_rgb, independent)"
+            ]
+        );
         for bad in [
             &["--spp"][..],
             &["--spp", "x"],
             &["--resolution", "64"],
             &["--max-depth", "0"],
             &["--frobnicate", "1"],
+            &["--mitsuba", "cuda_rgb"],
+            &["--mitsuba", "scalar_rgb:sobol"],
+            &["--mitsuba", "scalar_rgb,scalar_rgb:independent"],
         ] {
             let bad: Vec<String> = bad.iter().map(|s| s.to_string()).collect();
             let e = Options::parse(root, &bad).unwrap_err();

@@ -1,5 +1,6 @@
 //! The timed renders: ours in-process through `integrators::Renderer`,
-//! Mitsuba's through `xtask/scripts/mitsuba_pt.py`, one image each.
+//! Mitsuba's through `xtask/scripts/mitsuba_pt.py` (once per `--mitsuba`
+//! configuration), one image each.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -11,7 +12,7 @@ use integrators::{Regularization, RenderConfig, Renderer};
 use scene::Scene;
 use serde_json::Value;
 
-use super::Options;
+use super::{MitsubaConfig, Options};
 use super::export::Exported;
 use super::install::Mitsuba;
 use super::process::run_with_timeout;
@@ -32,17 +33,18 @@ pub(super) fn render_all(
 ) -> Result<Vec<Run>, String> {
     let mut runs = Vec::new();
     for (job, repeat) in plan(options, crate::cores()) {
-        // Alternating, so that other work on the machine hits both alike.
-        let (mut ours, mut theirs) = (None, None);
+        // Alternating, so that other work on the machine hits all alike.
+        let mut ours = None;
+        let mut theirs = vec![None; options.mitsuba.len()];
         for _ in 0..repeat {
             merge(&mut ours, render_ours(scene, options, job)?);
-            merge(
-                &mut theirs,
-                render_mitsuba(root, mitsuba, exported, options, job)?,
-            );
+            for (config, acc) in options.mitsuba.iter().zip(&mut theirs) {
+                let run = render_mitsuba(root, mitsuba, exported, options, config, job)?;
+                merge(acc, run);
+            }
         }
         runs.extend(ours);
-        runs.extend(theirs);
+        runs.extend(theirs.into_iter().flatten());
     }
     Ok(runs)
 }
@@ -96,8 +98,10 @@ fn merge(acc: &mut Option<Run>, run: Run) {
 }
 
 /// One timed render and its image.
+#[derive(Clone)]
 pub(super) struct Run {
-    pub(super) renderer: &'static str,
+    /// [`OURS`] or a [`MitsubaConfig::label`].
+    pub(super) renderer: String,
     pub(super) threads: usize,
     pub(super) spp: u32,
     /// Acceleration-structure build (ours) or scene load (Mitsuba), seconds.
@@ -112,7 +116,6 @@ pub(super) struct Run {
 }
 
 pub(super) const OURS: &str = "ours (pt)";
-pub(super) const MITSUBA: &str = "mitsuba 3 (path, scalar_rgb)";
 
 fn config(options: &Options, seed: u64) -> RenderConfig {
     RenderConfig {
@@ -171,7 +174,7 @@ fn render_ours(scene: &Scene, options: &Options, job: Job) -> Result<Run, String
         path.display()
     );
     Ok(Run {
-        renderer: OURS,
+        renderer: OURS.into(),
         threads,
         spp,
         setup_s,
@@ -192,11 +195,15 @@ fn render_mitsuba(
     mitsuba: &Mitsuba,
     exported: &Exported,
     options: &Options,
+    config: &MitsubaConfig,
     job: Job,
 ) -> Result<Run, String> {
     let Job { spp, seed, threads } = job;
     let script = root.join("xtask/scripts/mitsuba_pt.py");
-    let path = options.out.join(format!("mitsuba-{spp}spp-{threads}t.exr"));
+    let MitsubaConfig { variant, sampler } = config;
+    let path = options
+        .out
+        .join(format!("mitsuba-{variant}-{sampler}-{spp}spp-{threads}t.exr"));
     // Generous: 300 s plus 10 us per sample (Mitsuba does ~1e6 samples/s per core here).
     let samples = options.pixels() as f64 * f64::from(spp);
     let timeout = Duration::from_secs_f64(300.0 + 1e-5 * samples);
@@ -209,7 +216,9 @@ fn render_mitsuba(
             .arg(&path)
             .args(["--spp", &spp.to_string()])
             .args(["--seed", &seed.to_string()])
-            .args(["--threads", &threads.to_string()]),
+            .args(["--threads", &threads.to_string()])
+            .args(["--variant", variant, "--sampler", sampler])
+            .args(["--repeat", &in_process_repeats(config).to_string()]),
         timeout,
     )
     .map_err(|e| format!("mitsuba render failed: {e}"))?;
@@ -232,15 +241,21 @@ fn render_mitsuba(
             info["threads"]
         ));
     }
+    if info["variant"].as_str() != Some(variant.as_str()) {
+        return Err(format!(
+            "mitsuba ran variant {}, asked for {variant}",
+            info["variant"]
+        ));
+    }
     println!(
-        "mitsuba: {spp:>5} spp, {threads} thread(s): render {} s (load {:.3} s) -> {}",
+        "mitsuba: {spp:>5} spp, {threads} thread(s), {variant}, {sampler}: render {} s (load {:.3} s) -> {}",
         seconds(&times_of(&info)),
         info["load_s"].as_f64().unwrap_or(f64::NAN),
         path.display()
     );
     let render_times = times_of(&info);
     Ok(Run {
-        renderer: MITSUBA,
+        renderer: config.label(),
         threads,
         spp,
         setup_s: info["load_s"].as_f64().unwrap_or(f64::NAN),
@@ -250,6 +265,13 @@ fn render_mitsuba(
         path,
         note: String::new(),
     })
+}
+
+/// Renders per Mitsuba process: an LLVM variant traces and compiles its
+/// kernels in its first render of a process (from Dr.Jit's disk cache when it
+/// has them), so it renders twice and the fastest (warm) time counts.
+fn in_process_repeats(config: &MitsubaConfig) -> u32 {
+    if config.is_llvm() { 2 } else { 1 }
 }
 
 fn times_of(info: &Value) -> Vec<f64> {

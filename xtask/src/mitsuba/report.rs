@@ -12,7 +12,7 @@ use super::compare::{
 };
 use super::install::Mitsuba;
 use super::reference::Reference;
-use super::render::{MITSUBA, OURS, Run};
+use super::render::{OURS, Run};
 
 /// Above this relative difference of the image means the two renderers do
 /// not render the same scene (the export is suspect, not the comparison).
@@ -28,7 +28,8 @@ const Z_ALARM: f64 = 5.0;
 const BLOCK_RMS_ALARM: f64 = 1.5;
 
 /// One row of the table: a run, its errors, and its time-to-equal-error
-/// ratios against Mitsuba at the same spp and threads.
+/// ratios against the anchor (the first `--mitsuba` configuration) at the
+/// same spp and threads.
 struct RowMetrics<'a> {
     run: &'a Run,
     raw: Errors,
@@ -83,7 +84,7 @@ fn reference_error(levels: &Levels, reference: &Reference, raw: &[Errors]) -> Re
         from_variance,
         used: extrapolated,
         mitsuba_floor: levels
-            .two_levels(MITSUBA)
+            .two_levels(&levels.options.mitsuba[0].label())
             .map(|(a, b)| floor_fit(&levels.runs[a], &levels.runs[b], &reference.mean)),
     }
 }
@@ -110,13 +111,13 @@ fn rows<'a>(
         .collect()
 }
 
-/// Time to equal error relative to Mitsuba at the same spp and threads:
-/// (t MSE)_row / (t MSE)_Mitsuba, raw, reference-corrected and by relMSE.
-fn set_ratios_to_mitsuba(rows: &mut [RowMetrics]) {
+/// Time to equal error relative to the anchor at the same spp and threads:
+/// (t MSE)_row / (t MSE)_anchor, raw, reference-corrected and by relMSE.
+fn set_ratios_to_anchor(rows: &mut [RowMetrics], anchor: &str) {
     let work = |r: &RowMetrics, e: Errors| (r.run.render_s * e.mse, r.run.render_s * e.rel_mse);
     let baselines: Vec<_> = rows
         .iter()
-        .filter(|r| r.run.renderer == MITSUBA)
+        .filter(|r| r.run.renderer == anchor)
         .map(|r| {
             (
                 r.run.spp,
@@ -146,27 +147,28 @@ fn agreements(
     reference: &Reference,
     options: &Options,
     cores: usize,
-) -> Vec<(&'static str, u32, Agreement)> {
+) -> Vec<(String, u32, Agreement)> {
     rows.iter()
         .filter(|r| r.run.threads == cores)
         .map(|r| {
             let a = agreement(&r.run.image, &reference.mean, options.width, options.height);
-            (r.run.renderer, r.run.spp, a)
+            (r.run.renderer.clone(), r.run.spp, a)
         })
         .collect()
 }
 
 /// Per renderer, the rate of MSE ~ spp^-rate between its two spp levels:
 /// rate = ln(MSE_1 / MSE_2) / ln(spp_2 / spp_1), on reference-corrected MSEs.
-fn convergence(rows: &[RowMetrics], levels: &Levels) -> Vec<(&'static str, f64)> {
+fn convergence(rows: &[RowMetrics], levels: &Levels) -> Vec<(String, f64)> {
     let (n1, n2) = (
         f64::from(levels.options.spp),
         f64::from(levels.options.check_spp),
     );
-    [OURS, MITSUBA]
-        .into_iter()
+    let mitsuba = levels.options.mitsuba.iter().map(|c| c.label());
+    std::iter::once(OURS.to_string())
+        .chain(mitsuba)
         .filter_map(|name| {
-            let (a, b) = levels.two_levels(name)?;
+            let (a, b) = levels.two_levels(&name)?;
             let (ea, eb) = (rows[a].corrected.mse, rows[b].corrected.mse);
             (ea > 0.0 && eb > 0.0).then(|| (name, (ea / eb).ln() / (n2 / n1).ln()))
         })
@@ -191,10 +193,12 @@ pub(super) struct Report<'a> {
     reference_error: ReferenceError,
     rows: Vec<RowMetrics<'a>>,
     /// (renderer, spp, agreement with the reference) for all-core runs.
-    agreements: Vec<(&'static str, u32, Agreement)>,
+    agreements: Vec<(String, u32, Agreement)>,
     /// Per renderer: MSE ~ spp^-rate between --spp and --check-spp (1 for
     /// plain Monte Carlo), from reference-corrected MSEs.
-    convergence: Vec<(&'static str, f64)>,
+    convergence: Vec<(String, f64)>,
+    /// The label of the configuration ratios are taken against.
+    anchor: String,
     scene_load_s: f64,
     load_average: (String, String),
 }
@@ -219,7 +223,8 @@ impl<'a> Report<'a> {
             .collect();
         let reference_error = reference_error(&levels, reference, &raw);
         let mut rows = rows(runs, &raw, &reference_error);
-        set_ratios_to_mitsuba(&mut rows);
+        let anchor = options.mitsuba[0].label();
+        set_ratios_to_anchor(&mut rows, &anchor);
         let agreements = agreements(&rows, reference, options, cores);
         let convergence = convergence(&rows, &levels);
         Self {
@@ -232,6 +237,7 @@ impl<'a> Report<'a> {
             rows,
             agreements,
             convergence,
+            anchor,
             scene_load_s,
             load_average: (load_before, crate::load_average()),
         }
@@ -291,16 +297,23 @@ impl<'a> Report<'a> {
         let _ = writeln!(
             md,
             "Scene `{}` at {}x{}, max depth {} (segments), Russian roulette from depth 3, box filter, \
-             regularization off. Mitsuba {} (`scalar_rgb`, `path`, `independent` sampler; {}). \
+             regularization off. Mitsuba {} (`path`; {}): {}; ratios are against the first. \
              Machine: {} logical cores, load average {} before and {} after (other work on the \
              machine slows both renderers). Times: the render call only, release build, fastest of \
-             {} alternating runs (ours, Mitsuba, ours, ...) at all cores and `--spp`, one run otherwise.\n",
+             {} alternating runs (ours, Mitsuba, ours, ...) at all cores and `--spp`, one run otherwise; \
+             an LLVM variant renders twice per run and its second (warm: kernels traced and compiled) \
+             time counts.\n",
             o.scene.display(),
             o.width,
             o.height,
             o.max_depth,
             self.mitsuba_version,
             self.mitsuba_how,
+            o.mitsuba
+                .iter()
+                .map(|c| format!("`{}` with the `{}` sampler", c.variant, c.sampler))
+                .collect::<Vec<_>>()
+                .join(", "),
             self.cores,
             self.load_average.0,
             self.load_average.1,
@@ -337,12 +350,12 @@ impl<'a> Report<'a> {
         );
     }
 
-    /// The table: a row per run, times, errors and ratios to Mitsuba.
+    /// The table: a row per run, times, errors and ratios to the anchor.
     fn md_times_and_errors(&self, md: &mut String) {
         let o = self.options;
         let pixels = o.pixels();
         md.push_str(
-            "| renderer | threads | spp | time (s) | samples/s | RMSE | relMSE | efficiency 1/(t MSE) | time to equal MSE vs Mitsuba | same, reference error removed | time to equal relMSE vs Mitsuba | BVH build / scene load (s) |\n\
+            "| renderer | threads | spp | time (s) | samples/s | RMSE | relMSE | efficiency 1/(t MSE) | time to equal MSE vs anchor | same, reference error removed | time to equal relMSE vs anchor | BVH build / scene load (s) |\n\
              |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
         );
         let ratio = |r: Option<f64>| r.map_or("-".to_string(), |r| format!("{r:.3}"));
@@ -364,11 +377,14 @@ impl<'a> Report<'a> {
                 r.run.setup_s,
             );
         }
-        md.push_str(
-            "\nTime to equal MSE = (t MSE)_row / (t MSE)_Mitsuba at the same spp and threads: the time \
-             ours takes to reach its MSE over the time Mitsuba needs for that MSE (Mitsuba's independent \
-             samples give MSE ~ 1/time exactly); below 1, ours is faster. Ours is Owen-scrambled Sobol, \
-             whose MSE falls faster than 1/spp (rate below), so the ratio depends on the spp.\n",
+        let _ = writeln!(
+            md,
+            "\nTime to equal MSE = (t MSE)_row / (t MSE)_anchor at the same spp and threads, the anchor \
+             being {}: the time a row takes to reach its MSE over the time the anchor needs for that MSE \
+             (exact when the anchor's MSE falls as 1/time, as with independent samples; stratified \
+             samplers and our Owen-scrambled Sobol fall faster, rate below, so then the ratio depends on \
+             the spp); below 1, the row is faster.",
+            self.anchor
         );
     }
 
@@ -453,6 +469,7 @@ impl<'a> Report<'a> {
             "load_average_after": self.load_average.1,
             "mitsuba_version": self.mitsuba_version,
             "mitsuba_install": self.mitsuba_how,
+            "anchor": self.anchor,
             "reference": {
                 "spp": self.reference.spp,
                 "path": self.reference.path.display().to_string(),
@@ -479,9 +496,9 @@ impl<'a> Report<'a> {
                 "mse_reference_removed": r.corrected.mse,
                 "rel_mse_reference_removed": r.corrected.rel_mse,
                 "efficiency": r.efficiency(),
-                "time_to_equal_mse_vs_mitsuba": r.ratio_raw,
-                "time_to_equal_mse_vs_mitsuba_reference_removed": r.ratio_corrected,
-                "time_to_equal_rel_mse_vs_mitsuba": r.ratio_rel_raw,
+                "time_to_equal_mse_vs_anchor": r.ratio_raw,
+                "time_to_equal_mse_vs_anchor_reference_removed": r.ratio_corrected,
+                "time_to_equal_rel_mse_vs_anchor": r.ratio_rel_raw,
                 "image": r.run.path.display().to_string(),
                 "note": r.run.note,
             })).collect::<Vec<_>>(),
@@ -544,9 +561,9 @@ mod tests {
             .collect()
     }
 
-    fn run(renderer: &'static str, spp: u32, threads: usize, image: Vec<Vec3>) -> Run {
+    fn run(renderer: &str, spp: u32, threads: usize, image: Vec<Vec3>) -> Run {
         Run {
-            renderer,
+            renderer: renderer.into(),
             threads,
             spp,
             setup_s: 0.01,
@@ -580,6 +597,9 @@ mod tests {
             how: "made up".into(),
         };
         let r = &reference.mean;
+        let mitsuba_label = options.mitsuba[0].label();
+        const MITSUBA: &str = "mitsuba 3 (path, scalar_rgb, independent)";
+        assert_eq!(mitsuba_label, MITSUBA);
         let runs = vec![
             run(OURS, 8, 2, image(r, 8, 1, 0.0)),
             run(MITSUBA, 8, 2, image(r, 8, 2, 0.05)),
