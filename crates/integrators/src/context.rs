@@ -116,7 +116,7 @@ impl SceneContext {
     #[inline]
     pub fn camera_path(&self, n: u64, x: u32, y: u32) -> (Sampler, Walk) {
         let pixel = u64::from(y) * u64::from(self.scene.camera.resolution.x) + u64::from(x);
-        let mut sampler = Sampler::new(self.config.seed, n, pixel);
+        let sampler = Sampler::new(self.config.seed, n, pixel);
         let (origin, direction) = self.camera.ray(x, y, sampler.pixel_position());
         (sampler, Walk::new(origin, direction))
     }

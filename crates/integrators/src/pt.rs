@@ -62,8 +62,8 @@ impl Integrator for PathTracer {
                     return;
                 }
                 for (x, out) in row.iter_mut().enumerate() {
-                    let (mut sampler, walk) = ctx.camera_path(n, x as u32, y as u32);
-                    *out = self.trace_path(ctx, walk, &mut sampler, tau_n);
+                    let (sampler, walk) = ctx.camera_path(n, x as u32, y as u32);
+                    *out = self.trace_path(ctx, walk, &sampler, tau_n);
                 }
                 ctx.flush_ray_count();
             });
@@ -96,9 +96,9 @@ impl PathTracer {
                 let y = ((2 * gy + 1) * res.y) / (2 * PREVIEW_GRID);
                 for k in 0..PREVIEW_PATHS {
                     let pixel = u64::from(y) * u64::from(res.x) + u64::from(x);
-                    let mut sampler = Sampler::new(ctx.config.seed, 0, pixel * PREVIEW_PATHS + k);
+                    let sampler = Sampler::new(ctx.config.seed, 0, pixel * PREVIEW_PATHS + k);
                     let (o, d) = ctx.camera.ray(x, y, sampler.pixel_position());
-                    let l = self.trace_path(ctx, Walk::new(o, d), &mut sampler, tau_1);
+                    let l = self.trace_path(ctx, Walk::new(o, d), &sampler, tau_1);
                     sum += f64::from(l.max_element());
                 }
             }
@@ -116,7 +116,7 @@ impl PathTracer {
         &self,
         ctx: &SceneContext,
         mut walk: Walk,
-        sampler: &mut Sampler,
+        sampler: &Sampler,
         tau_n: f64,
     ) -> Vec3 {
         let mut radiance = Vec3::ZERO;

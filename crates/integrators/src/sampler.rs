@@ -1,17 +1,24 @@
 //! Deterministic random numbers: every value is a pure function of
-//! (seed, iteration, stream, dimension), with the stream a pixel index for
+//! (seed, iteration, stream, request), with the stream a pixel index for
 //! camera subpaths (or a light-subpath index), so images do not depend on
 //! the thread count or the order in which work is scheduled.
 //!
-//! Values come from Owen-scrambled Sobol points (Burley 2020, the
-//! `sobol_burley` crate): the iteration is the point index, each stream has
-//! its own scramble seed. Beyond the 256 dimensions of the table (paths
-//! longer than about 35 bounces) and for iterations past 2^16 the values come
-//! from a hash of all four inputs, or from a reseeded sequence, so that no
-//! input repeats a value.
+//! Values come from padded Owen-scrambled Sobol points (Burley 2020,
+//! "Practical Hash-based Owen Scrambling", §4 and §7; pbrt-v4's
+//! `PaddedSobolSampler`; the `sobol_burley` crate's parts): the iteration is
+//! the point index, and every request of up to four numbers (a light sample,
+//! a BSDF sample, ...) takes the first four Sobol dimensions at an index
+//! shuffled by its own hash, each dimension Owen-scrambled by its own seed.
+//! So every 2-D request is a (0, 2)-sequence over iterations (4x4 strata at
+//! 16 iterations, as a multi-jittered pattern has), and requests are
+//! decorrelated from each other by the shuffles, as a padded sampler's are.
+//! (Taking consecutive dimensions of one 256-dimension Sobol sequence
+//! instead, as this module did before, pairs dimensions such as 3 and 4
+//! whose 2-D projection is not a (0, 2)-net: the light samples of the first
+//! bounce were stratified worse than a jittered pattern.)
 //!
-//! Subpaths use a fixed dimension layout per vertex (so that a change at
-//! one vertex does not shift the others): [`Sampler::camera_vertex`] and
+//! Subpaths use a fixed request layout per vertex (so that a change at one
+//! vertex does not shift the others): [`Sampler::camera_vertex`] and
 //! [`Sampler::light_vertex`] are the only places that know it.
 
 use glam::Vec2;
@@ -21,28 +28,21 @@ use sobol_burley::parts;
 /// numbers beyond it start a new, independently scrambled sequence.
 const POINTS_PER_SEED: u64 = 1 << 16;
 
-/// `sobol_burley::sample_4d`'s salt of the stream seed for the point shuffle.
-const SHUFFLE_SALT: u32 = 0x79c6_8e4a;
-
 /// Sampler streams of light subpaths start here (camera subpaths use the
 /// pixel index), so the two never share random numbers.
 pub const LIGHT_STREAM: u64 = 1 << 48;
 
-/// Dimensions of a camera subpath's start: the position in the pixel.
-const PIXEL_DIMENSIONS: u32 = 2;
+/// Requests of a camera subpath before its vertices: the position in the
+/// pixel.
+const PIXEL_REQUESTS: u32 = 1;
 
-/// Dimensions per camera subpath vertex: light choice (1), light point
-/// (2), BSDF lobe choice (1), BSDF direction (2), roulette (1).
-const CAMERA_VERTEX_DIMENSIONS: u32 = 7;
+/// Requests per camera subpath vertex: the light sample (point, choice),
+/// the step (BSDF direction, lobe, roulette).
+const CAMERA_VERTEX_REQUESTS: u32 = 2;
 
-/// Dimensions of a light subpath's start: light choice (1), position (2),
-/// direction (2).
-const EMISSION_DIMENSIONS: u32 = 5;
-
-/// Dimensions per light subpath vertex: BSDF lobe (1), direction (2),
-/// roulette (1). Packed back to back, so that a vertex mostly needs one new
-/// 4-dimension Sobol set (with a camera vertex's stride of 7, two).
-const LIGHT_VERTEX_DIMENSIONS: u32 = 4;
+/// Requests of a light subpath's start: position and light choice, then
+/// the direction.
+const EMISSION_REQUESTS: u32 = 2;
 
 /// The random numbers of one step of a walk: BSDF sampling and Russian
 /// roulette (all a light subpath vertex draws).
@@ -81,137 +81,99 @@ fn unit_f32(bits: u64) -> f32 {
 }
 
 /// The random stream of one pixel (or light subpath) in one iteration.
-///
-/// Sobol values are computed four dimensions at a time (SIMD) and cached: a
-/// path vertex uses seven consecutive dimensions.
 #[derive(Clone, Copy, Debug)]
 pub struct Sampler {
     index: u32,
     seed: u64,
-    /// The point index after the stream's Owen shuffle (bit-reversed), the
-    /// first step of `sobol_burley::sample_4d`, which depends only on the
-    /// stream: computed once here instead of once per 4 dimensions.
-    shuffled_rev_index: u32,
-    dimension: u32,
-    /// The 4-dimension set held in `cache` (`u32::MAX`: none).
-    cached_set: u32,
-    cache: [f32; 4],
 }
 
 impl Sampler {
-    /// The stream `stream` of iteration `iteration` (1-based or 0-based, as
-    /// long as the caller is consistent) under the user's `seed`.
+    /// The stream `stream` of iteration `iteration` under the user's `seed`.
+    /// Iterations are the renderer's N, 1-based: iteration 1 is Sobol point
+    /// 0, so that the iterations of a render, 1..=2^k, are one aligned block
+    /// of points, the blocks the (0, 2)-sequence stratifies. (Iteration 0,
+    /// used by the progress preview, is a point of its own.)
     pub fn new(seed: u64, iteration: u64, stream: u64) -> Self {
-        let epoch = iteration / POINTS_PER_SEED;
-        let index = (iteration % POINTS_PER_SEED) as u32;
+        let point = iteration.wrapping_sub(1);
+        let epoch = point / POINTS_PER_SEED;
+        let index = (point % POINTS_PER_SEED) as u32;
         let seed = mix(mix(mix(seed) ^ stream) ^ epoch.wrapping_mul(0x9e37_79b9_7f4a_7c15));
-        Self {
-            index,
-            seed,
-            shuffled_rev_index: parts::owen_scramble_rev(
-                index.reverse_bits(),
-                parts::hash(seed as u32 ^ SHUFFLE_SALT),
-            ),
-            dimension: 0,
-            cached_set: u32::MAX,
-            cache: [0.0; 4],
-        }
+        Self { index, seed }
     }
 
-    /// Skips to dimension `dimension`.
-    pub fn set_dimension(&mut self, dimension: u32) {
-        self.dimension = dimension;
-    }
-
-    /// The position in the pixel of a camera subpath (its first dimensions).
-    pub fn pixel_position(&mut self) -> Vec2 {
-        self.set_dimension(0);
-        self.next_2d()
+    /// The position in the pixel of a camera subpath.
+    pub fn pixel_position(&self) -> Vec2 {
+        let [x, y, ..] = self.request(0);
+        Vec2::new(x, y)
     }
 
     /// The numbers of camera subpath vertex `depth` (1: the first hit).
-    pub fn camera_vertex(&mut self, depth: u32) -> CameraVertexSamples {
-        self.set_dimension(PIXEL_DIMENSIONS + (depth - 1) * CAMERA_VERTEX_DIMENSIONS);
-        let (u_light, uv_light) = (self.next_1d(), self.next_2d());
+    pub fn camera_vertex(&self, depth: u32) -> CameraVertexSamples {
+        let first = PIXEL_REQUESTS + (depth - 1) * CAMERA_VERTEX_REQUESTS;
+        let [u, v, u_light, _] = self.request(first);
         CameraVertexSamples {
             u_light,
-            uv_light,
-            step: self.step(),
+            uv_light: Vec2::new(u, v),
+            step: self.step(first + 1),
         }
     }
 
     /// The light choice, position and direction of a light subpath's start.
-    pub fn emission(&mut self) -> (f32, Vec2, Vec2) {
-        self.set_dimension(0);
-        (self.next_1d(), self.next_2d(), self.next_2d())
+    pub fn emission(&self) -> (f32, Vec2, Vec2) {
+        let [u, v, u_select, _] = self.request(0);
+        let [s, t, ..] = self.request(1);
+        (u_select, Vec2::new(u, v), Vec2::new(s, t))
     }
 
     /// The numbers of light subpath vertex `length` (1: the first hit).
-    pub fn light_vertex(&mut self, length: u32) -> StepSamples {
-        self.set_dimension(EMISSION_DIMENSIONS + (length - 1) * LIGHT_VERTEX_DIMENSIONS);
-        self.step()
+    pub fn light_vertex(&self, length: u32) -> StepSamples {
+        self.step(EMISSION_REQUESTS + length - 1)
     }
 
-    /// A step's numbers from the current dimension on.
-    fn step(&mut self) -> StepSamples {
-        let (u_lobe, uv_bsdf) = (self.next_1d(), self.next_2d());
+    /// A step's numbers: the direction from the request's (0, 2)-stratified
+    /// pair, the lobe and roulette from its other two dimensions.
+    fn step(&self, request: u32) -> StepSamples {
+        let [u, v, u_lobe, u_roulette] = self.request(request);
         StepSamples {
             u_lobe,
-            uv_bsdf,
-            u_roulette: self.next_1d(),
-        }
-    }
-
-    /// The next value in [0, 1).
-    pub fn next_1d(&mut self) -> f32 {
-        let d = self.dimension;
-        self.dimension += 1;
-        if d < sobol_burley::NUM_DIMENSIONS {
-            let set = d / 4;
-            if set != self.cached_set {
-                self.cache = self.sobol_4d(set);
-                self.cached_set = set;
-            }
-            self.cache[(d % 4) as usize]
-        } else {
-            unit_f32(mix(
-                self.seed ^ mix(u64::from(d) << 32 | u64::from(self.index))
-            ))
+            uv_bsdf: Vec2::new(u, v),
+            u_roulette,
         }
     }
 
     /// A value in [0, 1) for a decision with no place in the per-vertex
-    /// dimension layout (one per vertex pair, for instance), named by `key`:
+    /// request layout (one per vertex pair, for instance), named by `key`:
     /// a hash of the stream, the iteration and the key, independent of the
-    /// Sobol dimensions and of [`Sampler::next_1d`]'s position.
+    /// Sobol requests.
     pub fn keyed_1d(&self, key: u64) -> f32 {
-        /// Sets the hash input apart from the dimension fallback of `next_1d`.
+        /// Sets the hash input apart from the requests' scramble seeds.
         const KEYED: u64 = 0x5851_f42d_4c95_7f2d;
         unit_f32(mix(
             self.seed ^ mix(mix(key ^ KEYED) ^ u64::from(self.index))
         ))
     }
 
-    /// Dimensions 4 set .. 4 set + 3: `sobol_burley::sample_4d(index, set,
-    /// seed)` (Burley 2020: Sobol, then per-dimension Owen scrambling), from
-    /// the crate's public parts with the stream's shuffle done once.
-    fn sobol_4d(&self, set: u32) -> [f32; 4] {
+    /// Request `request`: Sobol dimensions 0-3 at this stream's point index
+    /// shuffled by the request's own hash (a nested uniform scramble of the
+    /// index, Burley 2020 §4), each dimension Owen-scrambled with its own
+    /// seed (§3), as `sobol_burley::sample_4d(index, 0, seed)` does with the
+    /// request's seed.
+    fn request(&self, request: u32) -> [f32; 4] {
         /// `sample_4d`'s constants: a multiplier that decorrelates
-        /// structured seeds, and one scramble salt per dimension of a set.
+        /// structured seeds, its salt of the index shuffle, and one
+        /// scramble salt per dimension.
         const SEED_MULTIPLIER: u32 = 0x9c8f_2d3b;
+        const SHUFFLE_SALT: u32 = 0x79c6_8e4a;
         const DIMENSION_SALTS: [u32; 4] = [0x912f_69ba, 0x174f_18ab, 0x691e_72ca, 0xb40c_c1b8];
-        let sobol = parts::sobol_int4_rev(self.shuffled_rev_index, set);
-        let seed = (self.seed as u32).wrapping_mul(SEED_MULTIPLIER);
-        let scramble = parts::Int4::from([seed ^ set; 4]) ^ DIMENSION_SALTS.into();
+        let seed = mix(self.seed ^ u64::from(request)) as u32;
+        let shuffled_rev_index =
+            parts::owen_scramble_rev(self.index.reverse_bits(), parts::hash(seed ^ SHUFFLE_SALT));
+        let sobol = parts::sobol_int4_rev(shuffled_rev_index, 0);
+        let seed = seed.wrapping_mul(SEED_MULTIPLIER);
+        let scramble = parts::Int4::from([seed; 4]) ^ DIMENSION_SALTS.into();
         parts::owen_scramble_int4_rev(sobol, parts::hash_int4(scramble))
             .reverse_bits()
             .to_f32_norm()
-    }
-
-    /// The next two values.
-    pub fn next_2d(&mut self) -> Vec2 {
-        let x = self.next_1d();
-        Vec2::new(x, self.next_1d())
     }
 }
 
@@ -219,44 +181,75 @@ impl Sampler {
 mod tests {
     use super::*;
 
+    /// Every number a camera subpath of 40 vertices draws.
+    fn camera_numbers(seed: u64, iteration: u64, stream: u64) -> Vec<f32> {
+        let s = Sampler::new(seed, iteration, stream);
+        let mut out = s.pixel_position().to_array().to_vec();
+        for depth in 1..=40 {
+            let u = s.camera_vertex(depth);
+            out.extend([u.u_light, u.uv_light.x, u.uv_light.y, u.step.u_lobe]);
+            out.extend([u.step.uv_bsdf.x, u.step.uv_bsdf.y, u.step.u_roulette]);
+        }
+        out
+    }
+
     #[test]
     fn streams_are_pure_functions_of_their_inputs() {
-        let draw = |seed, it, stream| {
-            let mut s = Sampler::new(seed, it, stream);
-            (0..300).map(|_| s.next_1d()).collect::<Vec<_>>()
-        };
-        let a = draw(7, 3, 11);
-        assert_eq!(a, draw(7, 3, 11));
-        assert_ne!(a, draw(8, 3, 11));
-        assert_ne!(a, draw(7, 4, 11));
-        assert_ne!(a, draw(7, 3, 12));
-        assert_ne!(draw(7, 3, 11)[..], draw(7, 3 + POINTS_PER_SEED, 11)[..]);
+        let a = camera_numbers(7, 3, 11);
+        assert_eq!(a, camera_numbers(7, 3, 11));
+        assert_ne!(a, camera_numbers(8, 3, 11));
+        assert_ne!(a, camera_numbers(7, 4, 11));
+        assert_ne!(a, camera_numbers(7, 3, 12));
+        assert_ne!(a, camera_numbers(7, 3 + POINTS_PER_SEED, 11));
         assert!(a.iter().all(|&u| (0.0..1.0).contains(&u)));
     }
 
-    /// Over iterations, every dimension (in the table and past it) is
-    /// uniform: the mean of n values is 1/2 within 5 standard errors
-    /// (sd of U(0,1) is 1/sqrt(12)), and the variance is 1/12.
+    /// Every 2-D pair a walk uses is a (0, 2)-sequence over iterations: in
+    /// each aligned block of 16 iterations (1..=16, 17..=32, ...), one point in every cell of each
+    /// elementary grid of 16 cells (16x1, 8x2, 4x4, 2x8, 1x16), as a
+    /// multi-jittered pattern is stratified; and the 1-D numbers one per
+    /// sixteenth. (Consecutive dimensions 3 and 4 of one Sobol sequence, the
+    /// old layout's first light sample, leave 4x4 cells empty.)
     #[test]
-    fn four_dimensional_sets_equal_single_dimensions() {
-        let mut s = Sampler::new(3, 17, 99);
-        let seed = s.seed as u32;
-        for d in 0..40 {
-            assert_eq!(
-                s.next_1d(),
-                sobol_burley::sample(17, d, seed),
-                "dimension {d}"
-            );
+    fn every_pair_is_stratified_in_every_block_of_iterations() {
+        type Pick = fn(&Sampler) -> Vec2;
+        let pairs: [(&str, Pick); 6] = [
+            ("pixel", |s| s.pixel_position()),
+            ("light sample at depth 1", |s| s.camera_vertex(1).uv_light),
+            ("bsdf at depth 1", |s| s.camera_vertex(1).step.uv_bsdf),
+            ("light sample at depth 9", |s| s.camera_vertex(9).uv_light),
+            ("emission direction", |s| s.emission().2),
+            ("light vertex 3", |s| s.light_vertex(3).uv_bsdf),
+        ];
+        for (what, pick) in pairs {
+            for (stream, block) in [(5, 0), (77, 1), (1 << 48, 37)] {
+                let points: Vec<Vec2> = (16 * block + 1..=16 * block + 16)
+                    .map(|it| pick(&Sampler::new(3, it, stream)))
+                    .collect();
+                for log_x in 0..=4 {
+                    let (nx, ny) = (1 << log_x, 1 << (4 - log_x));
+                    let mut cells = [0u32; 16];
+                    for p in &points {
+                        let (x, y) = ((p.x * nx as f32) as usize, (p.y * ny as f32) as usize);
+                        cells[x * ny + y] += 1;
+                    }
+                    assert!(
+                        cells.iter().all(|&c| c == 1),
+                        "{what}, stream {stream}, block {block}: {nx}x{ny} cells {cells:?}"
+                    );
+                }
+            }
         }
-        for (it, stream, set) in [(0, 0, 0), (1, 5, 3), (65_535, 1 << 48, 63)] {
-            let s = Sampler::new(11, it, stream);
-            let expected = sobol_burley::sample_4d(s.index, set, s.seed as u32);
-            assert_eq!(s.sobol_4d(set), expected, "iteration {it}, set {set}");
-        }
+        let lobes: Vec<usize> = (1..=16)
+            .map(|it| (Sampler::new(3, it, 9).camera_vertex(2).step.u_lobe * 16.0) as usize)
+            .collect();
+        let mut sorted = lobes.clone();
+        sorted.sort_unstable();
+        assert_eq!(sorted, (0..16).collect::<Vec<_>>(), "{lobes:?}");
     }
 
     #[test]
-    fn keyed_values_are_uniform_and_apart_from_dimensions() {
+    fn keyed_values_are_uniform_and_apart_from_requests() {
         let n = 4096;
         let xs: Vec<f64> = (0..n)
             .map(|it| f64::from(Sampler::new(42, it, 5).keyed_1d(0x0003_0002)))
@@ -264,30 +257,45 @@ mod tests {
         let mean = xs.iter().sum::<f64>() / n as f64;
         let se = (1.0 / 12.0 / n as f64).sqrt();
         assert!((mean - 0.5).abs() < 5.0 * se, "mean {mean}");
-        let mut s = Sampler::new(42, 7, 5);
-        let key = s.keyed_1d(300);
-        s.set_dimension(300);
-        assert_ne!(key, s.next_1d());
-        assert_ne!(key, Sampler::new(42, 7, 5).keyed_1d(301));
-        assert_ne!(key, Sampler::new(42, 7, 6).keyed_1d(300));
+        let s = Sampler::new(42, 7, 5);
+        let key = s.keyed_1d(3);
+        assert!(!camera_numbers(42, 7, 5).contains(&key));
+        assert_ne!(key, Sampler::new(42, 7, 5).keyed_1d(4));
+        assert_ne!(key, Sampler::new(42, 7, 6).keyed_1d(3));
     }
 
+    /// Over iterations, every number of a long camera subpath is uniform:
+    /// the mean of n values is 1/2 within 5 standard errors (sd of U(0,1)
+    /// is 1/sqrt(12)), the variance 1/12; and numbers of different requests
+    /// are uncorrelated (|r| within 5 / sqrt(n)).
     #[test]
-    fn dimensions_are_uniform_over_iterations() {
+    fn numbers_are_uniform_and_uncorrelated_over_iterations() {
         let n = 4096;
-        for dim in [0, 1, 2, 57, 255, 256, 300] {
-            let xs: Vec<f64> = (0..n)
-                .map(|it| {
-                    let mut s = Sampler::new(42, it, 5);
-                    s.set_dimension(dim);
-                    f64::from(s.next_1d())
-                })
-                .collect();
+        let draws: Vec<Vec<f32>> = (0..n).map(|it| camera_numbers(42, it, 5)).collect();
+        let column = |k: usize| draws.iter().map(|d| f64::from(d[k])).collect::<Vec<_>>();
+        let moments = |xs: &[f64]| {
             let mean = xs.iter().sum::<f64>() / n as f64;
             let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
-            let se = (1.0 / 12.0 / n as f64).sqrt();
-            assert!((mean - 0.5).abs() < 5.0 * se, "dim {dim}: mean {mean}");
-            assert!((var - 1.0 / 12.0).abs() < 0.01, "dim {dim}: var {var}");
+            (mean, var)
+        };
+        let se = (1.0 / 12.0 / n as f64).sqrt();
+        for k in (0..draws[0].len()).step_by(5) {
+            let (mean, var) = moments(&column(k));
+            assert!((mean - 0.5).abs() < 5.0 * se, "number {k}: mean {mean}");
+            assert!((var - 1.0 / 12.0).abs() < 0.01, "number {k}: var {var}");
+        }
+        // Pixel x against the first light sample's u, and the first BSDF u
+        // against the second vertex's light u: different requests.
+        for (a, b) in [(0, 3), (6, 10)] {
+            let (xa, xb) = (column(a), column(b));
+            let cov = xa
+                .iter()
+                .zip(&xb)
+                .map(|(x, y)| (x - 0.5) * (y - 0.5))
+                .sum::<f64>()
+                / n as f64;
+            let r = cov * 12.0;
+            assert!(r.abs() < 5.0 / (n as f64).sqrt(), "numbers {a}, {b}: r {r}");
         }
     }
 }

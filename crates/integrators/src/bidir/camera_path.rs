@@ -26,7 +26,7 @@ impl Iteration<'_> {
     ) -> Vec3 {
         let ctx = self.ctx;
         let max_depth = ctx.config.max_depth;
-        let (mut sampler, mut walk) = ctx.camera_path_of(self.n, index);
+        let (sampler, mut walk) = ctx.camera_path_of(self.n, index);
         let mut ray =
             SubpathRay::from_camera(&self.mis, f64::from(ctx.camera.pdf_w(walk.direction)));
         let mut regularization = PathRegularization::new(self.mode, Subpath::Camera, self.tau_n);

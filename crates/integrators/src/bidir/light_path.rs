@@ -81,7 +81,7 @@ impl Iteration<'_> {
     ) {
         let ctx = self.ctx;
         let max_depth = ctx.config.max_depth;
-        let mut sampler = Sampler::new(ctx.config.seed, self.n, LIGHT_STREAM + index);
+        let sampler = Sampler::new(ctx.config.seed, self.n, LIGHT_STREAM + index);
         let (u_select, u_position, u_direction) = sampler.emission();
         let Some(emission) =
             ctx.lights

@@ -57,7 +57,7 @@ impl Iteration<'_> {
     fn trace_gather_path(&self, index: usize, photon_map: &PhotonMap<'_>) -> Vec3 {
         let ctx = self.ctx;
         let max_depth = ctx.config.max_depth;
-        let (mut sampler, mut walk) = ctx.camera_path_of(self.n, index);
+        let (sampler, mut walk) = ctx.camera_path_of(self.n, index);
         let mut regularization = PathRegularization::new(self.mode, Subpath::Camera, self.tau_n);
         let mut radiance = Vec3::ZERO;
         for length in 1..=max_depth {
