@@ -91,7 +91,9 @@ fn ensure_variant(mitsuba: &Mitsuba, variant: &str) -> Result<(), String> {
         return Ok(());
     };
     if !variant.starts_with("llvm") {
-        return Err(format!("Mitsuba's variant {variant} is not available: {first}"));
+        return Err(format!(
+            "Mitsuba's variant {variant} is not available: {first}"
+        ));
     }
     let hint = format!(
         "Mitsuba's {variant} needs libLLVM: install it (`apt-get install {LLVM_PACKAGE}` as root) \

@@ -134,7 +134,10 @@ pub(super) struct MitsubaConfig {
 impl MitsubaConfig {
     /// `VARIANT[:SAMPLER]`.
     fn parse(s: &str) -> Result<Self, String> {
-        let (variant, sampler) = s.trim().split_once(':').unwrap_or((s.trim(), "independent"));
+        let (variant, sampler) = s
+            .trim()
+            .split_once(':')
+            .unwrap_or((s.trim(), "independent"));
         if !VARIANTS.contains(&variant) {
             return Err(format!(
                 "--mitsuba: unknown variant `{variant}` (expected {})",
@@ -206,7 +209,8 @@ impl Options {
                         .split(',')
                         .map(MitsubaConfig::parse)
                         .collect::<Result<_, _>>()?;
-                    let repeated = (1..o.mitsuba.len()).any(|i| o.mitsuba[..i].contains(&o.mitsuba[i]));
+                    let repeated =
+                        (1..o.mitsuba.len()).any(|i| o.mitsuba[..i].contains(&o.mitsuba[i]));
                     if repeated {
                         return Err("--mitsuba: give each configuration once".into());
                     }
@@ -345,7 +349,10 @@ mod tests {
             (8, 64, 32, false)
         );
         assert_eq!(o.out, Path::new("/r/target/mitsuba"));
-        assert_eq!(o.mitsuba[0].label(), "mitsuba 3 (path, scalar_rgb, independent)");
+        assert_eq!(
+            o.mitsuba[0].label(),
+            "mitsuba 3 (path, scalar_rgb, independent)"
+        );
         let args: Vec<String> = ["--mitsuba", "llvm_ad_rgb:multijitter,scalar_rgb"]
             .iter()
             .map(|s| s.to_string())

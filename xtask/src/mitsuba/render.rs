@@ -12,10 +12,10 @@ use integrators::{Regularization, RenderConfig, Renderer};
 use scene::Scene;
 use serde_json::Value;
 
-use super::{MitsubaConfig, Options};
 use super::export::Exported;
 use super::install::Mitsuba;
 use super::process::run_with_timeout;
+use super::{MitsubaConfig, Options};
 
 /// Sampler seeds: every image uses its own random numbers, so that no test
 /// image shares samples with the reference (`SEED_REFERENCE`).
@@ -201,9 +201,9 @@ fn render_mitsuba(
     let Job { spp, seed, threads } = job;
     let script = root.join("xtask/scripts/mitsuba_pt.py");
     let MitsubaConfig { variant, sampler } = config;
-    let path = options
-        .out
-        .join(format!("mitsuba-{variant}-{sampler}-{spp}spp-{threads}t.exr"));
+    let path = options.out.join(format!(
+        "mitsuba-{variant}-{sampler}-{spp}spp-{threads}t.exr"
+    ));
     // Generous: 300 s plus 10 us per sample (Mitsuba does ~1e6 samples/s per core here).
     let samples = options.pixels() as f64 * f64::from(spp);
     let timeout = Duration::from_secs_f64(300.0 + 1e-5 * samples);
