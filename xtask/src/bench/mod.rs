@@ -16,6 +16,7 @@
 mod micro;
 mod report;
 mod run;
+mod scaling;
 
 use std::fs;
 use std::io::Write as _;
@@ -57,6 +58,13 @@ pub const USAGE: &str =
                             a column new/old seconds per iteration, and rows
                             missing on either side are listed
       --out DIR             output folder (default target/bench)
+  bench --scaling [--quick] [--integrators I] [--iterations N] [--out DIR]
+                    scaling: a generated height field of 1k, 10k, 100k and
+                    1M triangles at 256x256, then the 100k one at 256^2 to
+                    2048^2 pixels (the first of --integrators, default pt):
+                    load and BVH build time, seconds per iteration, peak
+                    memory and marginal bytes per triangle, one process per
+                    point, into scaling.md and scaling.json
   bench --micro [--quick]
                     criterion micro-benchmarks (crates/*/benches) into
                     target/bench/micro.md and micro.json (--quick: 0.3 s
@@ -223,11 +231,16 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
         let rest: Vec<String> = args.iter().filter(|a| *a != "--micro").cloned().collect();
         return micro::run(root, &rest);
     }
+    let scaling = args.iter().any(|a| a == "--scaling");
+    let args: Vec<String> = args.iter().filter(|a| *a != "--scaling").cloned().collect();
     let bundled = bundled_scenes(root)?;
-    let Some(options) = Options::parse(args, &bundled)? else {
+    let Some(options) = Options::parse(&args, &bundled)? else {
         println!("usage: cargo xtask bench [options]\n\n{USAGE}");
         return Ok(());
     };
+    if scaling {
+        return scaling::run(root, &options);
+    }
     // A bad baseline fails before minutes of measuring, not after.
     let baseline = match &options.baseline {
         Some(path) => Some((path.display().to_string(), read_baseline(path)?)),

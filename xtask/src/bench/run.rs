@@ -35,13 +35,15 @@ pub fn child(args: &[String]) -> Result<(), String> {
     let (w, h) = (positive("WIDTH", width)?, positive("HEIGHT", height)?);
     let iterations = u64::from(positive("ITERATIONS", iterations)?);
 
-    // Build: scene load and Renderer::new (BVH, lights).
+    // Build: scene load, then Renderer::new (BVH, lights); build_seconds is both.
     let started = Instant::now();
     let options = LoadOptions {
         resolution: Some(UVec2::new(w, h)),
         ..Default::default()
     };
     let scene = scene::load(Path::new(scene_file), &options).map_err(|e| e.to_string())?;
+    let load_seconds = started.elapsed().as_secs_f64();
+    let triangles = scene.triangles.len();
     let config = render_config(&scene.render, algorithm)?;
     let renderer = Renderer::new(scene, config);
     let build_seconds = started.elapsed().as_secs_f64();
@@ -76,6 +78,8 @@ pub fn child(args: &[String]) -> Result<(), String> {
         "regularize": config.regularization.mode.name(),
         "tau0": config.regularization.schedule.tau_0(),
         "threads": rayon::current_num_threads(),
+        "triangles": triangles,
+        "load_seconds": load_seconds,
         "build_seconds": build_seconds,
         "warmup_seconds": warmup_seconds,
         "seconds": seconds,
