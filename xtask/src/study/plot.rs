@@ -265,6 +265,22 @@ mod tests {
         assert_eq!(ticks(2.5, 4.5, &[1.0, 2.0, 5.0]), [3.0, 4.0]);
     }
 
+    /// A sweep reads as a ramp of its base colour: darker for more blur,
+    /// lighter for less, the study's values unchanged.
+    #[test]
+    fn swept_configs_shade_their_base_colour() {
+        let sum = |c: RGBColor| u32::from(c.0) + u32::from(c.1) + u32::from(c.2);
+        let base = color_of("bpt-reg");
+        assert_eq!(color_of("bpt-reg@tau0=7.5"), base);
+        let ramp: Vec<u32> = ["bpt-reg@tau0=2", "bpt-reg", "bpt-reg@tau0=30", "bpt-reg@tau0=120"]
+            .iter()
+            .map(|n| sum(color_of(n)))
+            .collect();
+        assert!(ramp.windows(2).all(|w| w[0] < w[1]), "{ramp:?}");
+        assert!(sum(color_of("bpt-reg@exp=0.1")) < sum(base));
+        assert!(sum(color_of("bpt-reg@exp=0.3")) > sum(base));
+    }
+
     #[test]
     fn tick_labels_are_short() {
         assert_eq!(short(0.5), "0.5");

@@ -998,6 +998,43 @@ fn reference_tag(study: &Study, i: usize) -> String {
 mod tests {
     use super::*;
 
+    fn run(config: &str, curve: &[(f64, f64)]) -> Run {
+        Run {
+            config: Config::parse(config).unwrap(),
+            setup_seconds: 0.0,
+            points: curve
+                .iter()
+                .enumerate()
+                .map(|(i, &(seconds, rmse))| super::super::Point {
+                    iteration: 1 << i,
+                    seconds,
+                    cpu_seconds: Some(2.0 * seconds),
+                    noise: None,
+                    errors: vec![Errors { rmse, rel_mse: 0.0 }],
+                })
+                .collect(),
+            invalid_samples: 0,
+            image: Vec::new(),
+        }
+    }
+
+    /// The goal compares the time to reach the unregularized run's final
+    /// RMSE with that run's time, in wall-clock and CPU time.
+    #[test]
+    fn goal_is_the_time_to_reach_the_unregularized_final_rmse() {
+        let off = run("bpt", &[(1.0, 0.4), (2.0, 0.2), (4.0, 0.1)]);
+        // RMSE 0.1 at sqrt(0.5) s (log-log between 0.5 s / 0.2 and 1 s / 0.05).
+        let reg = run("bpt-reg", &[(0.5, 0.2), (1.0, 0.05), (2.0, 0.04)]);
+        let g = Goal::of(0, &off, &reg).unwrap();
+        assert_eq!((g.iterations, g.level, g.time_off), (4, 0.1, 4.0));
+        assert!((g.time_reg.unwrap() - 0.5 * 2f64.powf(0.5)).abs() < 1e-12);
+        assert!((g.ratio().unwrap() - 0.5 * 2f64.powf(0.5) / 4.0).abs() < 1e-12);
+        assert!((g.cpu_ratio().unwrap() - g.ratio().unwrap()).abs() < 1e-12);
+        let slow = run("bpt-reg", &[(1.0, 0.3), (8.0, 0.2)]);
+        let g = Goal::of(0, &off, &slow).unwrap();
+        assert_eq!((g.time_reg, g.ratio()), (None, None));
+    }
+
     #[test]
     fn fastest_skips_unreached_levels() {
         assert_eq!(fastest(&[None, Some(2.0), Some(1.5)]), Some((2, 1.5)));
