@@ -49,7 +49,8 @@ options:
                         render every -reg config once per value: tau0 (e.g.
                         tau0=2,7.5,30,120) or schedule-exponent (lambda in
                         r_N = r_0 N^-lambda, the paper's 1/6; consistent only
-                        strictly between 0 and 1/2, other values are refused).
+                        strictly between 0 and 1/2, other values are refused;
+                        fractions such as 1/6 are accepted).
                         Give both flags for their product. Swept configs are
                         named like bpt-reg@tau0=30@exp=0.25; the references
                         keep --tau0 and 1/6
@@ -164,13 +165,29 @@ impl fmt::Display for Config {
         let suffix = if self.regularized { "-reg" } else { "" };
         let mut name = format!("{}{suffix}", self.algorithm.name());
         if let Some(t) = self.tau0 {
-            name.push_str(&format!("@tau0={t}"));
+            name.push_str(&format!("@tau0={}", short_number(t)));
         }
         if let Some(k) = self.exponent {
-            name.push_str(&format!("@exp={k}"));
+            name.push_str(&format!("@exp={}", short_number(k)));
         }
         // `pad`, so that width and alignment flags apply.
         f.pad(&name)
+    }
+}
+
+/// A swept value in a config's name: at most 4 significant digits, so that
+/// `1/6` reads 0.1667 (names are file names too: no `/`).
+fn short_number(v: f64) -> String {
+    let digits = 3 - v.abs().log10().floor().clamp(-12.0, 3.0) as i32;
+    let scale = 10f64.powi(digits);
+    format!("{}", (v * scale).round() / scale)
+}
+
+/// A number of `--sweep`: decimal, or a fraction p/q (`1/6`).
+fn parse_number(text: &str) -> Option<f64> {
+    match text.split_once('/') {
+        Some((p, q)) => Some(p.trim().parse::<f64>().ok()? / q.trim().parse::<f64>().ok()?),
+        None => text.trim().parse::<f64>().ok(),
     }
 }
 
@@ -585,10 +602,8 @@ fn parse_sweep(value: &str, sweep: &mut Sweep) -> Result<(), String> {
         return Err(format!("--sweep: {name} is swept twice"));
     }
     for item in list.split(',').filter(|s| !s.trim().is_empty()) {
-        let v = item
-            .trim()
-            .parse::<f64>()
-            .map_err(|_| format!("--sweep: {name}: expected a number, got '{item}'"))?;
+        let v = parse_number(item)
+            .ok_or_else(|| format!("--sweep: {name}: expected a number, got '{item}'"))?;
         check(v).map_err(|e| format!("--sweep: {name}: {e}"))?;
         if values.contains(&v) {
             return Err(format!("--sweep: {name}: {v} is listed twice"));
@@ -720,7 +735,7 @@ mod tests {
             "pt,bpt-reg,vcm",
             "--sweep",
             "tau0=2,30",
-            "--sweep=schedule-exponent=0.1,0.25",
+            "--sweep=schedule-exponent=0.1,1/4",
         ])
         .unwrap();
         let names: Vec<String> = o.configs.iter().map(Config::to_string).collect();
@@ -753,6 +768,18 @@ mod tests {
             (plain.tau_0(), plain.exponent()),
             (7.5, DEFAULT_SCHEDULE_EXPONENT)
         );
+        let sixth = parse(&[
+            "--scene",
+            "scenes/caustic-glass",
+            "--configs",
+            "vcm-reg",
+            "--sweep",
+            "schedule-exponent=1/6,0.0123456",
+        ])
+        .unwrap();
+        assert_eq!(sixth.configs[0].exponent, Some(1.0 / 6.0));
+        assert_eq!(sixth.configs[0].to_string(), "vcm-reg@exp=0.1667");
+        assert_eq!(sixth.configs[1].to_string(), "vcm-reg@exp=0.01235");
         let default = parse(&["--scene", "scenes/caustic-glass", "--sweep", "tau0=120"]).unwrap();
         assert_eq!(default.configs.len(), 7);
         assert_eq!(
