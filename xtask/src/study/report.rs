@@ -960,11 +960,11 @@ fn md_contact_sheet(s: &mut String, study: &Study, crop: Crop, sheet: &SheetInfo
     let _ = writeln!(
         s,
         "Tiles, left to right and top to bottom (five a row): {}. The first is the whole \
-         reference, scaled to the tile, with the crop outlined in red; the others are the \
-         crop x = {}..{}, y = {}..{} ({}x{} px, magnified {}x, nearest neighbour) of the \
-         reference and of every config at its final iteration ({}). The crop is the window \
+         first reference, scaled to the tile, with the crop outlined in red; the others are \
+         the crop x = {}..{}, y = {}..{} ({}x{} px, magnified {}x, nearest neighbour) of the \
+         references and of every config at its final iteration ({}). The crop is the window \
          of a quarter of the image's width and height where the configs' final images \
-         disagree most with the reference (per pixel min(1, |Y - Y_ref| / (Y_ref + 0.05)), \
+         disagree most with the first reference (per pixel min(1, |Y - Y_ref| / (Y_ref + 0.05)), \
          summed over the configs). Exposure: x{:.3} (the reference crop's 99th-percentile \
          luminance maps to 1), then sRGB. Linear images of every tile are in `images/`.",
         sheet.order.join(", "),
