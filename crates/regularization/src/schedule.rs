@@ -181,7 +181,9 @@ mod tests {
         let default = Schedule::new(7.5).unwrap();
         assert_eq!(default.exponent(), DEFAULT_SCHEDULE_EXPONENT);
         assert_eq!(
-            Schedule::with_exponent(7.5, 1.0 / 6.0).unwrap().tau_at(1000),
+            Schedule::with_exponent(7.5, 1.0 / 6.0)
+                .unwrap()
+                .tau_at(1000),
             default.tau_at(1000)
         );
         // r_N = r_0 N^(-lambda): the cone radius at N = 4096 is r_0 / 4096^lambda.

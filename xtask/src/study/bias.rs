@@ -122,12 +122,12 @@ pub fn write_image(
     for x in 0..bar {
         let t = 2.0 * f64::from(x) / f64::from(bar - 1) - 1.0;
         for y in h + 4..h + LEGEND_HEIGHT - 4 {
-            canvas.blend(x as i32 + 4, y as i32, diverging(t), 1.0);
+            canvas.blend(x + 4, y as i32, diverging(t), 1.0);
         }
     }
     let label = format!("+-{:.2e}", bias.scale);
     let (_, th) = text_size(&label, 1);
-    let (ox, oy) = (bar as i32 + 12, h as i32 + (LEGEND_HEIGHT as i32 - th) / 2);
+    let (ox, oy) = (bar + 12, h as i32 + (LEGEND_HEIGHT as i32 - th) / 2);
     let mut text = Vec::new();
     for_each_text_pixel(&label, 1, |x, y| text.push((x, y)));
     for (x, y) in text {

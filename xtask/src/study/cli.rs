@@ -575,6 +575,9 @@ fn parse_unbiased(value: &str) -> Result<Unbiased, String> {
     Ok(Unbiased::Given(c))
 }
 
+/// Whether the schedule accepts a swept value (the error says why not).
+type ValueCheck = fn(f64) -> Result<(), String>;
+
 /// One `--sweep PARAM=V1,V2,...` into `sweep`: a known parameter not swept
 /// yet, and a non-empty list of distinct values the schedule accepts
 /// (tau0 > 1/(2 pi); an exponent inside the consistency bound (0, 1/2)).
@@ -583,7 +586,7 @@ fn parse_sweep(value: &str, sweep: &mut Sweep) -> Result<(), String> {
         format!("--sweep: expected PARAM=V1,V2,... (tau0 or schedule-exponent), got '{value}'")
     })?;
     let name = name.trim().to_ascii_lowercase();
-    let (values, check): (&mut Vec<f64>, fn(f64) -> Result<(), String>) = match name.as_str() {
+    let (values, check): (&mut Vec<f64>, ValueCheck) = match name.as_str() {
         "tau0" => (&mut sweep.tau0, |t| {
             Schedule::new(t).map(drop).map_err(|e| e.to_string())
         }),
@@ -750,7 +753,10 @@ mod tests {
                 "vcm"
             ]
         );
-        assert_eq!(o.sweep.describe(), "tau0 = 2, 30; schedule exponent = 0.1, 0.25");
+        assert_eq!(
+            o.sweep.describe(),
+            "tau0 = 2, 30; schedule exponent = 0.1, 0.25"
+        );
         let schedule = o.configs[2]
             .render_config(1, 8, 7.5)
             .unwrap()
@@ -783,7 +789,11 @@ mod tests {
         let default = parse(&["--scene", "scenes/caustic-glass", "--sweep", "tau0=120"]).unwrap();
         assert_eq!(default.configs.len(), 7);
         assert_eq!(
-            default.configs.iter().filter(|c| c.tau0 == Some(120.0)).count(),
+            default
+                .configs
+                .iter()
+                .filter(|c| c.tau0 == Some(120.0))
+                .count(),
             3,
             "pt-reg, bpt-reg, vcm-reg"
         );
@@ -841,13 +851,28 @@ mod tests {
                 "1/(2 pi)",
             ),
             (&["--scene", "scenes/stiff", "--sweep", "tau0=2,2"], "twice"),
-            (&["--scene", "scenes/stiff", "--sweep", "tau0="], "no values"),
             (
-                &["--scene", "scenes/stiff", "--sweep", "tau0=2", "--sweep", "tau0=3"],
+                &["--scene", "scenes/stiff", "--sweep", "tau0="],
+                "no values",
+            ),
+            (
+                &[
+                    "--scene",
+                    "scenes/stiff",
+                    "--sweep",
+                    "tau0=2",
+                    "--sweep",
+                    "tau0=3",
+                ],
                 "swept twice",
             ),
             (
-                &["--scene", "scenes/stiff", "--sweep", "schedule-exponent=0.5"],
+                &[
+                    "--scene",
+                    "scenes/stiff",
+                    "--sweep",
+                    "schedule-exponent=0.5",
+                ],
                 "between 0 and 1/2",
             ),
             (
@@ -855,11 +880,23 @@ mod tests {
                 "between 0 and 1/2",
             ),
             (
-                &["--scene", "scenes/stiff", "--sweep", "schedule-exponent=-0.2"],
+                &[
+                    "--scene",
+                    "scenes/stiff",
+                    "--sweep",
+                    "schedule-exponent=-0.2",
+                ],
                 "between 0 and 1/2",
             ),
             (
-                &["--scene", "scenes/stiff", "--configs", "pt,bpt", "--sweep", "tau0=2"],
+                &[
+                    "--scene",
+                    "scenes/stiff",
+                    "--configs",
+                    "pt,bpt",
+                    "--sweep",
+                    "tau0=2",
+                ],
                 "no regularized config",
             ),
             (&["--scene", "scenes/stiff", "--frobnicate"], "--frobnicate"),

@@ -341,8 +341,7 @@ fn choose_unbiased(features: &scene::SceneFeatures) -> (Config, String) {
     } else {
         (
             Config::plain(integrators::Algorithm::Bpt, false),
-            "auto: no specular (delta) material, so BPT samples every path and is unbiased"
-                .into(),
+            "auto: no specular (delta) material, so BPT samples every path and is unbiased".into(),
         )
     }
 }
@@ -905,7 +904,9 @@ mod tests {
         let report = fs::read_to_string(out.join("report.md")).unwrap();
         // The goal table, first, against the unbiased reference: one row
         // per swept config, each against bpt's final RMSE.
-        let goal = report.find("## Time to reach the unregularized RMSE").unwrap();
+        let goal = report
+            .find("## Time to reach the unregularized RMSE")
+            .unwrap();
         assert!(goal < report.find("## Metrics").unwrap(), "{report}");
         assert!(
             report[goal..].starts_with(
@@ -914,7 +915,10 @@ mod tests {
             "{report}"
         );
         for config in ["bpt-reg@tau0=2", "bpt-reg@tau0=30"] {
-            assert!(report.contains(&format!("| {config} | bpt | 3 |")), "{report}");
+            assert!(
+                report.contains(&format!("| {config} | bpt | 3 |")),
+                "{report}"
+            );
         }
         assert!(report.contains("| sweep | tau0 = 2, 30 |"), "{report}");
         assert!(
@@ -925,10 +929,16 @@ mod tests {
         assert!(bias < report.find("## Metrics").unwrap(), "{report}");
         assert!(report.contains("| RMSE of d |"), "{report}");
         assert!(report.contains("| mean of d |"), "{report}");
-        assert!(report.contains("![bias of regularization](bias.png)"), "{report}");
+        assert!(
+            report.contains("![bias of regularization](bias.png)"),
+            "{report}"
+        );
         let json: serde_json::Value =
             serde_json::from_str(&fs::read_to_string(out.join("curves.json")).unwrap()).unwrap();
-        assert_eq!(json["time_to_unregularized_rmse"].as_array().unwrap().len(), 4);
+        assert_eq!(
+            json["time_to_unregularized_rmse"].as_array().unwrap().len(),
+            4
+        );
         assert!(json["bias_of_regularization"]["rmse"].as_f64().unwrap() > 0.0);
         assert!(report.contains("no: rendered in this run"), "{report}");
         assert!(!report.contains("from the cache"), "{report}");
@@ -942,13 +952,19 @@ mod tests {
         assert!(report.contains("yes: from the cache"), "{report}");
         assert!(!report.contains("rendered in this run"), "{report}");
         let mut without: Vec<String> = args.clone();
-        let i = without.iter().position(|a| a == "--unbiased-reference").unwrap();
+        let i = without
+            .iter()
+            .position(|a| a == "--unbiased-reference")
+            .unwrap();
         without[i + 1] = "none".into();
         fs::remove_file(out.join("bias.png")).unwrap();
         run_with_cache(&root(), &without, &cache).unwrap();
         let report = fs::read_to_string(out.join("report.md")).unwrap();
         assert!(report.contains("(No unbiased reference"), "{report}");
-        assert!(report.contains("Against the regularized (vcm-reg x 4)"), "{report}");
+        assert!(
+            report.contains("Against the regularized (vcm-reg x 4)"),
+            "{report}"
+        );
         assert!(!out.join("bias.png").exists());
         fs::remove_dir_all(out).unwrap();
     }

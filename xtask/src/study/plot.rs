@@ -272,10 +272,15 @@ mod tests {
         let sum = |c: RGBColor| u32::from(c.0) + u32::from(c.1) + u32::from(c.2);
         let base = color_of("bpt-reg");
         assert_eq!(color_of("bpt-reg@tau0=7.5"), base);
-        let ramp: Vec<u32> = ["bpt-reg@tau0=2", "bpt-reg", "bpt-reg@tau0=30", "bpt-reg@tau0=120"]
-            .iter()
-            .map(|n| sum(color_of(n)))
-            .collect();
+        let ramp: Vec<u32> = [
+            "bpt-reg@tau0=2",
+            "bpt-reg",
+            "bpt-reg@tau0=30",
+            "bpt-reg@tau0=120",
+        ]
+        .iter()
+        .map(|n| sum(color_of(n)))
+        .collect();
         assert!(ramp.windows(2).all(|w| w[0] < w[1]), "{ramp:?}");
         assert!(sum(color_of("bpt-reg@exp=0.1")) < sum(base));
         assert!(sum(color_of("bpt-reg@exp=0.3")) > sum(base));

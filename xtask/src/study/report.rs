@@ -63,7 +63,14 @@ pub fn write(out: &Path, study: &Study) -> Result<Vec<String>, String> {
     )?;
     written.extend(charts.iter().cloned());
     written.push("contact-sheet.png".into());
-    let md = markdown(study, &comparisons, bias.as_ref(), &charts, crop, &sheet_info);
+    let md = markdown(
+        study,
+        &comparisons,
+        bias.as_ref(),
+        &charts,
+        crop,
+        &sheet_info,
+    );
     write_file(out, "report.md", &md, &mut written)?;
     Ok(written)
 }
@@ -652,10 +659,7 @@ fn md_goal(s: &mut String, study: &Study, comparisons: &Comparisons) {
 fn md_bias(s: &mut String, study: &Study, bias: Option<&Bias>) {
     let _ = writeln!(s, "\n## Bias of regularization\n");
     let (Some(b), Some((regularized, unbiased))) = (bias, study.bias_pair()) else {
-        let _ = writeln!(
-            s,
-            "(No unbiased reference: `--unbiased-reference none`.)"
-        );
+        let _ = writeln!(s, "(No unbiased reference: `--unbiased-reference none`.)");
         return;
     };
     let _ = writeln!(
@@ -664,12 +668,10 @@ fn md_bias(s: &mut String, study: &Study, bias: Option<&Bias>) {
          luminance:\n\n\
          | quantity | value | relative to the unbiased image mean | from the references' noise alone | ratio |\n\
          |---|---|---|---|---|",
-        regularized.config,
-        regularized.spec.iterations,
-        unbiased.config,
-        unbiased.spec.iterations,
+        regularized.config, regularized.spec.iterations, unbiased.config, unbiased.spec.iterations,
     );
-    let ratio = |v: f64, noise: Option<f64>| noise.map_or("n/a".into(), |n| format!("{:.2}", v / n));
+    let ratio =
+        |v: f64, noise: Option<f64>| noise.map_or("n/a".into(), |n| format!("{:.2}", v / n));
     let _ = writeln!(
         s,
         "| RMSE of d | {} | {:.3} % | {} | {} |",
@@ -691,7 +693,7 @@ fn md_bias(s: &mut String, study: &Study, bias: Option<&Bias>) {
         "\nNoise alone gives an RMSE of d near sqrt(mean(v_r + v_u)) and a mean of d within a \
          few times sqrt(mean(v_r + v_u) / pixels), v the references' per-pixel s^2/N; a ratio \
          far above 1 is bias. s^2/N overstates the error of stratified iterations, so these \
-         ratios understate the bias. A negative mean: regularization loses energy.\n\n\
+         ratios understate the bias. A negative mean beyond its noise means regularization loses energy.\n\n\
          ![bias of regularization](bias.png)\n\n\
          `bias.png`: d per pixel, red where the regularized reference is brighter, blue where \
          darker, white where they agree; full colour at |d| = {} (the 99th percentile of |d|).",
@@ -758,17 +760,17 @@ fn md_references(s: &mut String, study: &Study) {
          sqrt(its s^2/N) is at the reference's noise floor. The configs never share random \
          numbers with a reference (different seeds)."
     );
-    if let Some((_, unbiased)) = study.bias_pair() {
-        if matches!(
+    if let Some((_, unbiased)) = study.bias_pair()
+        && matches!(
             unbiased.config.algorithm,
             integrators::Algorithm::Vcm | integrators::Algorithm::Ppm | integrators::Algorithm::Bpm
-        ) {
-            let _ = writeln!(
-                s,
-                "\nNote: the unregularized reference merges photons, which is consistent but \
-                 biased at a finite iteration count (the merge radius)."
-            );
-        }
+        )
+    {
+        let _ = writeln!(
+            s,
+            "\nNote: the unregularized reference merges photons, which is consistent but \
+             biased at a finite iteration count (the merge radius)."
+        );
     }
 }
 
