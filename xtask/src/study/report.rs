@@ -610,7 +610,8 @@ fn md_goal(s: &mut String, study: &Study, comparisons: &Comparisons) {
          Against the {} reference. For every regularized config: the final RMSE of the same \
          algorithm without regularization (at its last iteration) and its render time, the \
          time the regularized config takes to reach that RMSE (log-log interpolation between \
-         checkpoints; `not reached` within its {} iterations), and their ratio; the goal \
+         checkpoints; its first checkpoint's time, an upper bound, when it starts below; \
+         `not reached` within its {} iterations), and their ratio; the goal \
          (issue 21) is a ratio of at most {GOAL_TIME_FRACTION}. Wall-clock times, with the \
          ratio in CPU time beside them (less disturbed by other processes).\n",
         reference_name(study, 0),
