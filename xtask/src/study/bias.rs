@@ -41,6 +41,10 @@ pub struct Bias {
 /// references (d = 0 everywhere) still map to grey instead of 0/0.
 const MIN_SCALE: f64 = 1e-12;
 
+/// The colour of the noise marks on the legend's colour bar (not in the
+/// diverging map, whose colours run from blue through white to red).
+const NOISE_MARK: [u8; 3] = [0, 200, 0];
+
 /// Pixels of the false-colour image's legend strip below the image.
 const LEGEND_HEIGHT: u32 = 24;
 
@@ -99,7 +103,9 @@ fn diverging(t: f64) -> [u8; 3] {
 /// Writes the false-colour image of `regularized` - `unbiased` to `path`:
 /// each pixel's difference over `bias.scale` in the diverging map,
 /// magnified to at least 256 px wide (nearest neighbour), with a legend
-/// strip saying the full scale.
+/// strip: the colour bar from -scale to +scale, green marks on it at +-
+/// the per-pixel noise of d (sqrt(mean(v_r + v_u))) when that is known,
+/// and the full scale.
 pub fn write_image(
     path: &Path,
     (width, height): (u32, u32),
@@ -125,7 +131,19 @@ pub fn write_image(
             canvas.blend(x + 4, y as i32, diverging(t), 1.0);
         }
     }
-    let label = format!("+-{:.2e}", bias.scale);
+    // Where noise alone would put a typical pixel.
+    if let Some(noise) = bias.noise_rmse.filter(|n| *n < bias.scale) {
+        for sign in [-1.0, 1.0] {
+            let x = ((sign * noise / bias.scale + 1.0) / 2.0 * f64::from(bar - 1)).round() as i32;
+            for y in h + 2..h + LEGEND_HEIGHT - 2 {
+                canvas.blend(x + 4, y as i32, NOISE_MARK, 1.0);
+            }
+        }
+    }
+    let label = match bias.noise_rmse {
+        Some(_) => format!("+-{:.2e}, green: noise", bias.scale),
+        None => format!("+-{:.2e}", bias.scale),
+    };
     let (_, th) = text_size(&label, 1);
     let (ox, oy) = (bar + 12, h as i32 + (LEGEND_HEIGHT as i32 - th) / 2);
     let mut text = Vec::new();

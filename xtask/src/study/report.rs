@@ -697,7 +697,8 @@ fn md_bias(s: &mut String, study: &Study, bias: Option<&Bias>) {
          ratios understate the bias. A negative mean beyond its noise means regularization loses energy.\n\n\
          ![bias of regularization](bias.png)\n\n\
          `bias.png`: d per pixel, red where the regularized reference is brighter, blue where \
-         darker, white where they agree; full colour at |d| = {} (the 99th percentile of |d|).",
+         darker, white where they agree; full colour at |d| = {} (the 99th percentile of |d|); \
+         green marks on the colour bar at +- the per-pixel noise of d (sqrt(mean(v_r + v_u))).",
         sci(b.scale)
     );
 }
