@@ -21,6 +21,9 @@ pub mod selective;
 pub mod tau;
 
 pub use pdf::p_hat;
-pub use schedule::{Schedule, ScheduleError, cone_of_tau, tau_of_cone};
+pub use schedule::{
+    DEFAULT_SCHEDULE_EXPONENT, MAX_SCHEDULE_EXPONENT, Schedule, ScheduleError, cone_of_tau,
+    tau_of_cone,
+};
 pub use selective::{Mode, PathRegularization, Subpath, UnknownMode};
 pub use tau::{AlphaHat, Bound, Lobe, StrictError, alpha_hat, alpha_hat_strict, regularize};

@@ -4,16 +4,24 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 use glam::UVec2;
-use integrators::{Algorithm, Mode, Regularization, RenderConfig};
+use integrators::{Algorithm, DEFAULT_TAU_0, Mode, Regularization, RenderConfig};
+use regularization::{DEFAULT_SCHEDULE_EXPONENT, Schedule};
 
 /// `cargo xtask study --help`.
 pub(super) const HELP: &str = "usage: cargo xtask study --scene PATH [options]
 
-Renders a reference (regularized VCM, cached in target/study/cache/), then
-every config for --iterations iterations, and measures at iterations 1, 2, 4,
-8, ... and the last: wall-clock render time, RMSE, relMSE and noise (SPEC §8),
-all on luminance. Writes curves.csv, curves.json, report.md, charts (SVG and
-PNG) and contact-sheet.png to the output folder.
+Renders two references (cached in target/study/cache/): an unbiased one
+(unregularized BPT, or VCM where the scene has specular surfaces, see
+--unbiased-reference) and the regularized VCM of supp. §7; then every config
+for --iterations iterations, measured at iterations 1, 2, 4, 8, ... and the
+last: wall-clock render time, RMSE, relMSE and noise (SPEC §8), all on
+luminance, against both references. The report leads with the unbiased
+reference, shows the bias of regularization (regularized minus unbiased
+reference) as bias.png and numbers beside both references' noise, and for
+every regularized config the time it takes to reach the final RMSE of the
+same algorithm without regularization (the goal: at most 1/4 of that
+config's time). Writes curves.csv, curves.json, report.md, charts (SVG and
+PNG), bias.png and contact-sheet.png to the output folder.
 
 options:
   --scene PATH          scene folder with a scene.toml, or a scene file (.toml,
@@ -31,16 +39,26 @@ options:
   --resolution WxH      image size [quick: 64x64, full: the scene's]
   --budget quick|full   defaults of the three above [default: full]; flags
                         given explicitly win. quick runs in CI.
-  --unbiased-reference CONFIG
-                        also render an unregularized reference (e.g. bpt, or vcm
-                        where only merging reaches a caustic) and report every
-                        metric against both: their difference is the bias of
-                        regularization
+  --unbiased-reference auto|none|CONFIG
+                        the unregularized reference [default: auto: vcm when
+                        the scene has a specular (delta) surface, whose SDS
+                        paths only merging reaches from a point light; else
+                        bpt, which is unbiased]; none skips it (only the
+                        regularized reference, as supp. §7)
+  --sweep PARAM=V1,V2,...
+                        render every -reg config once per value: tau0 (e.g.
+                        tau0=2,7.5,30,120) or schedule-exponent (lambda in
+                        r_N = r_0 N^-lambda, the paper's 1/6; consistent only
+                        strictly between 0 and 1/2, other values are refused;
+                        fractions such as 1/6 are accepted).
+                        Give both flags for their product. Swept configs are
+                        named like bpt-reg@tau0=30@exp=0.25; the references
+                        keep --tau0 and 1/6
   --seed S              seed of the configs [default: 1]; the reference uses
                         S + 1000003, the unbiased reference S + 2000006, so no
                         config shares random numbers with a reference
-  --tau0 X              tau_0 of the -reg configs and the reference [default:
-                        the scene's, else 7.5]
+  --tau0 X              tau_0 of the -reg configs and the regularized
+                        reference [default: the scene's, else 7.5]
   --out DIR             output folder [default: target/study/<scene name>]
   --rerender-reference  render the reference(s) even when cached (and update
                         the cache)
@@ -62,21 +80,34 @@ CPU seconds of all threads (from /proc), which they skew much less.";
 /// Default configs, in report order.
 const DEFAULT_CONFIGS: &str = "pt,pt-reg,bpt,bpt-reg,ppm,vcm,vcm-reg";
 
-/// A rendering configuration of the study: an algorithm, regularized or not.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// A rendering configuration of the study: an algorithm, regularized or not,
+/// and for a swept config the schedule values that differ from the study's.
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Config {
     /// The algorithm.
     pub algorithm: Algorithm,
     /// Selective, progressive regularization (else off).
     pub regularized: bool,
+    /// tau_0 set by `--sweep tau0=...` (None: the study's tau_0).
+    pub tau0: Option<f64>,
+    /// lambda of r_N = r_0 N^-lambda set by `--sweep schedule-exponent=...`
+    /// (None: the paper's 1/6).
+    pub exponent: Option<f64>,
 }
 
 impl Config {
     /// The regularized VCM of the reference.
-    pub(super) const REFERENCE: Self = Self {
-        algorithm: Algorithm::Vcm,
-        regularized: true,
-    };
+    pub(super) const REFERENCE: Self = Self::plain(Algorithm::Vcm, true);
+
+    /// `algorithm`, regularized or not, with the study's schedule.
+    pub(super) const fn plain(algorithm: Algorithm, regularized: bool) -> Self {
+        Self {
+            algorithm,
+            regularized,
+            tau0: None,
+            exponent: None,
+        }
+    }
 
     pub(super) fn parse(s: &str) -> Result<Self, String> {
         let s = s.trim().to_ascii_lowercase();
@@ -89,13 +120,11 @@ impl Config {
                 "unknown config '{s}' (expected pt, bpt, ppm, bpm or vcm, each optionally with -reg)"
             )
         })?;
-        Ok(Self {
-            algorithm,
-            regularized,
-        })
+        Ok(Self::plain(algorithm, regularized))
     }
 
-    /// The renderer's configuration.
+    /// The renderer's configuration; `tau0` is the study's, which a swept
+    /// tau_0 replaces.
     pub(super) fn render_config(
         self,
         seed: u64,
@@ -103,7 +132,21 @@ impl Config {
         tau0: f64,
     ) -> Result<RenderConfig, String> {
         let regularization = if self.regularized {
-            Regularization::new(Mode::Selective, tau0, true).map_err(|e| format!("--tau0: {e}"))?
+            let flag = if self.tau0.is_some() || self.exponent.is_some() {
+                "--sweep"
+            } else {
+                "--tau0"
+            };
+            let schedule = Schedule::with_exponent(
+                self.tau0.unwrap_or(tau0),
+                self.exponent.unwrap_or(DEFAULT_SCHEDULE_EXPONENT),
+            )
+            .map_err(|e| format!("{flag}: {e}"))?;
+            Regularization {
+                mode: Mode::Selective,
+                schedule,
+                progressive: true,
+            }
         } else {
             Regularization::off()
         };
@@ -120,8 +163,31 @@ impl Config {
 impl fmt::Display for Config {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let suffix = if self.regularized { "-reg" } else { "" };
+        let mut name = format!("{}{suffix}", self.algorithm.name());
+        if let Some(t) = self.tau0 {
+            name.push_str(&format!("@tau0={}", short_number(t)));
+        }
+        if let Some(k) = self.exponent {
+            name.push_str(&format!("@exp={}", short_number(k)));
+        }
         // `pad`, so that width and alignment flags apply.
-        f.pad(&format!("{}{suffix}", self.algorithm.name()))
+        f.pad(&name)
+    }
+}
+
+/// A swept value in a config's name: at most 4 significant digits, so that
+/// `1/6` reads 0.1667 (names are file names too: no `/`).
+fn short_number(v: f64) -> String {
+    let digits = 3 - v.abs().log10().floor().clamp(-12.0, 3.0) as i32;
+    let scale = 10f64.powi(digits);
+    format!("{}", (v * scale).round() / scale)
+}
+
+/// A number of `--sweep`: decimal, or a fraction p/q (`1/6`).
+fn parse_number(text: &str) -> Option<f64> {
+    match text.split_once('/') {
+        Some((p, q)) => Some(p.trim().parse::<f64>().ok()? / q.trim().parse::<f64>().ok()?),
+        None => text.trim().parse::<f64>().ok(),
     }
 }
 
@@ -141,6 +207,78 @@ impl Budget {
     }
 }
 
+/// Which unbiased reference to render (`--unbiased-reference`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Unbiased {
+    /// Chosen from the scene's features (`choose_unbiased`).
+    Auto,
+    /// None: the regularized reference only.
+    Skip,
+    /// This unregularized config.
+    Given(Config),
+}
+
+/// The values of `--sweep` (empty: no sweep).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(super) struct Sweep {
+    /// tau_0 values.
+    pub(super) tau0: Vec<f64>,
+    /// Schedule exponents lambda.
+    pub(super) exponent: Vec<f64>,
+}
+
+impl Sweep {
+    pub(super) fn is_empty(&self) -> bool {
+        self.tau0.is_empty() && self.exponent.is_empty()
+    }
+
+    /// `configs` with every regularized config replaced by one config per
+    /// combination of the swept values, in the order given.
+    pub(super) fn apply(&self, configs: &[Config]) -> Vec<Config> {
+        let or_none = |values: &[f64]| -> Vec<Option<f64>> {
+            if values.is_empty() {
+                vec![None]
+            } else {
+                values.iter().copied().map(Some).collect()
+            }
+        };
+        let mut out = Vec::new();
+        for &c in configs {
+            if !c.regularized || self.is_empty() {
+                out.push(c);
+                continue;
+            }
+            for tau0 in or_none(&self.tau0) {
+                for exponent in or_none(&self.exponent) {
+                    out.push(Config {
+                        tau0,
+                        exponent,
+                        ..c
+                    });
+                }
+            }
+        }
+        out
+    }
+
+    /// One line for the report, e.g. `tau0 = 2, 7.5; schedule exponent = 0.25`.
+    pub(super) fn describe(&self) -> String {
+        let list = |v: &[f64]| v.iter().map(f64::to_string).collect::<Vec<_>>().join(", ");
+        let mut parts = Vec::new();
+        if !self.tau0.is_empty() {
+            parts.push(format!("tau0 = {}", list(&self.tau0)));
+        }
+        if !self.exponent.is_empty() {
+            parts.push(format!("schedule exponent = {}", list(&self.exponent)));
+        }
+        if parts.is_empty() {
+            "none".into()
+        } else {
+            parts.join("; ")
+        }
+    }
+}
+
 /// The parsed command line.
 #[derive(Clone, Debug, PartialEq)]
 pub(super) struct Options {
@@ -153,7 +291,9 @@ pub(super) struct Options {
     pub(super) reference_iterations: u64,
     pub(super) resolution: Option<UVec2>,
     pub(super) budget: Budget,
-    pub(super) unbiased: Option<Config>,
+    pub(super) unbiased: Unbiased,
+    /// `--sweep` values (already applied to `configs`).
+    pub(super) sweep: Sweep,
     pub(super) seed: u64,
     pub(super) tau0: Option<f64>,
     pub(super) out: PathBuf,
@@ -246,7 +386,8 @@ impl Options {
                 }
                 "--resolution" => flags.resolution = Some(parse_resolution(&value)?),
                 "--budget" => flags.budget = parse_budget(&value)?,
-                "--unbiased-reference" => flags.unbiased = Some(parse_unbiased(&value)?),
+                "--unbiased-reference" => flags.unbiased = parse_unbiased(&value)?,
+                "--sweep" => parse_sweep(&value, &mut flags.sweep)?,
                 "--seed" => flags.seed = parse_seed(&value)?,
                 "--tau0" => flags.tau0 = Some(parse_tau0(&value)?),
                 "--out" => flags.out = Some(PathBuf::from(value)),
@@ -280,7 +421,8 @@ struct Flags {
     reference_iterations: Option<u64>,
     resolution: Option<UVec2>,
     budget: Budget,
-    unbiased: Option<Config>,
+    unbiased: Unbiased,
+    sweep: Sweep,
     seed: u64,
     tau0: Option<f64>,
     out: Option<PathBuf>,
@@ -299,7 +441,8 @@ impl Default for Flags {
             reference_iterations: None,
             resolution: None,
             budget: Budget::Full,
-            unbiased: None,
+            unbiased: Unbiased::Auto,
+            sweep: Sweep::default(),
             seed: 1,
             tau0: None,
             out: None,
@@ -335,6 +478,12 @@ impl Flags {
                 .map(Config::parse)
                 .collect::<Result<_, _>>()?,
         };
+        if !self.sweep.is_empty() && !configs.iter().any(|c| c.regularized) {
+            return Err(
+                "--sweep: no regularized config to sweep (add a -reg config to --configs)".into(),
+            );
+        }
+        let configs = self.sweep.apply(&configs);
         let out = self
             .out
             .unwrap_or_else(|| root.join("target").join("study").join(&scene_name));
@@ -347,6 +496,7 @@ impl Flags {
             resolution: self.resolution.or(default_resolution),
             budget: self.budget,
             unbiased: self.unbiased,
+            sweep: self.sweep,
             seed: self.seed,
             tau0: self.tau0,
             out,
@@ -408,8 +558,13 @@ fn parse_budget(value: &str) -> Result<Budget, String> {
     }
 }
 
-/// `--unbiased-reference C`: an unregularized config.
-fn parse_unbiased(value: &str) -> Result<Config, String> {
+/// `--unbiased-reference auto|none|C`, C an unregularized config.
+fn parse_unbiased(value: &str) -> Result<Unbiased, String> {
+    match value.trim().to_ascii_lowercase().as_str() {
+        "auto" => return Ok(Unbiased::Auto),
+        "none" => return Ok(Unbiased::Skip),
+        _ => {}
+    }
     let c = Config::parse(value).map_err(|e| format!("--unbiased-reference: {e}"))?;
     if c.regularized {
         return Err(format!(
@@ -417,7 +572,51 @@ fn parse_unbiased(value: &str) -> Result<Config, String> {
              unregularized config: pt, bpt, ppm, bpm or vcm"
         ));
     }
-    Ok(c)
+    Ok(Unbiased::Given(c))
+}
+
+/// Whether the schedule accepts a swept value (the error says why not).
+type ValueCheck = fn(f64) -> Result<(), String>;
+
+/// One `--sweep PARAM=V1,V2,...` into `sweep`: a known parameter not swept
+/// yet, and a non-empty list of distinct values the schedule accepts
+/// (tau0 > 1/(2 pi); an exponent inside the consistency bound (0, 1/2)).
+fn parse_sweep(value: &str, sweep: &mut Sweep) -> Result<(), String> {
+    let (name, list) = value.split_once('=').ok_or_else(|| {
+        format!("--sweep: expected PARAM=V1,V2,... (tau0 or schedule-exponent), got '{value}'")
+    })?;
+    let name = name.trim().to_ascii_lowercase();
+    let (values, check): (&mut Vec<f64>, ValueCheck) = match name.as_str() {
+        "tau0" => (&mut sweep.tau0, |t| {
+            Schedule::new(t).map(drop).map_err(|e| e.to_string())
+        }),
+        "schedule-exponent" => (&mut sweep.exponent, |k| {
+            Schedule::with_exponent(DEFAULT_TAU_0, k)
+                .map(drop)
+                .map_err(|e| e.to_string())
+        }),
+        _ => {
+            return Err(format!(
+                "--sweep: unknown parameter '{name}' (expected tau0 or schedule-exponent)"
+            ));
+        }
+    };
+    if !values.is_empty() {
+        return Err(format!("--sweep: {name} is swept twice"));
+    }
+    for item in list.split(',').filter(|s| !s.trim().is_empty()) {
+        let v = parse_number(item)
+            .ok_or_else(|| format!("--sweep: {name}: expected a number, got '{item}'"))?;
+        check(v).map_err(|e| format!("--sweep: {name}: {e}"))?;
+        if values.contains(&v) {
+            return Err(format!("--sweep: {name}: {v} is listed twice"));
+        }
+        values.push(v);
+    }
+    if values.is_empty() {
+        return Err(format!("--sweep: {name}: no values"));
+    }
+    Ok(())
 }
 
 /// `--seed N`.
@@ -517,8 +716,87 @@ mod tests {
         assert_eq!(mixed.resolution, Some(UVec2::new(32, 24)));
         assert_eq!(mixed.configs.len(), 2);
         assert_eq!(mixed.scene_name, "glossy-caustic");
-        assert_eq!(mixed.unbiased.map(|c| c.to_string()), Some("bpt".into()));
+        assert_eq!(
+            mixed.unbiased,
+            Unbiased::Given(Config::plain(Algorithm::Bpt, false))
+        );
         assert_eq!(mixed.seed, 5);
+        assert_eq!(quick.unbiased, Unbiased::Auto);
+        let none = parse(&["--scene=scenes/stiff", "--unbiased-reference=none"]).unwrap();
+        assert_eq!(none.unbiased, Unbiased::Skip);
+    }
+
+    /// `--sweep` replaces every regularized config by one per value (the
+    /// product of both parameters), leaves the others, names the values,
+    /// and gives each config its schedule.
+    #[test]
+    fn sweep_expands_regularized_configs() {
+        let o = parse(&[
+            "--scene",
+            "scenes/caustic-glass",
+            "--configs",
+            "pt,bpt-reg,vcm",
+            "--sweep",
+            "tau0=2,30",
+            "--sweep=schedule-exponent=0.1,1/4",
+        ])
+        .unwrap();
+        let names: Vec<String> = o.configs.iter().map(Config::to_string).collect();
+        assert_eq!(
+            names,
+            [
+                "pt",
+                "bpt-reg@tau0=2@exp=0.1",
+                "bpt-reg@tau0=2@exp=0.25",
+                "bpt-reg@tau0=30@exp=0.1",
+                "bpt-reg@tau0=30@exp=0.25",
+                "vcm"
+            ]
+        );
+        assert_eq!(
+            o.sweep.describe(),
+            "tau0 = 2, 30; schedule exponent = 0.1, 0.25"
+        );
+        let schedule = o.configs[2]
+            .render_config(1, 8, 7.5)
+            .unwrap()
+            .regularization
+            .schedule;
+        assert_eq!((schedule.tau_0(), schedule.exponent()), (2.0, 0.25));
+        // Unswept: the study's tau_0 and the paper's exponent.
+        let plain = Config::parse("bpt-reg")
+            .unwrap()
+            .render_config(1, 8, 7.5)
+            .unwrap()
+            .regularization
+            .schedule;
+        assert_eq!(
+            (plain.tau_0(), plain.exponent()),
+            (7.5, DEFAULT_SCHEDULE_EXPONENT)
+        );
+        let sixth = parse(&[
+            "--scene",
+            "scenes/caustic-glass",
+            "--configs",
+            "vcm-reg",
+            "--sweep",
+            "schedule-exponent=1/6,0.0123456",
+        ])
+        .unwrap();
+        assert_eq!(sixth.configs[0].exponent, Some(1.0 / 6.0));
+        assert_eq!(sixth.configs[0].to_string(), "vcm-reg@exp=0.1667");
+        assert_eq!(sixth.configs[1].to_string(), "vcm-reg@exp=0.01235");
+        let default = parse(&["--scene", "scenes/caustic-glass", "--sweep", "tau0=120"]).unwrap();
+        assert_eq!(default.configs.len(), 7);
+        assert_eq!(
+            default
+                .configs
+                .iter()
+                .filter(|c| c.tau0 == Some(120.0))
+                .count(),
+            3,
+            "pt-reg, bpt-reg, vcm-reg"
+        );
     }
 
     #[test]
@@ -555,6 +833,72 @@ mod tests {
             ),
             (&["--scene", "scenes/stiff", "--tau0", "0.1"], "--tau0"),
             (&["--scene", "scenes/stiff", "--seed", "-1"], "--seed"),
+            (
+                &["--scene", "scenes/stiff", "--unbiased-reference", "mlt"],
+                "--unbiased-reference",
+            ),
+            (&["--scene", "scenes/stiff", "--sweep", "tau0"], "PARAM="),
+            (
+                &["--scene", "scenes/stiff", "--sweep", "radius=1,2"],
+                "unknown parameter",
+            ),
+            (
+                &["--scene", "scenes/stiff", "--sweep", "tau0=2,x"],
+                "expected a number",
+            ),
+            (
+                &["--scene", "scenes/stiff", "--sweep", "tau0=2,0.1"],
+                "1/(2 pi)",
+            ),
+            (&["--scene", "scenes/stiff", "--sweep", "tau0=2,2"], "twice"),
+            (
+                &["--scene", "scenes/stiff", "--sweep", "tau0="],
+                "no values",
+            ),
+            (
+                &[
+                    "--scene",
+                    "scenes/stiff",
+                    "--sweep",
+                    "tau0=2",
+                    "--sweep",
+                    "tau0=3",
+                ],
+                "swept twice",
+            ),
+            (
+                &[
+                    "--scene",
+                    "scenes/stiff",
+                    "--sweep",
+                    "schedule-exponent=0.5",
+                ],
+                "between 0 and 1/2",
+            ),
+            (
+                &["--scene", "scenes/stiff", "--sweep", "schedule-exponent=0"],
+                "between 0 and 1/2",
+            ),
+            (
+                &[
+                    "--scene",
+                    "scenes/stiff",
+                    "--sweep",
+                    "schedule-exponent=-0.2",
+                ],
+                "between 0 and 1/2",
+            ),
+            (
+                &[
+                    "--scene",
+                    "scenes/stiff",
+                    "--configs",
+                    "pt,bpt",
+                    "--sweep",
+                    "tau0=2",
+                ],
+                "no regularized config",
+            ),
             (&["--scene", "scenes/stiff", "--frobnicate"], "--frobnicate"),
         ];
         for (args, needle) in cases {
@@ -578,6 +922,8 @@ mod tests {
             "--resolution",
             "--budget",
             "--unbiased-reference",
+            "--sweep",
+            "schedule-exponent",
             "--seed",
             "--tau0",
             "--out",

@@ -1,10 +1,12 @@
 //! `cargo xtask study`: convergence studies, error against wall-clock time
 //! (SPEC §8; supp. §7 and Figure 2).
 //!
-//! A reference (regularized VCM at many iterations, cached on disk), then
-//! every config for a number of iterations, measured at log-spaced
-//! checkpoints; curves, a report with equal-time comparisons, charts and a
-//! contact sheet of close-ups. All light transport is the `integrators`
+//! Two references (an unbiased one, BPT or VCM as the scene needs, and the
+//! regularized VCM of supp. §7, both at many iterations, cached on disk),
+//! then every config (and every `--sweep` value of the regularized ones)
+//! for a number of iterations, measured at log-spaced checkpoints; curves,
+//! a report with equal-time comparisons, the bias of regularization, charts
+//! and a contact sheet of close-ups. All light transport is the `integrators`
 //! library's: this module only calls `Renderer::render_iteration` and reads
 //! the film.
 //!
@@ -13,9 +15,12 @@
 //! - `metrics`: RMSE, relMSE and noise on luminance, checkpoints, log-log interpolation
 //! - `cache`: the reference cache and its key
 //! - `report`: curves.csv, curves.json, report.md (equal-time tables)
+//! - `bias`: the regularized reference minus the unbiased one, as numbers
+//!   and a false-colour image
 //! - `plot`, `raster`: charts as SVG and PNG
 //! - `sheet`: the contact sheet
 
+mod bias;
 pub(crate) mod cache;
 mod cli;
 pub(crate) mod metrics;
@@ -36,7 +41,7 @@ use serde_json::json;
 
 use cache::ReferenceSpec;
 pub use cli::Config;
-use cli::{HELP, Options, Parsed};
+use cli::{HELP, Options, Parsed, Unbiased};
 /// Flag-value parsers shared with `cargo xtask bench`.
 pub(crate) use cli::{parse_resolution, positive};
 use metrics::{Errors, Noise};
@@ -55,7 +60,7 @@ const UNBIASED_SEED_OFFSET: u64 = 2_000_006;
 
 /// A reference image with how it was made.
 pub struct Reference {
-    /// "reference" or "unbiased".
+    /// "unbiased" or "regularized".
     pub role: &'static str,
     /// Its config.
     pub config: Config,
@@ -148,8 +153,13 @@ pub struct Study {
     pub tau0: f64,
     /// Renderer version string (cache key input).
     pub renderer_version: String,
-    /// The references: the regularized one first.
+    /// The references: the unbiased one first (unless skipped), then the
+    /// regularized one.
     pub references: Vec<Reference>,
+    /// Why the unbiased reference is the config it is (None: skipped).
+    pub unbiased_reason: Option<String>,
+    /// The `--sweep` values, one line ("none" without a sweep).
+    pub sweep: String,
     /// The configs' runs, in the order given.
     pub runs: Vec<Run>,
     /// Logical cores.
@@ -184,8 +194,9 @@ fn run_with_cache(root: &Path, args: &[String], cache_dir: &Path) -> Result<(), 
     let scene_hash =
         cache::scene_hash_of(&options.scene_file).map_err(|e| format!("--scene: {e}"))?;
     let renderer_version = cache::renderer_version(root);
-    announce(&options, &settings);
-    let specs = reference_specs(&options, &settings);
+    let unbiased = unbiased_reference(options.unbiased, &scene);
+    announce(&options, &settings, unbiased.as_ref());
+    let specs = reference_specs(&options, &settings, unbiased.as_ref().map(|(c, _)| *c));
     let context = ReferenceContext {
         scene: &scene,
         scene_file: &options.scene_file,
@@ -246,6 +257,8 @@ fn run_with_cache(root: &Path, args: &[String], cache_dir: &Path) -> Result<(), 
         tau0: settings.tau0,
         renderer_version,
         references,
+        unbiased_reason: unbiased.map(|(_, why)| why),
+        sweep: options.sweep.describe(),
         runs,
         cores: crate::cores(),
         load: (load_before, crate::load_average()),
@@ -299,10 +312,44 @@ fn load_scene(options: &Options) -> Result<(scene::Scene, Settings), String> {
     Ok((scene, settings))
 }
 
+/// The unbiased reference's config and why, from `--unbiased-reference`
+/// (None: skipped).
+fn unbiased_reference(choice: Unbiased, scene: &scene::Scene) -> Option<(Config, String)> {
+    match choice {
+        Unbiased::Skip => None,
+        Unbiased::Given(c) => Some((c, "given by --unbiased-reference".into())),
+        Unbiased::Auto => Some(choose_unbiased(&scene::SceneFeatures::of(scene))),
+    }
+}
+
+/// The unbiased reference a scene needs: VCM when it has a specular
+/// (delta) surface, since a specular-diffuse-specular path lit by a point
+/// light has no technique in BPT (every connection needs a non-delta vertex
+/// on both ends, and a camera subpath cannot hit a point light) and only
+/// merging reaches it (consistent, its bias vanishes as the merge radius
+/// shrinks); otherwise BPT, which is unbiased and samples every path.
+fn choose_unbiased(features: &scene::SceneFeatures) -> (Config, String) {
+    if features.specular_materials > 0 {
+        (
+            Config::plain(integrators::Algorithm::Vcm, false),
+            format!(
+                "auto: the scene has {} specular (delta) material(s), whose caustics (SDS \
+                 paths) only merging reaches",
+                features.specular_materials
+            ),
+        )
+    } else {
+        (
+            Config::plain(integrators::Algorithm::Bpt, false),
+            "auto: no specular (delta) material, so BPT samples every path and is unbiased".into(),
+        )
+    }
+}
+
 /// The one line that says what the study will do.
-fn announce(options: &Options, settings: &Settings) {
+fn announce(options: &Options, settings: &Settings, unbiased: Option<&(Config, String)>) {
     println!(
-        "study: {} at {}x{}, configs {} x {} iterations, reference {} x {} \
+        "study: {} at {}x{}, configs {} x {} iterations, references {}{} x {} \
          iterations ({} budget), {} cores",
         options.scene_file.display(),
         settings.width,
@@ -314,6 +361,7 @@ fn announce(options: &Options, settings: &Settings) {
             .collect::<Vec<_>>()
             .join(","),
         options.iterations,
+        unbiased.map_or(String::new(), |(c, why)| format!("{c} ({why}) and ")),
         Config::REFERENCE,
         options.reference_iterations,
         options.budget.name(),
@@ -321,16 +369,18 @@ fn announce(options: &Options, settings: &Settings) {
     );
 }
 
-/// (role, config, settings) of every reference: the regularized one, then
-/// the unbiased one if asked for.
+/// (role, config, settings) of every reference: the unbiased one (when
+/// there is one), then the regularized one.
 fn reference_specs(
     options: &Options,
     settings: &Settings,
+    unbiased: Option<Config>,
 ) -> Vec<(&'static str, Config, ReferenceSpec)> {
-    let mut jobs = vec![("reference", Config::REFERENCE, REFERENCE_SEED_OFFSET)];
-    if let Some(c) = options.unbiased {
+    let mut jobs = Vec::new();
+    if let Some(c) = unbiased {
         jobs.push(("unbiased", c, UNBIASED_SEED_OFFSET));
     }
+    jobs.push(("regularized", Config::REFERENCE, REFERENCE_SEED_OFFSET));
     jobs.into_iter()
         .map(|(role, config, offset)| {
             let spec = ReferenceSpec {
@@ -488,11 +538,7 @@ struct ReferenceContext<'a> {
 impl Reference {
     /// The file name of its copy in `<out>/images/`.
     fn image_name(&self) -> String {
-        if self.role == "reference" {
-            "reference.exr".to_string()
-        } else {
-            format!("unbiased-{}.exr", self.config)
-        }
+        format!("reference-{}-{}.exr", self.role, self.config)
     }
 
     /// A reference read from the cache, with the sidecar's timings and noise.
@@ -682,12 +728,17 @@ fn farm_flags(
 pub(crate) fn cpu_seconds() -> Option<f64> {
     let mut ns = 0u64;
     for task in fs::read_dir("/proc/self/task").ok()? {
-        let path = task.ok()?.path().join("schedstat");
-        // A thread may exit between the listing and the read: skip it.
-        let Ok(text) = fs::read_to_string(path) else {
+        // A thread may exit between the listing and the read, and an
+        // exiting thread's file may read empty: skip it rather than lose
+        // the whole sum.
+        let Ok(task) = task else { continue };
+        let Ok(text) = fs::read_to_string(task.path().join("schedstat")) else {
             continue;
         };
-        ns += text.split_whitespace().next()?.parse::<u64>().ok()?;
+        let Some(Ok(n)) = text.split_whitespace().next().map(str::parse::<u64>) else {
+            continue;
+        };
+        ns += n;
     }
     Some(ns as f64 * 1e-9)
 }
@@ -770,9 +821,40 @@ mod tests {
         crate::workspace_root()
     }
 
-    /// A whole study on a tiny image: every output file appears, the
-    /// reference comes from the cache the second time, and the curves have
-    /// one row per config x checkpoint x reference.
+    /// The automatic unbiased reference: VCM where a specular surface makes
+    /// SDS paths (caustic-glass: a point light through smooth glass), BPT
+    /// elsewhere (glossy-caustic: alpha 0.02, no delta lobe).
+    #[test]
+    fn unbiased_reference_follows_the_scene() {
+        for (name, expected) in [
+            ("caustic-glass", "vcm"),
+            ("caustic-through-glass", "vcm"),
+            ("glossy-cornell-glass", "vcm"),
+            ("glossy-caustic", "bpt"),
+            ("cornell-box", "bpt"),
+        ] {
+            let scene = scene::load(
+                &root().join("scenes").join(name).join("scene.toml"),
+                &LoadOptions::default(),
+            )
+            .unwrap();
+            let (config, why) = unbiased_reference(Unbiased::Auto, &scene).unwrap();
+            assert_eq!(config.to_string(), expected, "{name}: {why}");
+            assert!(why.starts_with("auto"), "{why}");
+        }
+        let scene = scene::load(
+            &root().join("scenes/cornell-box/scene.toml"),
+            &LoadOptions::default(),
+        )
+        .unwrap();
+        assert!(unbiased_reference(Unbiased::Skip, &scene).is_none());
+    }
+
+    /// A whole study on a tiny image with a tau0 sweep: every output file
+    /// appears, the references come from the cache the second time, the
+    /// curves have one row per config x checkpoint x reference, and the
+    /// report leads with the goal table and the bias against the unbiased
+    /// reference; without an unbiased reference it says so.
     #[test]
     fn tiny_study_writes_every_output_and_caches_the_reference() {
         let out = std::env::temp_dir().join(format!("xtask-study-run-{}", std::process::id()));
@@ -787,7 +869,9 @@ mod tests {
             "--reference-iterations",
             "4",
             "--configs",
-            "pt,bpt-reg",
+            "bpt,bpt-reg",
+            "--sweep",
+            "tau0=2,30",
             "--unbiased-reference",
             "bpt",
             "--seed",
@@ -808,19 +892,71 @@ mod tests {
             "rmse-vs-time.png",
             "relmse-vs-time.svg",
             "noise-vs-iterations.svg",
-            "rmse-vs-cpu-time.svg",
-            "rmse-vs-time-unbiased.svg",
+            "rmse-vs-time-regularized.svg",
             "contact-sheet.png",
-            "images/reference.exr",
-            "images/unbiased-bpt.exr",
-            "images/bpt-reg.exr",
+            "bias.png",
+            "images/reference-regularized-vcm-reg.exr",
+            "images/reference-unbiased-bpt.exr",
+            "images/bpt-reg@tau0=2.exr",
+            "images/bpt-reg@tau0=30.exr",
         ] {
             assert!(out.join(file).is_file(), "{file}");
         }
         let csv = fs::read_to_string(out.join("curves.csv")).unwrap();
-        // Checkpoints 1, 2, 3; two configs; two references; plus the header.
-        assert_eq!(csv.lines().count(), 1 + 3 * 2 * 2, "{csv}");
+        // Checkpoints 1, 2, 3; three configs; two references; plus the header.
+        assert_eq!(csv.lines().count(), 1 + 3 * 3 * 2, "{csv}");
         let report = fs::read_to_string(out.join("report.md")).unwrap();
+        // The goal table, first, against the unbiased reference: one row
+        // per swept config, each against bpt's final RMSE.
+        let goal = report
+            .find("## Time to reach the unregularized RMSE")
+            .unwrap();
+        assert!(goal < report.find("## Metrics").unwrap(), "{report}");
+        assert!(
+            report[goal..].starts_with(
+                "## Time to reach the unregularized RMSE\n\nAgainst the unbiased (bpt x 4)"
+            ),
+            "{report}"
+        );
+        for config in ["bpt-reg@tau0=2", "bpt-reg@tau0=30"] {
+            assert!(
+                report.contains(&format!("| {config} | bpt | 3 |")),
+                "{report}"
+            );
+        }
+        assert!(report.contains("| sweep | tau0 = 2, 30 |"), "{report}");
+        assert!(
+            report.contains("| unbiased reference | bpt (given by --unbiased-reference) |"),
+            "{report}"
+        );
+        let bias = report.find("## Bias of regularization").unwrap();
+        assert!(bias < report.find("## Metrics").unwrap(), "{report}");
+        assert!(report.contains("| RMSE of d |"), "{report}");
+        assert!(report.contains("| mean of d |"), "{report}");
+        assert!(
+            report.contains("![bias of regularization](bias.png)"),
+            "{report}"
+        );
+        let json: serde_json::Value =
+            serde_json::from_str(&fs::read_to_string(out.join("curves.json")).unwrap()).unwrap();
+        // The CPU-time chart needs CPU times above zero: the kernel may
+        // account a thread's time only at scheduler ticks, so iterations of
+        // a few microseconds can all measure 0 s (seen in 1 of 8 runs).
+        let cpu_measured = json["rows"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|r| r["cpu_seconds"].as_f64().is_some_and(|t| t > 0.0));
+        assert_eq!(
+            out.join("rmse-vs-cpu-time.svg").is_file(),
+            cpu_measured,
+            "the CPU-time chart exactly when CPU times were measured"
+        );
+        assert_eq!(
+            json["time_to_unregularized_rmse"].as_array().unwrap().len(),
+            4
+        );
+        assert!(json["bias_of_regularization"]["rmse"].as_f64().unwrap() > 0.0);
         assert!(report.contains("no: rendered in this run"), "{report}");
         assert!(!report.contains("from the cache"), "{report}");
         assert_eq!(
@@ -832,6 +968,21 @@ mod tests {
         let report = fs::read_to_string(out.join("report.md")).unwrap();
         assert!(report.contains("yes: from the cache"), "{report}");
         assert!(!report.contains("rendered in this run"), "{report}");
+        let mut without: Vec<String> = args.clone();
+        let i = without
+            .iter()
+            .position(|a| a == "--unbiased-reference")
+            .unwrap();
+        without[i + 1] = "none".into();
+        fs::remove_file(out.join("bias.png")).unwrap();
+        run_with_cache(&root(), &without, &cache).unwrap();
+        let report = fs::read_to_string(out.join("report.md")).unwrap();
+        assert!(report.contains("(No unbiased reference"), "{report}");
+        assert!(
+            report.contains("Against the regularized (vcm-reg x 4)"),
+            "{report}"
+        );
+        assert!(!out.join("bias.png").exists());
         fs::remove_dir_all(out).unwrap();
     }
 }

@@ -33,8 +33,57 @@ pub struct Chart {
 }
 
 /// A fixed colour per config name, so that every chart of every study
-/// shows a config in the same colour (Tableau 10).
+/// shows a config in the same colour (Tableau 10). A swept config
+/// (`bpt-reg@tau0=30@exp=0.25`) gets its base config's colour, darker for
+/// more blur than the defaults (smaller tau0, smaller exponent) and lighter
+/// for less, so a sweep reads as a ramp.
 pub fn color_of(name: &str) -> RGBColor {
+    let Some((base, sweep)) = name.split_once('@') else {
+        return base_color(name);
+    };
+    let RGBColor(r, g, b) = base_color(base);
+    let shade = sweep_shade(sweep);
+    let mix = |c: u8| {
+        let c = f64::from(c);
+        let target = if shade < 0.0 { 0.0 } else { 255.0 };
+        (c + (target - c) * SWEEP_SHADE_RANGE * shade.abs()).round() as u8
+    };
+    RGBColor(mix(r), mix(g), mix(b))
+}
+
+/// How far towards black or white the most extreme sweep value moves its
+/// base colour (beyond that the ramp loses its hue).
+const SWEEP_SHADE_RANGE: f64 = 0.6;
+
+/// The shade of a sweep suffix (`tau0=30@exp=0.25`) in [-1, 1]: the sum of
+/// ln(tau0 / 7.5) / ln(16) and (exponent - 1/6) / (1/3), clamped, so tau0
+/// 7.5 with exponent 1/6 is 0, tau0 120 is +1 and tau0 0.47 is -1.
+fn sweep_shade(sweep: &str) -> f64 {
+    let mut shade = 0.0;
+    for part in sweep.split('@') {
+        match part.split_once('=') {
+            Some(("tau0", v)) => {
+                if let Ok(t) = v.parse::<f64>() {
+                    shade += (t / integrators::DEFAULT_TAU_0).ln() / 16f64.ln();
+                }
+            }
+            Some(("exp", v)) => {
+                if let Ok(k) = v.parse::<f64>() {
+                    shade += (k - regularization::DEFAULT_SCHEDULE_EXPONENT) * 3.0;
+                }
+            }
+            _ => {}
+        }
+    }
+    if shade.is_finite() {
+        shade.clamp(-1.0, 1.0)
+    } else {
+        0.0
+    }
+}
+
+/// The colour of an unswept config name.
+fn base_color(name: &str) -> RGBColor {
     match name {
         "pt" => RGBColor(31, 119, 180),
         "pt-reg" => RGBColor(23, 190, 207),
@@ -214,6 +263,27 @@ mod tests {
         );
         // A narrow range falls back to every integer mantissa.
         assert_eq!(ticks(2.5, 4.5, &[1.0, 2.0, 5.0]), [3.0, 4.0]);
+    }
+
+    /// A sweep reads as a ramp of its base colour: darker for more blur,
+    /// lighter for less, the study's values unchanged.
+    #[test]
+    fn swept_configs_shade_their_base_colour() {
+        let sum = |c: RGBColor| u32::from(c.0) + u32::from(c.1) + u32::from(c.2);
+        let base = color_of("bpt-reg");
+        assert_eq!(color_of("bpt-reg@tau0=7.5"), base);
+        let ramp: Vec<u32> = [
+            "bpt-reg@tau0=2",
+            "bpt-reg",
+            "bpt-reg@tau0=30",
+            "bpt-reg@tau0=120",
+        ]
+        .iter()
+        .map(|n| sum(color_of(n)))
+        .collect();
+        assert!(ramp.windows(2).all(|w| w[0] < w[1]), "{ramp:?}");
+        assert!(sum(color_of("bpt-reg@exp=0.1")) < sum(base));
+        assert!(sum(color_of("bpt-reg@exp=0.3")) > sum(base));
     }
 
     #[test]

@@ -6,6 +6,7 @@ use std::path::Path;
 
 use serde_json::{Value, json};
 
+use super::bias::{self, Bias};
 use super::metrics::{self, Errors};
 use super::plot::{self, Chart, Series};
 use super::sheet::{self, Crop, SheetInfo};
@@ -24,32 +25,67 @@ pub fn write(out: &Path, study: &Study) -> Result<Vec<String>, String> {
         .map(|r| metrics::luminance_image(&r.image))
         .collect();
     let crop = sheet::choose_crop(w, h, &reference.luminance, &finals);
-    let tiles: Vec<(String, Vec<glam::Vec3>)> = study
-        .runs
+    // The other references first, then every config.
+    let tiles: Vec<(String, Vec<glam::Vec3>)> = study.references[1..]
         .iter()
-        .map(|r| (r.config.to_string(), r.image.clone()))
+        .map(|r| (format!("{} {}", r.role, r.config), r.image.clone()))
+        .chain(
+            study
+                .runs
+                .iter()
+                .map(|r| (r.config.to_string(), r.image.clone())),
+        )
         .collect();
     let sheet_info = sheet::write(
         &out.join("contact-sheet.png"),
         (w, h),
-        &reference.image,
+        (&reference_label(reference), &reference.image),
         &tiles,
         crop,
     )?;
+    let bias = match study.bias_pair() {
+        Some((regularized, unbiased)) => {
+            let b = Bias::of(regularized, unbiased);
+            bias::write_image(&out.join("bias.png"), (w, h), regularized, unbiased, &b)?;
+            written.push("bias.png".into());
+            Some(b)
+        }
+        None => None,
+    };
     let comparisons = Comparisons::of(study);
     write_file(
         out,
         "curves.json",
-        &(serde_json::to_string_pretty(&json_of(study, &comparisons, crop))
+        &(serde_json::to_string_pretty(&json_of(study, &comparisons, bias.as_ref(), crop))
             .map_err(|e| e.to_string())?
             + "\n"),
         &mut written,
     )?;
     written.extend(charts.iter().cloned());
     written.push("contact-sheet.png".into());
-    let md = markdown(study, &comparisons, &charts, crop, &sheet_info);
+    let md = markdown(
+        study,
+        &comparisons,
+        bias.as_ref(),
+        &charts,
+        crop,
+        &sheet_info,
+    );
     write_file(out, "report.md", &md, &mut written)?;
     Ok(written)
+}
+
+/// The short label of a reference's tiles: role and config.
+fn reference_label(r: &super::Reference) -> String {
+    format!("{} {}", r.role, r.config)
+}
+
+impl Study {
+    /// (regularized, unbiased) references when the study has both.
+    fn bias_pair(&self) -> Option<(&super::Reference, &super::Reference)> {
+        let find = |role: &str| self.references.iter().find(|r| r.role == role);
+        Some((find("regularized")?, find("unbiased")?))
+    }
 }
 
 /// Writes `<out>/<name>` and adds `name` to `written`.
@@ -159,6 +195,41 @@ struct Pair {
     cpu: Option<(f64, f64, f64)>,
 }
 
+/// The issue's goal, per regularized config: the time it takes to reach
+/// the final RMSE of its algorithm without regularization, over that
+/// config's time.
+struct Goal {
+    reference: usize,
+    regularized: String,
+    unregularized: String,
+    /// The unregularized config's iterations, final RMSE and render time.
+    iterations: u64,
+    level: f64,
+    time_off: f64,
+    /// Seconds the regularized config takes to reach `level` (None: not
+    /// within its run).
+    time_reg: Option<f64>,
+    /// The same two times in CPU seconds (None without CPU times).
+    cpu: Option<(f64, Option<f64>)>,
+}
+
+/// The goal of issue 21: a regularized config reaches the unregularized
+/// one's final RMSE in at most this fraction of its time.
+const GOAL_TIME_FRACTION: f64 = 0.25;
+
+impl Goal {
+    /// time_reg / time_off.
+    fn ratio(&self) -> Option<f64> {
+        self.time_reg.map(|t| t / self.time_off)
+    }
+
+    /// The same ratio in CPU time.
+    fn cpu_ratio(&self) -> Option<f64> {
+        let (off, reg) = self.cpu?;
+        Some(reg? / off)
+    }
+}
+
 /// A config's time to reach an error level.
 struct Level {
     reference: usize,
@@ -171,29 +242,33 @@ struct Level {
 
 struct Comparisons {
     pairs: Vec<Pair>,
+    goals: Vec<Goal>,
     levels: Vec<Level>,
 }
 
 impl Comparisons {
     fn of(study: &Study) -> Self {
         let mut pairs = Vec::new();
+        let mut goals = Vec::new();
         let mut levels = Vec::new();
-        let find = |c: Config| study.runs.iter().find(|r| r.config == c);
+        // Every regularized run (swept or not) with its algorithm's
+        // unregularized run.
+        let pairings: Vec<(&Run, &Run)> = study
+            .runs
+            .iter()
+            .filter(|r| r.config.regularized)
+            .filter_map(|reg| {
+                let off = Config::plain(reg.config.algorithm, false);
+                Some((study.runs.iter().find(|r| r.config == off)?, reg))
+            })
+            .collect();
         for reference in 0..study.references.len() {
             let rmse = |r: &Run| r.curve(|p| p.errors[reference].rmse);
             let rel = |r: &Run| r.curve(|p| p.errors[reference].rel_mse);
-            for (algorithm, _) in integrators::Algorithm::ALL {
-                let unreg = find(Config {
-                    algorithm,
-                    regularized: false,
-                });
-                let reg = find(Config {
-                    algorithm,
-                    regularized: true,
-                });
-                let (Some(unreg), Some(reg)) = (unreg, reg) else {
-                    continue;
-                };
+            for &(unreg, reg) in &pairings {
+                if let Some(goal) = Goal::of(reference, unreg, reg) {
+                    goals.push(goal);
+                }
                 let Some((time, e_unreg, e_reg)) = metrics::at_equal_time(&rmse(unreg), &rmse(reg))
                 else {
                     continue;
@@ -239,7 +314,34 @@ impl Comparisons {
                 });
             }
         }
-        Self { pairs, levels }
+        Self {
+            pairs,
+            goals,
+            levels,
+        }
+    }
+}
+
+impl Goal {
+    /// `reg` against the final RMSE of `unreg`, against reference `reference`.
+    fn of(reference: usize, unreg: &Run, reg: &Run) -> Option<Self> {
+        let last = unreg.points.last()?;
+        let level = last.errors[reference].rmse;
+        let rmse = |p: &super::Point| p.errors[reference].rmse;
+        let cpu = match (last.cpu_seconds, reg.cpu_curve(rmse)) {
+            (Some(off), Some(curve)) => Some((off, metrics::time_to_reach(&curve, level))),
+            _ => None,
+        };
+        Some(Self {
+            reference,
+            regularized: reg.config.to_string(),
+            unregularized: unreg.config.to_string(),
+            iterations: last.iteration,
+            level,
+            time_off: last.seconds,
+            time_reg: metrics::time_to_reach(&reg.curve(rmse), level),
+            cpu,
+        })
     }
 }
 
@@ -280,7 +382,7 @@ fn csv(study: &Study) -> String {
     s
 }
 
-fn json_of(study: &Study, comparisons: &Comparisons, crop: Crop) -> Value {
+fn json_of(study: &Study, comparisons: &Comparisons, bias: Option<&Bias>, crop: Crop) -> Value {
     let reference_name = |i: usize| {
         let r = &study.references[i];
         format!("{} {}", r.role, r.config)
@@ -315,6 +417,8 @@ fn json_of(study: &Study, comparisons: &Comparisons, crop: Crop) -> Value {
         "seed": study.seed,
         "max_depth": study.max_depth,
         "tau0": study.tau0,
+        "sweep": study.sweep,
+        "unbiased_reference_choice": study.unbiased_reason,
         "renderer_version": study.renderer_version,
         "cores": study.cores,
         "load_average": [study.load.0, study.load.1],
@@ -363,6 +467,28 @@ fn json_of(study: &Study, comparisons: &Comparisons, crop: Crop) -> Value {
                 "rmse_ratio_regularized_over_unregularized": b / a,
             })),
         })).collect::<Vec<_>>(),
+        "bias_of_regularization": bias.map(|b| json!({
+            "definition": "d = Y(regularized reference) - Y(unbiased reference) per pixel",
+            "rmse": b.rmse,
+            "relative_rmse": b.relative_rmse,
+            "mean": b.mean,
+            "relative_mean": b.relative_mean,
+            "noise_rmse": b.noise_rmse,
+            "noise_mean": b.noise_mean,
+            "image_full_scale": b.scale,
+        })),
+        "time_to_unregularized_rmse": comparisons.goals.iter().map(|g| json!({
+            "reference": reference_name(g.reference),
+            "regularized": g.regularized,
+            "unregularized": g.unregularized,
+            "unregularized_iterations": g.iterations,
+            "rmse_level": g.level,
+            "seconds_unregularized": g.time_off,
+            "seconds_regularized": g.time_reg,
+            "ratio": g.ratio(),
+            "goal_met": g.ratio().is_some_and(|r| r <= GOAL_TIME_FRACTION),
+            "cpu_ratio": g.cpu_ratio(),
+        })).collect::<Vec<_>>(),
         "time_to_rmse": comparisons.levels.iter().map(|l| json!({
             "reference": reference_name(l.reference),
             "rmse": l.rmse,
@@ -396,12 +522,15 @@ fn secs(v: f64) -> String {
 fn markdown(
     study: &Study,
     comparisons: &Comparisons,
+    bias: Option<&Bias>,
     charts: &[String],
     crop: Crop,
     sheet: &SheetInfo,
 ) -> String {
     let mut s = String::new();
     md_settings(&mut s, study);
+    md_goal(&mut s, study, comparisons);
+    md_bias(&mut s, study, bias);
     md_metrics(&mut s);
     md_references(&mut s, study);
     md_final_iteration(&mut s, study);
@@ -438,7 +567,18 @@ fn md_settings(s: &mut String, study: &Study) {
         ("max depth", study.max_depth.to_string()),
         (
             "regularization of -reg configs",
-            format!("selective, progressive tau_N from tau_0 = {}", study.tau0),
+            format!(
+                "selective, progressive tau_N from tau_0 = {} (r_N = r_0 N^-1/6) unless swept",
+                study.tau0
+            ),
+        ),
+        ("sweep", study.sweep.clone()),
+        (
+            "unbiased reference",
+            match (&study.unbiased_reason, study.references.first()) {
+                (Some(why), Some(r)) => format!("{} ({why})", r.config),
+                _ => "none (--unbiased-reference none)".into(),
+            },
         ),
         ("renderer", study.renderer_version.clone()),
         (
@@ -459,6 +599,108 @@ fn md_settings(s: &mut String, study: &Study) {
     for (k, v) in rows {
         let _ = writeln!(s, "| {k} | {v} |");
     }
+}
+
+/// The issue's goal first: per regularized config, the time to reach the
+/// unregularized config's final RMSE, against the first (unbiased) reference.
+fn md_goal(s: &mut String, study: &Study, comparisons: &Comparisons) {
+    let _ = writeln!(
+        s,
+        "\n## Time to reach the unregularized RMSE\n\n\
+         Against the {} reference. For every regularized config: the final RMSE of the same \
+         algorithm without regularization (at its last iteration) and its render time, the \
+         time the regularized config takes to reach that RMSE (log-log interpolation between \
+         checkpoints; its first checkpoint's time, an upper bound, when it starts below; \
+         `not reached` within its {} iterations), and their ratio; the goal \
+         (issue 21) is a ratio of at most {GOAL_TIME_FRACTION}. Wall-clock times, with the \
+         ratio in CPU time beside them (less disturbed by other processes).\n",
+        reference_name(study, 0),
+        study.iterations
+    );
+    let goals: Vec<&Goal> = comparisons
+        .goals
+        .iter()
+        .filter(|g| g.reference == 0)
+        .collect();
+    if goals.is_empty() {
+        let _ = writeln!(
+            s,
+            "(No regularized config with its algorithm's unregularized config among the configs.)"
+        );
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "| regularized | unregularized | its iterations | its RMSE | its time (s) | time of regularized (s) | **ratio** | goal <= {GOAL_TIME_FRACTION} | ratio in CPU time |\n\
+         |---|---|---|---|---|---|---|---|---|"
+    );
+    for g in goals {
+        let ratio = g.ratio();
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {} | **{}** | {} | {} |",
+            g.regularized,
+            g.unregularized,
+            g.iterations,
+            sci(g.level),
+            secs(g.time_off),
+            g.time_reg.map_or("not reached".into(), secs),
+            ratio.map_or("-".into(), |r| format!("{r:.3}")),
+            match ratio {
+                Some(r) if r <= GOAL_TIME_FRACTION => "met",
+                _ => "not met",
+            },
+            g.cpu_ratio().map_or("-".into(), |r| format!("{r:.3}")),
+        );
+    }
+}
+
+/// The bias of regularization: the regularized reference minus the
+/// unbiased one, beside what the references' noise alone would give.
+fn md_bias(s: &mut String, study: &Study, bias: Option<&Bias>) {
+    let _ = writeln!(s, "\n## Bias of regularization\n");
+    let (Some(b), Some((regularized, unbiased))) = (bias, study.bias_pair()) else {
+        let _ = writeln!(s, "(No unbiased reference: `--unbiased-reference none`.)");
+        return;
+    };
+    let _ = writeln!(
+        s,
+        "d = Y(regularized reference, {} x {}) - Y(unbiased reference, {} x {}) per pixel, \
+         luminance:\n\n\
+         | quantity | value | relative to the unbiased image mean | from the references' noise alone | ratio |\n\
+         |---|---|---|---|---|",
+        regularized.config, regularized.spec.iterations, unbiased.config, unbiased.spec.iterations,
+    );
+    let ratio =
+        |v: f64, noise: Option<f64>| noise.map_or("n/a".into(), |n| format!("{:.2}", v / n));
+    let _ = writeln!(
+        s,
+        "| RMSE of d | {} | {:.3} % | {} | {} |",
+        sci(b.rmse),
+        100.0 * b.relative_rmse,
+        b.noise_rmse.map_or("n/a".into(), sci),
+        ratio(b.rmse, b.noise_rmse),
+    );
+    let _ = writeln!(
+        s,
+        "| mean of d | {} | {:+.3} % | {} (standard deviation) | {} |",
+        sci(b.mean),
+        100.0 * b.relative_mean,
+        b.noise_mean.map_or("n/a".into(), sci),
+        ratio(b.mean, b.noise_mean),
+    );
+    let _ = writeln!(
+        s,
+        "\nNoise alone gives an RMSE of d near sqrt(mean(v_r + v_u)) and a mean of d within a \
+         few times sqrt(mean(v_r + v_u) / pixels), v the references' per-pixel s^2/N; a ratio \
+         far above 1 is bias. s^2/N overstates the error of stratified iterations, so these \
+         ratios understate the bias. A negative mean beyond its noise means regularization loses energy.\n\n\
+         ![bias of regularization](bias.png)\n\n\
+         `bias.png`: d per pixel, red where the regularized reference is brighter, blue where \
+         darker, white where they agree; full colour at |d| = {} (the 99th percentile of |d|); \
+         green marks on the colour bar at +- the per-pixel noise of d (sqrt(mean(v_r + v_u))).",
+        sci(b.scale)
+    );
 }
 
 /// How the metrics and times are defined.
@@ -520,30 +762,17 @@ fn md_references(s: &mut String, study: &Study) {
          sqrt(its s^2/N) is at the reference's noise floor. The configs never share random \
          numbers with a reference (different seeds)."
     );
-    if study.references.len() > 1 {
-        let e = metrics::errors(
-            &study.references[1].luminance,
-            &study.references[0].luminance,
-        );
+    if let Some((_, unbiased)) = study.bias_pair()
+        && matches!(
+            unbiased.config.algorithm,
+            integrators::Algorithm::Vcm | integrators::Algorithm::Ppm | integrators::Algorithm::Bpm
+        )
+    {
         let _ = writeln!(
             s,
-            "\nThe two references differ by RMSE {} and relMSE {} (the regularized against the \
-             unregularized one): the bias of regularization at {} iterations, plus both \
-             references' noise.",
-            sci(e.rmse),
-            sci(e.rel_mse),
-            study.references[0].spec.iterations
+            "\nNote: the unregularized reference merges photons, which is consistent but \
+             biased at a finite iteration count (the merge radius)."
         );
-        if matches!(
-            study.references[1].config.algorithm,
-            integrators::Algorithm::Vcm | integrators::Algorithm::Ppm | integrators::Algorithm::Bpm
-        ) {
-            let _ = writeln!(
-                s,
-                "\nNote: the unregularized reference merges photons, which is consistent but \
-                 biased at a finite iteration count (the merge radius)."
-            );
-        }
     }
 }
 
@@ -735,11 +964,11 @@ fn md_contact_sheet(s: &mut String, study: &Study, crop: Crop, sheet: &SheetInfo
     let _ = writeln!(
         s,
         "Tiles, left to right and top to bottom (five a row): {}. The first is the whole \
-         reference, scaled to the tile, with the crop outlined in red; the others are the \
-         crop x = {}..{}, y = {}..{} ({}x{} px, magnified {}x, nearest neighbour) of the \
-         reference and of every config at its final iteration ({}). The crop is the window \
+         first reference, scaled to the tile, with the crop outlined in red; the others are \
+         the crop x = {}..{}, y = {}..{} ({}x{} px, magnified {}x, nearest neighbour) of the \
+         references and of every config at its final iteration ({}). The crop is the window \
          of a quarter of the image's width and height where the configs' final images \
-         disagree most with the reference (per pixel min(1, |Y - Y_ref| / (Y_ref + 0.05)), \
+         disagree most with the first reference (per pixel min(1, |Y - Y_ref| / (Y_ref + 0.05)), \
          summed over the configs). Exposure: x{:.3} (the reference crop's 99th-percentile \
          luminance maps to 1), then sRGB. Linear images of every tile are in `images/`.",
         sheet.order.join(", "),
@@ -772,6 +1001,43 @@ fn reference_tag(study: &Study, i: usize) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn run(config: &str, curve: &[(f64, f64)]) -> Run {
+        Run {
+            config: Config::parse(config).unwrap(),
+            setup_seconds: 0.0,
+            points: curve
+                .iter()
+                .enumerate()
+                .map(|(i, &(seconds, rmse))| super::super::Point {
+                    iteration: 1 << i,
+                    seconds,
+                    cpu_seconds: Some(2.0 * seconds),
+                    noise: None,
+                    errors: vec![Errors { rmse, rel_mse: 0.0 }],
+                })
+                .collect(),
+            invalid_samples: 0,
+            image: Vec::new(),
+        }
+    }
+
+    /// The goal compares the time to reach the unregularized run's final
+    /// RMSE with that run's time, in wall-clock and CPU time.
+    #[test]
+    fn goal_is_the_time_to_reach_the_unregularized_final_rmse() {
+        let off = run("bpt", &[(1.0, 0.4), (2.0, 0.2), (4.0, 0.1)]);
+        // RMSE 0.1 at sqrt(0.5) s (log-log between 0.5 s / 0.2 and 1 s / 0.05).
+        let reg = run("bpt-reg", &[(0.5, 0.2), (1.0, 0.05), (2.0, 0.04)]);
+        let g = Goal::of(0, &off, &reg).unwrap();
+        assert_eq!((g.iterations, g.level, g.time_off), (4, 0.1, 4.0));
+        assert!((g.time_reg.unwrap() - 0.5 * 2f64.powf(0.5)).abs() < 1e-12);
+        assert!((g.ratio().unwrap() - 0.5 * 2f64.powf(0.5) / 4.0).abs() < 1e-12);
+        assert!((g.cpu_ratio().unwrap() - g.ratio().unwrap()).abs() < 1e-12);
+        let slow = run("bpt-reg", &[(1.0, 0.3), (8.0, 0.2)]);
+        let g = Goal::of(0, &off, &slow).unwrap();
+        assert_eq!((g.time_reg, g.ratio()), (None, None));
+    }
 
     #[test]
     fn fastest_skips_unreached_levels() {

@@ -148,7 +148,7 @@ pub struct SheetInfo {
 pub fn write(
     path: &Path,
     (width, height): (u32, u32),
-    reference: &[Vec3],
+    (reference_label, reference): (&str, &[Vec3]),
     finals: &[(String, Vec<Vec3>)],
     crop: Crop,
 ) -> Result<SheetInfo, String> {
@@ -189,10 +189,10 @@ pub fn write(
         }
         whole = s.pixels;
     }
-    tiles.push(("reference (whole)".into(), whole, fw, fh));
+    tiles.push((format!("{reference_label} (whole)"), whole, fw, fh));
     let close_up = |image: &[Vec3]| crop_pixels(image, width, crop).collect::<Vec<_>>();
     tiles.push((
-        "reference".into(),
+        reference_label.to_string(),
         close_up(reference),
         crop.width,
         crop.height,
