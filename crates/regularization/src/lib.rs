@@ -22,5 +22,5 @@ pub mod tau;
 
 pub use pdf::p_hat;
 pub use schedule::{Schedule, ScheduleError, cone_of_tau, tau_of_cone};
-pub use selective::{Mode, PathRegularization, Subpath, UnknownMode};
+pub use selective::{Energy, Mode, PathRegularization, Subpath, UnknownMode};
 pub use tau::{AlphaHat, Bound, Lobe, StrictError, alpha_hat, alpha_hat_strict, regularize};
