@@ -42,7 +42,10 @@ fn image_mean(scene: &str, mode: Mode, energy: Energy, iterations: u64) -> (f64,
         iterations,
     );
     let (mean, variance) = common::block_means(&film, 1)[0];
-    (mean.element_sum(), variance.element_sum() + sum_covariance_bound(variance))
+    (
+        mean.element_sum(),
+        variance.element_sum() + sum_covariance_bound(variance),
+    )
 }
 
 /// The channels of one image are correlated (one path carries all three);
@@ -58,7 +61,10 @@ fn compare(scene: &str, energy: Energy, iterations: u64) -> (f64, f64) {
     let (off, off_var) = image_mean(scene, Mode::Off, Energy::Preserved, iterations);
     let (on, on_var) = image_mean(scene, Mode::Uniform, energy, iterations);
     let z = (on - off) / (off_var + on_var).sqrt();
-    println!("{scene} N={iterations} {energy:?}: regularized/unregularized {:.4}, z {z:.2}", on / off);
+    println!(
+        "{scene} N={iterations} {energy:?}: regularized/unregularized {:.4}, z {z:.2}",
+        on / off
+    );
     (z, on / off)
 }
 

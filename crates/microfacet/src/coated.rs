@@ -310,8 +310,7 @@ impl Coated {
             Some((wi, wo, h)) if !self.model.is_smooth() => {
                 let facet = self.model.facet_terms(wi, wo, h);
                 let wi_h = wi.dot(h);
-                terms.f +=
-                    self.specular_fresnel(wi_h) * (facet.d * facet.g / (4.0 * wi.z * wo.z));
+                terms.f += self.specular_fresnel(wi_h) * (facet.d * facet.g / (4.0 * wi.z * wo.z));
                 // <wo,h> = <wi,h> for a reflection.
                 (facet.pdf_h_wi / (4.0 * wi_h), facet.pdf_h_wo / (4.0 * wi_h))
             }
@@ -321,7 +320,10 @@ impl Coated {
         // value is added and its density shares the specular coin.
         terms.f += self.model.compensation_value(wi, wo);
         terms.pdf += p_i * self.model.with_compensation_pdf(wi, wo, specular_pdf);
-        terms.pdf_reverse += p_o * self.model.with_compensation_pdf(wo, wi, specular_pdf_reverse);
+        terms.pdf_reverse += p_o
+            * self
+                .model
+                .with_compensation_pdf(wo, wi, specular_pdf_reverse);
         (terms.f.is_finite() && terms.pdf.is_finite() && terms.pdf_reverse.is_finite())
             .then_some(terms)
     }
@@ -338,7 +340,6 @@ impl Coated {
         (wi.dot(h) > 0.0 && h.z > 0.0).then_some((wi, wo, h))
     }
 }
-
 
 /// Channel mean of an RGB value.
 fn mean(c: Vec3) -> f32 {

@@ -88,13 +88,7 @@ impl AlbedoTable {
     /// mu -> E(mu_j, alpha) at node j, linear in alpha between rows.
     fn row(&self, alpha: f32) -> impl Fn(usize) -> f32 + '_ {
         let (k, s) = cell(alpha, TABLE_ALPHA, TABLE_ALPHA_MAX);
-        move |j| {
-            lerp(
-                self.e[k * TABLE_MU + j],
-                self.e[(k + 1) * TABLE_MU + j],
-                s,
-            )
-        }
+        move |j| lerp(self.e[k * TABLE_MU + j], self.e[(k + 1) * TABLE_MU + j], s)
     }
 
     /// The node values of dE(mu) = max(0, E(mu, alpha) - E(mu, alpha_hat))

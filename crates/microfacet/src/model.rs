@@ -83,25 +83,22 @@ impl MicrofacetModel {
     /// not exceed alpha.
     pub fn regularized(&self, alpha_hat: f32, tint: Vec3) -> Self {
         let mut model = self.with_alpha(alpha_hat);
-        model.compensation = Compensation::new(&model, self.alpha())
-            .map(|c| Compensation { tint, ..c });
+        model.compensation =
+            Compensation::new(&model, self.alpha()).map(|c| Compensation { tint, ..c });
         model
     }
 
     /// The probability of sampling the compensation lobe for a query at
     /// macro cosine `mu_i` (0 without compensation).
     pub fn compensation_probability(&self, mu_i: f32) -> f32 {
-        self.compensation
-            .map_or(0.0, |c| c.probability(self, mu_i))
+        self.compensation.map_or(0.0, |c| c.probability(self, mu_i))
     }
 
     /// The compensation lobe's value f_c(wi, wo) with its tint, for
     /// directions on the same side (0 otherwise and without compensation).
     pub fn compensation_value(&self, wi: Vec3, wo: Vec3) -> Vec3 {
         match self.compensation {
-            Some(c) if same_hemisphere(wi, wo) => {
-                c.tint * c.value(self, wi.z.abs(), wo.z.abs())
-            }
+            Some(c) if same_hemisphere(wi, wo) => c.tint * c.value(self, wi.z.abs(), wo.z.abs()),
             _ => Vec3::ZERO,
         }
     }

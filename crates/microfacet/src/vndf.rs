@@ -155,7 +155,6 @@ pub fn sample_vcavity(ndf: &Ndf, wi: Vec3, u: Vec2, uc: f32) -> Option<(Vec3, f3
     }
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -63,7 +63,11 @@ const GRAZING: f32 = 0.1;
 const GRAZING_TOLERANCE: f64 = 1e-2;
 
 fn tolerance(mu: f32) -> f64 {
-    if mu < GRAZING { GRAZING_TOLERANCE } else { TOLERANCE }
+    if mu < GRAZING {
+        GRAZING_TOLERANCE
+    } else {
+        TOLERANCE
+    }
 }
 
 /// The table entry E(mu, alpha) against the white conductor's albedo,
@@ -216,10 +220,9 @@ fn compensated_sampling_matches_its_pdf() {
     let lobes: Vec<(String, Bsdf)> = kinds()
         .into_iter()
         .flat_map(|(kind, shadowing)| {
-            let conductor = Bsdf::Conductor(white_conductor(MicrofacetModel::new(
-                kind, 0.05, shadowing,
-            )))
-            .regularized(0.6);
+            let conductor =
+                Bsdf::Conductor(white_conductor(MicrofacetModel::new(kind, 0.05, shadowing)))
+                    .regularized(0.6);
             let coat = Bsdf::Coated(Coated {
                 model: MicrofacetModel::new(kind, 0.05, shadowing),
                 base_color: Vec3::new(0.8, 0.5, 0.2),
@@ -279,8 +282,12 @@ fn compensated_lobes_are_reciprocal() {
         for bsdf in lobes {
             for _ in 0..200 {
                 let wi = direction(rng.range_f64(0.02, 1.0) as f32, rng.uniform_f32() * 6.28);
-                let Some(s) = bsdf.sample(wi, rng.uniform_f32(), rng.uniform_vec2(), TransportMode::Radiance)
-                else {
+                let Some(s) = bsdf.sample(
+                    wi,
+                    rng.uniform_f32(),
+                    rng.uniform_vec2(),
+                    TransportMode::Radiance,
+                ) else {
                     continue;
                 };
                 let (a, b) = (

@@ -38,9 +38,7 @@ pub fn p_hat(bsdf: &Bsdf, regularized: &Bsdf, wi: Vec3, wo: Vec3) -> f32 {
             let p = hat.pdf(wi, wo) * shadowing_ratio(&c.model, alpha_hat, wi, wo);
             c_reg.model.with_compensation_pdf(wi, wo, p)
         }
-        (Bsdf::Dielectric(d), _) => {
-            hat.pdf(wi, wo) * shadowing_ratio(&d.model, alpha_hat, wi, wo)
-        }
+        (Bsdf::Dielectric(d), _) => hat.pdf(wi, wo) * shadowing_ratio(&d.model, alpha_hat, wi, wo),
         (Bsdf::Coated(c), Bsdf::Coated(c_reg)) => {
             let Bsdf::Coated(c_hat) = hat else {
                 unreachable!("with_alpha keeps the lobe kind")

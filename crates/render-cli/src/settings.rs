@@ -168,15 +168,15 @@ impl Settings {
             } else {
                 Energy::Lost
             },
-            ..Regularization::new(mode.value, tau0.value, progressive.value).map_err(|e| {
-                match tau0.origin {
+            ..Regularization::new(mode.value, tau0.value, progressive.value).map_err(
+                |e| match tau0.origin {
                     Origin::Manifest => key("tau0", "--tau0")(e.to_string()),
                     _ => ArgError::Flag {
                         flag: "--tau0",
                         message: e.to_string(),
                     },
-                }
-            })?
+                },
+            )?
         };
         Ok(Self {
             config: RenderConfig {
