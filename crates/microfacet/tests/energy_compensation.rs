@@ -281,7 +281,10 @@ fn compensated_lobes_are_reciprocal() {
         ];
         for bsdf in lobes {
             for _ in 0..200 {
-                let wi = direction(rng.range_f64(0.02, 1.0) as f32, rng.uniform_f32() * 6.28);
+                let wi = direction(
+                    rng.range_f64(0.02, 1.0) as f32,
+                    rng.uniform_f32() * std::f32::consts::TAU,
+                );
                 let Some(s) = bsdf.sample(
                     wi,
                     rng.uniform_f32(),
