@@ -5,7 +5,7 @@ use std::fmt;
 use std::str::FromStr;
 
 use regularization::tau::alpha_tau;
-use regularization::{Lobe, Mode, Schedule, ScheduleError};
+use regularization::{Energy, Lobe, Mode, Schedule, ScheduleError};
 
 /// A light-transport algorithm.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -102,6 +102,10 @@ pub struct Regularization {
     /// When false, tau stays tau_0 at every iteration (a fixed blur: biased,
     /// not consistent; used to compare estimators on one integrand).
     pub progressive: bool,
+    /// Whether regularized lobes keep their original's energy
+    /// (`microfacet::energy`); `Preserved` by default, `Lost` to compare
+    /// with the plain widening.
+    pub energy: Energy,
 }
 
 impl Regularization {
@@ -112,6 +116,7 @@ impl Regularization {
             mode,
             schedule: Schedule::new(tau_0).map_err(ConfigError::Tau)?,
             progressive,
+            energy: Energy::Preserved,
         })
     }
 

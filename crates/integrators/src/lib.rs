@@ -37,7 +37,7 @@ pub use config::{
     DEFAULT_SHADOW_ROULETTE, DEFAULT_TAU_0, Regularization, RenderConfig, Strategies,
 };
 pub use film::Film;
-pub use regularization::{Mode, Schedule};
+pub use regularization::{Energy, Mode, Schedule};
 pub use render::Renderer;
 pub use roulette::ROULETTE_DEPTH;
 

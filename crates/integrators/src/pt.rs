@@ -121,7 +121,8 @@ impl PathTracer {
     ) -> Vec3 {
         let mut radiance = Vec3::ZERO;
         let mut regularization =
-            PathRegularization::new(ctx.effective_mode(tau_n), Subpath::Camera, tau_n);
+            PathRegularization::new(ctx.effective_mode(tau_n), Subpath::Camera, tau_n)
+                .with_energy(ctx.config.regularization.energy);
         let mut bounce = Bounce {
             specular: true,
             mis_pdf: 0.0,

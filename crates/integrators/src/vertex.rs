@@ -205,7 +205,7 @@ impl PathVertex {
     #[inline]
     fn mis_pdf_local(&self, wi_l: Vec3, wo_l: Vec3) -> f32 {
         match self.alpha_hat {
-            Some(hat) => p_hat(&self.bsdf_original, hat.alpha, wi_l, wo_l),
+            Some(_) => p_hat(&self.bsdf_original, &self.bsdf, wi_l, wo_l),
             None => self.bsdf.pdf(wi_l, wo_l),
         }
     }
@@ -248,9 +248,9 @@ impl PathVertex {
             return None;
         }
         let (mis_pdf, mis_pdf_rev) = match self.alpha_hat {
-            Some(hat) if !s.is_specular => (
-                p_hat(&self.bsdf_original, hat.alpha, wi_l, s.wo),
-                p_hat(&self.bsdf_original, hat.alpha, s.wo, wi_l),
+            Some(_) if !s.is_specular => (
+                p_hat(&self.bsdf_original, &self.bsdf, wi_l, s.wo),
+                p_hat(&self.bsdf_original, &self.bsdf, s.wo, wi_l),
             ),
             _ => (s.pdf, s.pdf_reverse),
         };

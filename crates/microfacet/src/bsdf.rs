@@ -90,6 +90,25 @@ impl Bsdf {
         }
     }
 
+    /// The BSDF regularized to `alpha_hat` with its energy compensated
+    /// (`crate::energy`): the microfacet lobe at alpha-hat plus the lobe that
+    /// restores the original white albedo, tinted with the lobe's Fresnel
+    /// average (conductors, coats). Dielectrics are widened without
+    /// compensation (see ARCHITECTURE.md). Lambertian lobes are unchanged.
+    pub fn regularized(&self, alpha_hat: f32) -> Self {
+        match *self {
+            Bsdf::Conductor(c) => Bsdf::Conductor(Conductor {
+                model: c.model.regularized(alpha_hat, c.fresnel.average()),
+                ..c
+            }),
+            Bsdf::Coated(c) => Bsdf::Coated(Coated {
+                model: c.model.regularized(alpha_hat, c.specular_fresnel_average()),
+                ..c
+            }),
+            Bsdf::Lambertian(_) | Bsdf::Dielectric(_) => self.with_alpha(alpha_hat),
+        }
+    }
+
     /// The same BSDF with microfacet width `alpha` (regularization's alpha-hat);
     /// a Lambertian lobe is returned unchanged, a coated lobe's diffuse base too
     /// (only its specular lobe has a width).

@@ -42,6 +42,14 @@
 //! one density whichever lobe produced a direction. P_s depends on wi only,
 //! not on alpha, so regularization does not change the choice.
 //!
+//! # Regularized coats
+//!
+//! Regularization widens the coat's (specular) lobe only; with energy
+//! compensation (`crate::energy`) the specular lobe gains the compensation
+//! lobe, tinted with the cosine-weighted average of `specular_fresnel`
+//! (`specular_fresnel_average`), sampled inside the specular branch of the
+//! coin with probability P_c(mu_i).
+//!
 //! # Smooth coats
 //!
 //! Below `SMOOTH_ALPHA` the specular part is a mirror (a delta), reached
@@ -51,14 +59,14 @@
 //! whole is specular (`is_specular`) only when it has no diffuse part
 //! (a black or fully metallic base, or a coat that reflects everything).
 
-use std::f32::consts::{FRAC_1_PI, PI};
+use std::f32::consts::FRAC_1_PI;
 
 use glam::{Vec2, Vec3};
 
-use crate::frame::{reflect, same_hemisphere};
-use crate::fresnel::schlick;
+use crate::frame::{cosine_hemisphere, reflect, same_hemisphere};
+use crate::fresnel::{schlick, schlick_average};
 use crate::model::MicrofacetModel;
-use crate::sample::BsdfSample;
+use crate::sample::{BsdfSample, ONE_MINUS_EPSILON};
 
 /// Smallest probability of either lobe when both can reflect. The coin's
 /// estimate P_s uses the Fresnel factor at the macro cosine, which is 0 at
@@ -117,6 +125,14 @@ impl Coated {
     pub fn specular_fresnel(&self, cos: f32) -> Vec3 {
         let metal = schlick(cos, self.base_color);
         self.coat_fresnel(cos).lerp(metal, self.metallic)
+    }
+
+    /// 2 int_0^1 `specular_fresnel`(mu) mu dmu, in closed form (both parts
+    /// are Schlick: `fresnel::schlick_average`): the colour of the coat's
+    /// energy compensation (Kulla & Conty 2017's F_avg).
+    pub fn specular_fresnel_average(&self) -> Vec3 {
+        let coat = self.specular * schlick_average(self.dielectric_f0());
+        coat.lerp(schlick_average(self.base_color), self.metallic)
     }
 
     /// The coat's transmittance T(mu) = 1 - max_rgb F_s(mu) at macro cosine
@@ -229,8 +245,15 @@ impl Coated {
             }
             // The coin's uniform, rescaled to [0, 1), for samplers that need one.
             let uc = (uc / p_specular).min(ONE_MINUS_EPSILON);
-            let h = self.model.sample_h(wi, u, uc)?.h;
-            reflect(wi, h).try_normalize()?
+            // A regularized coat's compensation lobe, with its share P_c.
+            let p_c = self.model.compensation_probability(wi.z);
+            if uc < p_c {
+                cosine_hemisphere(u)?
+            } else {
+                let uc = ((uc - p_c) / (1.0 - p_c)).min(ONE_MINUS_EPSILON);
+                let h = self.model.sample_h(wi, u, uc)?.h;
+                reflect(wi, h).try_normalize()?
+            }
         } else {
             cosine_hemisphere(u)?
         };
@@ -283,16 +306,24 @@ impl Coated {
             pdf: (1.0 - p_i) * wo.z * FRAC_1_PI,
             pdf_reverse: (1.0 - p_o) * wi.z * FRAC_1_PI,
         };
-        if let Some((wi, wo, h)) = self.configuration(wi, wo)
-            && !self.model.is_smooth()
-        {
-            let facet = self.model.facet_terms(wi, wo, h);
-            let wi_h = wi.dot(h);
-            terms.f += self.specular_fresnel(wi_h) * (facet.d * facet.g / (4.0 * wi.z * wo.z));
-            // <wo,h> = <wi,h> for a reflection.
-            terms.pdf += p_i * facet.pdf_h_wi / (4.0 * wi_h);
-            terms.pdf_reverse += p_o * facet.pdf_h_wo / (4.0 * wi_h);
-        }
+        let (specular_pdf, specular_pdf_reverse) = match self.configuration(wi, wo) {
+            Some((wi, wo, h)) if !self.model.is_smooth() => {
+                let facet = self.model.facet_terms(wi, wo, h);
+                let wi_h = wi.dot(h);
+                terms.f += self.specular_fresnel(wi_h) * (facet.d * facet.g / (4.0 * wi.z * wo.z));
+                // <wo,h> = <wi,h> for a reflection.
+                (facet.pdf_h_wi / (4.0 * wi_h), facet.pdf_h_wo / (4.0 * wi_h))
+            }
+            _ => (0.0, 0.0),
+        };
+        // The coat's compensation lobe belongs to the specular lobe: its
+        // value is added and its density shares the specular coin.
+        terms.f += self.model.compensation_value(wi, wo);
+        terms.pdf += p_i * self.model.with_compensation_pdf(wi, wo, specular_pdf);
+        terms.pdf_reverse += p_o
+            * self
+                .model
+                .with_compensation_pdf(wo, wi, specular_pdf_reverse);
         (terms.f.is_finite() && terms.pdf.is_finite() && terms.pdf_reverse.is_finite())
             .then_some(terms)
     }
@@ -310,19 +341,7 @@ impl Coated {
     }
 }
 
-/// The largest f32 below 1: a rescaled uniform must stay in [0, 1).
-const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
-
 /// Channel mean of an RGB value.
 fn mean(c: Vec3) -> f32 {
     (c.x + c.y + c.z) / 3.0
-}
-
-/// Cosine-weighted direction in the upper hemisphere (Malley's method, as
-/// `Lambertian::sample`); `None` exactly on the horizon.
-fn cosine_hemisphere(u: Vec2) -> Option<Vec3> {
-    let r = u.x.sqrt();
-    let phi = 2.0 * PI * u.y;
-    let z = (1.0 - u.x).max(0.0).sqrt();
-    (z > 0.0).then(|| Vec3::new(r * phi.cos(), r * phi.sin(), z))
 }

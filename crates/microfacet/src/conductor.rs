@@ -1,12 +1,17 @@
 //! Metal: Torrance-Sparrow microfacet reflection (SPEC §3), or a perfect
 //! mirror when alpha is below `SMOOTH_ALPHA`. Two-sided.
+//!
+//! A regularized conductor may carry an energy compensation lobe
+//! (`crate::energy`, tinted with `Fresnel::average`): its value is added,
+//! and sampling picks it with probability P_c(mu_i) (cosine-weighted
+//! directions), so `pdf` is the mixture (1 - P_c) p_spec + P_c mu_o/pi.
 
 use glam::{Vec2, Vec3};
 
-use crate::frame::{reflect, same_hemisphere};
+use crate::frame::{cosine_hemisphere, reflect, same_hemisphere};
 use crate::fresnel::Fresnel;
 use crate::model::MicrofacetModel;
-use crate::sample::BsdfSample;
+use crate::sample::{BsdfSample, ONE_MINUS_EPSILON};
 
 /// A conductor lobe.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -24,23 +29,27 @@ impl Conductor {
     }
 
     /// f_r = F(<wi,h>) D(h) G(wi,wo) / (4 |<wi,n><wo,n>|), h = normalize(wi + wo)
-    /// (SPEC §3). 0 for opposite sides, grazing directions, or a mirror.
+    /// (SPEC §3), plus the compensation lobe of a regularized conductor
+    /// (module docs). 0 for opposite sides, grazing directions, or a mirror.
     pub fn eval(&self, wi: Vec3, wo: Vec3) -> Vec3 {
-        match self.configuration(wi, wo) {
+        let specular = match self.configuration(wi, wo) {
             Some((wi, wo, h)) => {
                 let t = self.model.facet_terms(wi, wo, h);
                 self.fresnel.eval(wi.dot(h)) * t.d * t.g / (4.0 * wi.z * wo.z)
             }
             None => Vec3::ZERO,
-        }
+        };
+        specular + self.model.compensation_value(wi, wo)
     }
 
-    /// pdf(wo) = pdf_h(wi, h) / (4 <wo,h>) (SPEC §3).
+    /// pdf(wo) = pdf_h(wi, h) / (4 <wo,h>) (SPEC §3); with compensation the
+    /// mixture of the module docs.
     pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        match self.configuration(wi, wo) {
+        let specular = match self.configuration(wi, wo) {
             Some((wi, _, h)) => self.model.pdf_h(wi, h) / (4.0 * wi.dot(h)),
             None => 0.0,
-        }
+        };
+        self.model.with_compensation_pdf(wi, wo, specular)
     }
 
     /// Samples a microfacet normal and reflects wi about it.
@@ -61,6 +70,12 @@ impl Conductor {
                 is_specular: true,
             });
         }
+        if self.model.compensation.is_some() {
+            return self.sample_compensated(wi, uc, u).map(|s| BsdfSample {
+                wo: s.wo * side,
+                ..s
+            });
+        }
         let h = self.model.sample_h(wi, u, uc)?.h;
         let wi_h = wi.dot(h);
         let wo = reflect(wi, h).try_normalize()?;
@@ -73,6 +88,35 @@ impl Conductor {
             f: self.fresnel.eval(wi_h) * t.d * t.g / (4.0 * wi.z * wo.z),
             pdf: t.pdf_h_wi / (4.0 * wi_h),
             pdf_reverse: t.pdf_h_wo / (4.0 * wi_h),
+            eta: 1.0,
+            is_specular: false,
+        })
+    }
+
+    /// Sampling with a compensation lobe (wi above the surface): the coin
+    /// `uc` picks it with probability P_c(mu_i) (a cosine-weighted
+    /// direction) or the microfacet lobe (`uc` rescaled for its sampler);
+    /// value and both densities are those of the mixture, `eval` and `pdf`.
+    fn sample_compensated(&self, wi: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
+        let p_c = self.model.compensation_probability(wi.z);
+        let wo = if uc < p_c {
+            cosine_hemisphere(u)?
+        } else {
+            let uc = ((uc - p_c) / (1.0 - p_c)).min(ONE_MINUS_EPSILON);
+            let h = self.model.sample_h(wi, u, uc)?.h;
+            let wo = reflect(wi, h).try_normalize()?;
+            if !(wi.dot(h) > 0.0 && wo.z > 0.0) {
+                return None;
+            }
+            wo
+        };
+        let (pdf, pdf_reverse) = (self.pdf(wi, wo), self.pdf(wo, wi));
+        let f = self.eval(wi, wo);
+        (pdf > 0.0 && f.is_finite()).then_some(BsdfSample {
+            wo,
+            f,
+            pdf,
+            pdf_reverse,
             eta: 1.0,
             is_specular: false,
         })

@@ -2,7 +2,7 @@
 //!
 //! All directions are unit vectors pointing away from the surface (SPEC §0).
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 /// cos(theta) = <w, n>.
 #[inline]
@@ -78,6 +78,15 @@ pub fn refract_f64(w: Vec3, m: Vec3, eta: f64) -> Option<Vec3> {
 #[inline]
 pub fn cos2_theta_t(cos_i: f64, eta: f64) -> f64 {
     ((eta - 1.0) * (eta + 1.0) + cos_i * cos_i) / (eta * eta)
+}
+
+/// Cosine-weighted direction in the upper hemisphere (Malley's method, as
+/// `Lambertian::sample`), density <w,n>/pi; `None` exactly on the horizon.
+pub fn cosine_hemisphere(u: Vec2) -> Option<Vec3> {
+    let r = u.x.sqrt();
+    let phi = 2.0 * std::f32::consts::PI * u.y;
+    let z = (1.0 - u.x).max(0.0).sqrt();
+    (z > 0.0).then(|| Vec3::new(r * phi.cos(), r * phi.sin(), z))
 }
 
 #[cfg(test)]

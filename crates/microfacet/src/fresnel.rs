@@ -126,6 +126,26 @@ impl Fresnel {
             Fresnel::Schlick { f0 } => schlick(cos_theta_i, f0),
         }
     }
+
+    /// The cosine-weighted hemispherical average F_avg = 2 int_0^1 F(mu) mu dmu
+    /// (Kulla & Conty 2017, the colour of their energy compensation): in
+    /// closed form f0 + (1 - f0)/21 for Schlick (int (1 - mu)^5 2 mu dmu =
+    /// 1/21), by 8-point Gauss-Legendre for the conductor equations (smooth
+    /// in mu; the rule is exact for polynomials of degree 15).
+    pub fn average(&self) -> Vec3 {
+        match *self {
+            Fresnel::Schlick { f0 } => schlick_average(f0),
+            Fresnel::Conductor { .. } => crate::energy::gauss_legendre_8()
+                .iter()
+                .map(|&(mu, w)| self.eval(mu as f32) * (2.0 * mu * w) as f32)
+                .sum(),
+        }
+    }
+}
+
+/// 2 int_0^1 schlick(mu, f0) mu dmu = f0 + (1 - f0)/21 (see `Fresnel::average`).
+pub fn schlick_average(f0: Vec3) -> Vec3 {
+    f0 + (Vec3::ONE - f0) / 21.0
 }
 
 /// Just enough complex arithmetic for the conductor Fresnel equations.

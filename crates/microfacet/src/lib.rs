@@ -18,6 +18,8 @@
 //! - [`shadowing`]: Smith and V-cavity masking-shadowing.
 //! - [`vndf`]: visible-normal samplers (GGX, Beckmann, V-cavity).
 //! - [`model`]: an NDF with its shadowing model and sampler.
+//! - [`energy`]: albedo tables and the compensation lobe that keeps a
+//!   regularized lobe's energy (Kulla & Conty 2017).
 //! - [`fresnel`], [`bounds`], [`frame`], [`special`]: building blocks.
 //! - [`sample`]: what lobes return (a sampled direction) and the transport
 //!   mode; [`lambertian`], [`conductor`], [`dielectric`], [`coated`] (glTF
@@ -32,6 +34,7 @@ pub mod bsdf;
 pub mod coated;
 pub mod conductor;
 pub mod dielectric;
+pub mod energy;
 pub mod frame;
 pub mod fresnel;
 pub mod lambertian;

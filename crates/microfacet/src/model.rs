@@ -3,6 +3,8 @@
 
 use glam::{Vec2, Vec3};
 
+use crate::energy::Compensation;
+use crate::frame::same_hemisphere;
 use crate::ndf::{Ndf, NdfKind};
 use crate::shadowing::{Shadowing, g1_vcavity};
 use crate::vndf;
@@ -20,6 +22,10 @@ pub struct MicrofacetModel {
     pub ndf: Ndf,
     /// The masking-shadowing model.
     pub shadowing: Shadowing,
+    /// The energy compensation of a regularized model (`crate::energy`):
+    /// `None` for every model a material defines, and for a regularized
+    /// one built without compensation.
+    pub compensation: Option<Compensation>,
 }
 
 /// D, G and both microfacet-normal densities of one configuration (wi, wo, h),
@@ -52,6 +58,7 @@ impl MicrofacetModel {
         Self {
             ndf: Ndf::new(kind, alpha),
             shadowing,
+            compensation: None,
         }
     }
 
@@ -60,12 +67,55 @@ impl MicrofacetModel {
         self.ndf.alpha()
     }
 
-    /// The same model with another alpha (how regularization applies alpha-hat).
+    /// The same model with another alpha (how regularization applies
+    /// alpha-hat when energy is not compensated); no compensation.
     pub fn with_alpha(&self, alpha: f32) -> Self {
         Self {
             ndf: self.ndf.with_alpha(alpha),
             shadowing: self.shadowing,
+            compensation: None,
         }
+    }
+
+    /// The model at `alpha_hat` with the energy compensation that keeps the
+    /// white albedo of this model (`crate::energy`), coloured `tint` (the
+    /// lobe's Fresnel average); without compensation when alpha-hat does
+    /// not exceed alpha.
+    pub fn regularized(&self, alpha_hat: f32, tint: Vec3) -> Self {
+        let mut model = self.with_alpha(alpha_hat);
+        model.compensation =
+            Compensation::new(&model, self.alpha()).map(|c| Compensation { tint, ..c });
+        model
+    }
+
+    /// The probability of sampling the compensation lobe for a query at
+    /// macro cosine `mu_i` (0 without compensation).
+    pub fn compensation_probability(&self, mu_i: f32) -> f32 {
+        self.compensation.map_or(0.0, |c| c.probability(self, mu_i))
+    }
+
+    /// The compensation lobe's value f_c(wi, wo) with its tint, for
+    /// directions on the same side (0 otherwise and without compensation).
+    pub fn compensation_value(&self, wi: Vec3, wo: Vec3) -> Vec3 {
+        match self.compensation {
+            Some(c) if same_hemisphere(wi, wo) => c.tint * c.value(self, wi.z.abs(), wo.z.abs()),
+            _ => Vec3::ZERO,
+        }
+    }
+
+    /// The mixture density (1 - P_c(mu_i)) `p_lobe` + P_c(mu_i) mu_o/pi of a
+    /// reflection lobe with compensation (`p_lobe` unchanged without it).
+    pub fn with_compensation_pdf(&self, wi: Vec3, wo: Vec3, p_lobe: f32) -> f32 {
+        let p_c = self.compensation_probability(wi.z.abs());
+        if p_c == 0.0 {
+            return p_lobe;
+        }
+        let cosine = if same_hemisphere(wi, wo) {
+            wo.z.abs() * std::f32::consts::FRAC_1_PI
+        } else {
+            0.0
+        };
+        (1.0 - p_c) * p_lobe + p_c * cosine
     }
 
     /// True when lobes built on this model are deltas (alpha < `SMOOTH_ALPHA`).

@@ -5,6 +5,10 @@
 
 use glam::Vec3;
 
+/// The largest f32 below 1: a uniform rescaled after a discrete choice
+/// (lobe coins, the V-cavity facet choice) must stay in [0, 1).
+pub const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+
 /// Which quantity a subpath carries (SPEC §0; Veach's thesis, ch. 5).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum TransportMode {

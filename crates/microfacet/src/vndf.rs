@@ -6,6 +6,7 @@
 
 use std::f64::consts::PI;
 
+use crate::sample::ONE_MINUS_EPSILON;
 use glam::{DVec3, Vec2, Vec3};
 
 use crate::ndf::Ndf;
@@ -153,9 +154,6 @@ pub fn sample_vcavity(ndf: &Ndf, wi: Vec3, u: Vec2, uc: f32) -> Option<(Vec3, f3
         ))
     }
 }
-
-/// The largest f32 below one: a rescaled uniform must stay in [0, 1).
-const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 
 #[cfg(test)]
 mod tests {

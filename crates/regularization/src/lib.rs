@@ -25,5 +25,5 @@ pub use schedule::{
     DEFAULT_SCHEDULE_EXPONENT, MAX_SCHEDULE_EXPONENT, Schedule, ScheduleError, cone_of_tau,
     tau_of_cone,
 };
-pub use selective::{Mode, PathRegularization, Subpath, UnknownMode};
+pub use selective::{Energy, Mode, PathRegularization, Subpath, UnknownMode};
 pub use tau::{AlphaHat, Bound, Lobe, StrictError, alpha_hat, alpha_hat_strict, regularize};

@@ -9,7 +9,8 @@ use glam::Vec3;
 use microfacet::{Bsdf, MicrofacetModel, Shadowing};
 
 /// p-hat for sampling `wo` from `wi` at a vertex whose BSDF `bsdf` (original
-/// alpha) is regularized to `alpha_hat`, in closed form (supp. §4, SPEC §6):
+/// alpha) is regularized to `regularized` (alpha-hat, with or without
+/// energy compensation), in closed form (supp. §4, SPEC §6):
 /// - V-cavity: G does not depend on alpha, so p-hat = p(wo | alpha-hat);
 /// - Smith, visible-normal sampling: p-hat = G1_hat(wo)/G1(wo) p(wo | alpha-hat);
 /// - Smith Blinn-Phong (sampled from D cos, no G1 in the pdf):
@@ -21,23 +22,35 @@ use microfacet::{Bsdf, MicrofacetModel, Shadowing};
 ///   mixes both lobes' values); SPEC §6 only needs every technique to use
 ///   the same pdf at the vertex, and this one reduces to eq. 13 where one
 ///   lobe is absent (black or metallic base: the coat alone).
+/// - Energy compensation (`microfacet::energy`): the compensation lobe has
+///   no counterpart in the original BSDF (eq. 13's ratio is undefined
+///   where rho = 0), so the microfacet lobe's p-hat enters the regularized
+///   lobe's own mixture in its place: (1 - P_c) p-hat + P_c mu_o/pi, by the
+///   same SPEC §6 argument as the coated mixture.
 ///
 /// 0 where the unregularized BSDF is 0 through its shadowing (G = 0), where
 /// the ratio is undefined and the path carries nothing.
-pub fn p_hat(bsdf: &Bsdf, alpha_hat: f32, wi: Vec3, wo: Vec3) -> f32 {
+pub fn p_hat(bsdf: &Bsdf, regularized: &Bsdf, wi: Vec3, wo: Vec3) -> f32 {
+    let alpha_hat = regularized.alpha().unwrap_or(1.0);
     let hat = bsdf.with_alpha(alpha_hat);
-    match bsdf {
-        Bsdf::Lambertian(_) => hat.pdf(wi, wo),
-        Bsdf::Conductor(c) => hat.pdf(wi, wo) * shadowing_ratio(&c.model, alpha_hat, wi, wo),
-        Bsdf::Dielectric(d) => hat.pdf(wi, wo) * shadowing_ratio(&d.model, alpha_hat, wi, wo),
-        Bsdf::Coated(c) => {
+    match (bsdf, regularized) {
+        (Bsdf::Conductor(c), Bsdf::Conductor(c_reg)) => {
+            let p = hat.pdf(wi, wo) * shadowing_ratio(&c.model, alpha_hat, wi, wo);
+            c_reg.model.with_compensation_pdf(wi, wo, p)
+        }
+        (Bsdf::Dielectric(d), _) => hat.pdf(wi, wo) * shadowing_ratio(&d.model, alpha_hat, wi, wo),
+        (Bsdf::Coated(c), Bsdf::Coated(c_reg)) => {
             let Bsdf::Coated(c_hat) = hat else {
                 unreachable!("with_alpha keeps the lobe kind")
             };
             let specular =
                 c_hat.specular_pdf(wi, wo) * shadowing_ratio(&c.model, alpha_hat, wi, wo);
+            let specular = c_reg.model.with_compensation_pdf(wi, wo, specular);
             c.specular_probability(wi.z.abs()) * specular + c_hat.diffuse_pdf(wi, wo)
         }
+        // Lambertian, and (never produced by regularization) a lobe kind
+        // changed by `regularized`: the plain density.
+        _ => regularized.pdf(wi, wo),
     }
 }
 

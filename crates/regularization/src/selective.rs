@@ -80,6 +80,20 @@ pub enum Subpath {
     Light,
 }
 
+/// Whether a regularized lobe keeps its original's directional albedo
+/// (`microfacet::energy`, Kulla & Conty 2017 applied to the difference
+/// between the original and the widened lobe) or loses what widening a
+/// single-scattering lobe loses.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Energy {
+    /// The widened lobe plus a compensation lobe (`Bsdf::regularized`).
+    #[default]
+    Preserved,
+    /// The widened lobe alone (`Bsdf::with_alpha`): darker images, kept for
+    /// comparison.
+    Lost,
+}
+
 /// Regularization state carried along a subpath: yields tau and alpha-hat
 /// for the next vertex, and is updated with each vertex's roughness.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -89,6 +103,8 @@ pub struct PathRegularization {
     tau_n: f64,
     /// Largest alpha (clamped to 1) of the vertices so far.
     rho: f32,
+    /// Energy compensation of the regularized lobes.
+    energy: Energy,
 }
 
 impl PathRegularization {
@@ -99,7 +115,13 @@ impl PathRegularization {
             subpath,
             tau_n,
             rho: 0.0,
+            energy: Energy::Preserved,
         }
+    }
+
+    /// The same state with energy compensation `energy`.
+    pub fn with_energy(self, energy: Energy) -> Self {
+        Self { energy, ..self }
     }
 
     /// The bound tau_k for the next vertex (+infinity when nothing is regularized).
@@ -119,7 +141,7 @@ impl PathRegularization {
     pub fn regularize(&self, bsdf: &Bsdf) -> (Bsdf, Option<AlphaHat>) {
         match self.mode {
             Mode::Off => (*bsdf, None),
-            Mode::Uniform | Mode::Selective => regularize(bsdf, self.tau()),
+            Mode::Uniform | Mode::Selective => regularize(bsdf, self.tau(), self.energy),
         }
     }
 

@@ -9,6 +9,7 @@
 
 use std::f64::consts::PI;
 
+use crate::selective::Energy;
 use microfacet::bounds::transmission_jacobian_sup;
 use microfacet::{Bsdf, MicrofacetModel, Ndf, NdfKind, Shadowing};
 use thiserror::Error;
@@ -262,8 +263,9 @@ pub fn strict_peak(kind: NdfKind, alpha: f32) -> f64 {
 /// blurred by eta more in alpha than their own bound needs.
 ///
 /// A smooth (delta) lobe becomes glossy when alpha-hat rises above
-/// `microfacet::SMOOTH_ALPHA`.
-pub fn regularize(bsdf: &Bsdf, tau: f64) -> (Bsdf, Option<AlphaHat>) {
+/// `microfacet::SMOOTH_ALPHA`. With `Energy::Preserved` the widened lobe
+/// keeps the original's white albedo (`Bsdf::regularized`).
+pub fn regularize(bsdf: &Bsdf, tau: f64, energy: Energy) -> (Bsdf, Option<AlphaHat>) {
     let (model, lobe) = match bsdf {
         Bsdf::Lambertian(_) => return (*bsdf, None),
         Bsdf::Conductor(c) => (c.model, Lobe::Reflection),
@@ -279,7 +281,10 @@ pub fn regularize(bsdf: &Bsdf, tau: f64) -> (Bsdf, Option<AlphaHat>) {
     let regularized = if hat.alpha == model.alpha() {
         *bsdf
     } else {
-        bsdf.with_alpha(hat.alpha)
+        match energy {
+            Energy::Preserved => bsdf.regularized(hat.alpha),
+            Energy::Lost => bsdf.with_alpha(hat.alpha),
+        }
     };
     (regularized, Some(hat))
 }
@@ -311,7 +316,7 @@ mod tests {
                 MicrofacetModel::new(NdfKind::Ggx, 0.0, Shadowing::Smith),
                 eta,
             ));
-            let (_, hat) = regularize(&bsdf, tau);
+            let (_, hat) = regularize(&bsdf, tau, Energy::Preserved);
             let hat = hat.expect("a dielectric has a roughness");
             if hat.bound == Bound::Clamped {
                 continue; // eta 1.05 at this tau needs alpha > 1 (SPEC §5)

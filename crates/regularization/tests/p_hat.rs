@@ -73,7 +73,7 @@ fn compare(kind: NdfKind, shadowing: Shadowing, seed: u64) -> Vec<(f32, f32, f32
             let ratio_definition = f64::from(rho_hat) / f64::from(rho) * f64::from(p);
             out.push((
                 ratio_definition as f32,
-                p_hat(&bsdf, alpha_hat, wi, s.wo),
+                p_hat(&bsdf, &hat, wi, s.wo),
                 hat.pdf(wi, s.wo),
             ));
         }

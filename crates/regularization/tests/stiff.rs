@@ -113,7 +113,7 @@ fn path_regularization_and_p_hat_are_finite() {
                                 let (reg, hat) = state.regularize(&bsdf);
                                 let a = hat.map_or(1.0, |h| h.alpha);
                                 for wo in dirs {
-                                    let p = p_hat(&bsdf, a, wi, wo);
+                                    let p = p_hat(&bsdf, &reg, wi, wo);
                                     assert!(
                                         p.is_finite() && p >= 0.0,
                                         "{bsdf:?} {a} {wi} {wo}: {p}"

@@ -19,7 +19,7 @@ const AFTER_LONG_HELP: &str = "\
 Settings are taken from the flags, else from the scene manifest's [render] table, else from the \
 defaults above; --explain shows where each one came from. The table's keys are the flags' names \
 with underscores: integrator, iterations, max_depth, regularize, tau0, seed, radius, \
-shadow_roulette, and progressive and virtual_merges (true or false).
+shadow_roulette, and progressive, regularize_energy and virtual_merges (true or false).
 
 Progress goes to stderr (a bar on a terminal); the last line is always a summary such as
   rendered 64 iterations of 256x256 in 3.21 s (19.9 it/s, 1.30 Msamples/s) -> render.exr, render.png
@@ -128,6 +128,13 @@ pub struct Cli {
         help_heading = "Regularization"
     )]
     pub progressive: bool,
+
+    /// Energy-preserving regularization: a widened lobe keeps the original's directional
+    /// albedo through a compensation lobe (Kulla & Conty 2017) on conductors and coated
+    /// surfaces; off widens the lobe alone, which loses energy (images 2-6 % darker).
+    /// [default: the manifest's `regularize_energy`, else on]
+    #[arg(long, value_name = "on|off", value_parser = parse_on_off, help_heading = "Regularization")]
+    pub regularize_energy: Option<bool>,
 
     /// Virtual merges (supp. §6) for bpt and vcm with regularization: a connection through a
     /// regularized vertex also counts as a merge inside the vertex's blur cone, which keeps

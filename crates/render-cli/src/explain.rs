@@ -5,7 +5,7 @@
 use std::fmt::Write as _;
 
 use integrators::merge_radius::MAX_MERGE_RADIUS_PIXELS;
-use integrators::{Algorithm, Mode, ROULETTE_DEPTH, Renderer, Strategies};
+use integrators::{Algorithm, Energy, Mode, ROULETTE_DEPTH, Renderer, Strategies};
 
 use crate::settings::{Budget, Settings};
 
@@ -226,6 +226,11 @@ pub fn settings(settings: &Settings) -> String {
             if r.progressive { "yes" } else { "no" }.to_owned(),
             settings.progressive,
         ),
+        (
+            "energy",
+            on_off(r.energy == Energy::Preserved),
+            settings.energy,
+        ),
         ("max depth", c.max_depth.to_string(), settings.max_depth),
         ("seed", c.seed.to_string(), settings.seed),
         ("radius", c.radius_factor.to_string(), settings.radius),
@@ -267,6 +272,7 @@ mod tests {
             radius: Some(0.01),
             shadow_roulette: Some(0.25),
             virtual_merges: Some(false),
+            regularize_energy: Some(false),
             ..Default::default()
         };
         let text = explain(&["--iterations", "2", "--seed", "3"], &manifest);
@@ -276,6 +282,7 @@ mod tests {
             "regularize:       selective (default)",
             "tau0:             30 (manifest)",
             "progressive:      yes (default)",
+            "energy:           off (manifest)",
             "max depth:        12 (default)",
             "seed:             3 (flag)",
             "radius:           0.01 (manifest)",
@@ -287,7 +294,7 @@ mod tests {
                 "'{line}' missing from:\n{text}"
             );
         }
-        assert_eq!(text.lines().count(), 11, "{text}");
+        assert_eq!(text.lines().count(), 12, "{text}");
 
         let flags = [
             "--radius",

@@ -12,7 +12,7 @@ use std::time::Duration;
 
 use integrators::{
     Algorithm, DEFAULT_MAX_DEPTH, DEFAULT_RADIUS_FACTOR, DEFAULT_SHADOW_ROULETTE, DEFAULT_TAU_0,
-    Mode, Regularization, RenderConfig, Strategies,
+    Energy, Mode, Regularization, RenderConfig, Strategies,
 };
 use scene::RenderSettings;
 
@@ -95,6 +95,8 @@ pub struct Settings {
     pub tau0: Origin,
     /// Origin of `config.regularization.progressive`.
     pub progressive: Origin,
+    /// Origin of `config.regularization.energy`.
+    pub energy: Origin,
     /// Origin of `config.max_depth`.
     pub max_depth: Origin,
     /// Origin of `config.seed`.
@@ -138,6 +140,7 @@ impl Settings {
             _ => None,
         };
         let progressive = pick(flag, manifest.progressive, true, Ok)?;
+        let energy = pick(cli.regularize_energy, manifest.regularize_energy, true, Ok)?;
         let max_depth = pick(cli.max_depth, manifest.max_depth, DEFAULT_MAX_DEPTH, |d| {
             at_least_one(u64::from(d))
                 .map(|_| d)
@@ -159,14 +162,22 @@ impl Settings {
             None,
             |on| Ok(Some(on)),
         )?;
-        let regularization = Regularization::new(mode.value, tau0.value, progressive.value)
-            .map_err(|e| match tau0.origin {
-                Origin::Manifest => key("tau0", "--tau0")(e.to_string()),
-                _ => ArgError::Flag {
-                    flag: "--tau0",
-                    message: e.to_string(),
+        let regularization = Regularization {
+            energy: if energy.value {
+                Energy::Preserved
+            } else {
+                Energy::Lost
+            },
+            ..Regularization::new(mode.value, tau0.value, progressive.value).map_err(
+                |e| match tau0.origin {
+                    Origin::Manifest => key("tau0", "--tau0")(e.to_string()),
+                    _ => ArgError::Flag {
+                        flag: "--tau0",
+                        message: e.to_string(),
+                    },
                 },
-            })?;
+            )?
+        };
         Ok(Self {
             config: RenderConfig {
                 algorithm: algorithm.value,
@@ -185,6 +196,7 @@ impl Settings {
             mode: mode.origin,
             tau0: tau0.origin,
             progressive: progressive.origin,
+            energy: energy.origin,
             max_depth: max_depth.origin,
             seed: seed.origin,
             radius: radius.origin,
@@ -349,6 +361,7 @@ mod tests {
             radius: Some(0.01),
             shadow_roulette: Some(0.0),
             virtual_merges: Some(false),
+            regularize_energy: Some(false),
         }
     }
 
@@ -363,7 +376,9 @@ mod tests {
         assert!(!c.regularization.progressive);
         assert_eq!((c.radius_factor, c.shadow_roulette), (0.01, 0.0));
         assert_eq!(c.virtual_merges, Some(false));
+        assert_eq!(c.regularization.energy, Energy::Lost);
         let origins = [
+            s.energy,
             s.algorithm,
             s.mode,
             s.tau0,
@@ -389,6 +404,7 @@ mod tests {
             "--radius=0.02",
             "--shadow-roulette=0.5",
             "--virtual-merges=on",
+            "--regularize-energy=on",
         ];
         let s = resolve(&args, &full_manifest()).unwrap();
         let c = &s.config;
@@ -399,7 +415,9 @@ mod tests {
         assert!(c.regularization.progressive);
         assert_eq!((c.radius_factor, c.shadow_roulette), (0.02, 0.5));
         assert_eq!(c.virtual_merges, Some(true));
+        assert_eq!(c.regularization.energy, Energy::Preserved);
         let origins = [
+            s.energy,
             s.mode,
             s.tau0,
             s.progressive,
@@ -427,7 +445,9 @@ mod tests {
         assert_eq!(c.radius_factor, DEFAULT_RADIUS_FACTOR);
         assert_eq!(c.shadow_roulette, DEFAULT_SHADOW_ROULETTE);
         assert_eq!(c.virtual_merges, None);
+        assert_eq!(c.regularization.energy, Energy::Preserved);
         let origins = [
+            s.energy,
             s.budget.origin,
             s.algorithm,
             s.mode,

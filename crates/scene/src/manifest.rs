@@ -17,6 +17,7 @@
 //! regularize = "selective"      # off | uniform | selective
 //! tau0 = 7.5                    # > 1/(2 pi)
 //! progressive = true            # false: tau stays tau0 (a fixed blur)
+//! regularize_energy = true      # false: regularized lobes lose energy (darker)
 //! seed = 0
 //! radius = 0.003                # first merge radius (ppm, bpm, vcm), fraction of the scene radius, > 0
 //! shadow_roulette = 0.1         # shadow-ray roulette (bpt, vcm), fraction of the mean pixel, >= 0
@@ -111,6 +112,7 @@ struct RenderSection {
     radius: Option<f32>,
     shadow_roulette: Option<f32>,
     virtual_merges: Option<bool>,
+    regularize_energy: Option<bool>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -280,6 +282,7 @@ pub fn load(
             radius: r.radius,
             shadow_roulette: r.shadow_roulette,
             virtual_merges: r.virtual_merges,
+            regularize_energy: r.regularize_energy,
         });
     Ok(LoadedManifest {
         builder,

@@ -36,6 +36,8 @@ pub struct RenderSettings {
     pub shadow_roulette: Option<f32>,
     /// Virtual merges in BPT and VCM with regularization.
     pub virtual_merges: Option<bool>,
+    /// Whether regularized lobes keep their original's energy (default true).
+    pub regularize_energy: Option<bool>,
 }
 
 /// What a load skipped or noticed (nothing is dropped silently).

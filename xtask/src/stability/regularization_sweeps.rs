@@ -10,7 +10,9 @@ use microfacet::{
 };
 use rayon::prelude::*;
 use regularization::tau::{Lobe, alpha_hat_strict, strict_peak};
-use regularization::{Bound, Schedule, alpha_hat, cone_of_tau, p_hat, regularize, tau_of_cone};
+use regularization::{
+    Bound, Energy, Schedule, alpha_hat, cone_of_tau, p_hat, regularize, tau_of_cone,
+};
 
 use super::reference;
 use super::tally::{Row, Tally};
@@ -390,10 +392,10 @@ fn p_hat_row(budget: Budget) -> Row {
                         || format!("regularize(&{repro}, {tau:?})"),
                         |t| {
                             t.evaluation();
-                            regularize(bsdf, tau)
+                            regularize(bsdf, tau, Energy::Preserved)
                         },
                     );
-                    let Some((_, Some(hat))) = regularized else {
+                    let Some((regularized, Some(hat))) = regularized else {
                         continue;
                     };
                     for &wo in &dirs {
@@ -401,7 +403,7 @@ fn p_hat_row(budget: Budget) -> Row {
                             || format!("p_hat(&{repro}, {:?}, {}, {})", hat.alpha, v(wi), v(wo));
                         t.guard(call, |t| {
                             t.evaluation();
-                            let p = p_hat(bsdf, hat.alpha, wi, wo);
+                            let p = p_hat(bsdf, &regularized, wi, wo);
                             t.value(f64::from(p), call);
                         });
                     }

@@ -4,7 +4,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 use glam::UVec2;
-use integrators::{Algorithm, DEFAULT_TAU_0, Mode, Regularization, RenderConfig};
+use integrators::{Algorithm, DEFAULT_TAU_0, Energy, Mode, Regularization, RenderConfig};
 use regularization::{DEFAULT_SCHEDULE_EXPONENT, Schedule};
 
 /// `cargo xtask study --help`.
@@ -146,6 +146,7 @@ impl Config {
                 mode: Mode::Selective,
                 schedule,
                 progressive: true,
+                energy: Energy::Preserved,
             }
         } else {
             Regularization::off()

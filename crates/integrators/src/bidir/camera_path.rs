@@ -4,7 +4,7 @@
 use glam::Vec3;
 use microfacet::TransportMode;
 use mis::{SubpathRay, SubpathState};
-use regularization::{PathRegularization, Subpath};
+use regularization::Subpath;
 
 use super::light_path::LightVertex;
 use super::{Iteration, PhotonMap};
@@ -29,7 +29,7 @@ impl Iteration<'_> {
         let (sampler, mut walk) = ctx.camera_path_of(self.n, index);
         let mut ray =
             SubpathRay::from_camera(&self.mis, f64::from(ctx.camera.pdf_w(walk.direction)));
-        let mut regularization = PathRegularization::new(self.mode, Subpath::Camera, self.tau_n);
+        let mut regularization = self.path_regularization(Subpath::Camera);
         let mut radiance = Vec3::ZERO;
         for length in 1..=max_depth {
             let Some(hit) = ctx.intersect(walk.origin, walk.direction, f32::INFINITY) else {

@@ -90,7 +90,7 @@ impl Iteration<'_> {
             return;
         };
         let mut ray = SubpathRay::from_light(&self.mis, &emission.mis.emission());
-        let regularization = PathRegularization::new(self.mode, Subpath::Light, self.tau_n);
+        let regularization = self.path_regularization(Subpath::Light);
         let mut walk = Walk {
             origin: emission.origin,
             direction: emission.direction,
@@ -153,7 +153,7 @@ impl Iteration<'_> {
         let vertex = if self.mode == Mode::Off || light_vertex.is_regularization_invariant() {
             light_vertex
         } else {
-            let seen_from_camera = PathRegularization::new(self.mode, Subpath::Camera, self.tau_n);
+            let seen_from_camera = self.path_regularization(Subpath::Camera);
             rebuilt = light_vertex.regularized_as(&ctx.scene, seen_from_camera);
             &rebuilt
         };

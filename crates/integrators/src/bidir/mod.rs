@@ -24,7 +24,7 @@ use glam::Vec3;
 use microfacet::TransportMode;
 use mis::{Heuristic, MisConfig, Techniques};
 use rayon::prelude::*;
-use regularization::Mode;
+use regularization::{Mode, PathRegularization, Subpath};
 
 use crate::config::Algorithm;
 use crate::context::SceneContext;
@@ -179,6 +179,15 @@ struct Iteration<'a> {
     /// Next-event estimation, connections and light tracing skip shadow
     /// rays of small contributions with it.
     roulette: ShadowRoulette,
+}
+
+impl Iteration<'_> {
+    /// The regularization state at the start of a subpath of this iteration
+    /// (its mode, tau_N and the configured energy compensation).
+    fn path_regularization(&self, subpath: Subpath) -> PathRegularization {
+        PathRegularization::new(self.mode, subpath, self.tau_n)
+            .with_energy(self.ctx.config.regularization.energy)
+    }
 }
 
 /// The photon map of one iteration: every light vertex and a grid over them.

@@ -9,7 +9,7 @@
 
 use glam::Vec3;
 use microfacet::TransportMode;
-use regularization::{PathRegularization, Subpath};
+use regularization::Subpath;
 
 use super::{Bidirectional, Iteration, PhotonMap};
 use crate::context::SceneContext;
@@ -58,7 +58,7 @@ impl Iteration<'_> {
         let ctx = self.ctx;
         let max_depth = ctx.config.max_depth;
         let (sampler, mut walk) = ctx.camera_path_of(self.n, index);
-        let mut regularization = PathRegularization::new(self.mode, Subpath::Camera, self.tau_n);
+        let mut regularization = self.path_regularization(Subpath::Camera);
         let mut radiance = Vec3::ZERO;
         for length in 1..=max_depth {
             let Some(hit) = ctx.intersect(walk.origin, walk.direction, f32::INFINITY) else {

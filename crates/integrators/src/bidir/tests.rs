@@ -139,7 +139,7 @@ fn complete_paths(it: &Iteration, index: usize) -> Vec<CompletePath> {
     let (sampler, walk) = r.camera_path_of(it.n, index);
     // The paths' vertices only: no throughput, no roulette.
     let (mut origin, mut direction) = (walk.origin, walk.direction);
-    let mut regularization = PathRegularization::new(it.mode, Subpath::Camera, it.tau_n);
+    let mut regularization = it.path_regularization(Subpath::Camera);
     let mut camera: Vec<SurfacePoint> = Vec::new();
     let mut paths = Vec::new();
     for length in 1..=r.config.max_depth {
@@ -255,7 +255,7 @@ fn weight_sum(it: &Iteration, path: &CompletePath) -> (f64, bool) {
 
     // The camera subpath: camera[i - 1] is y_i with its state on arrival.
     let mut ray = SubpathRay::from_camera(&it.mis, f64::from(r.camera.pdf_w(towards(0, 1))));
-    let mut rule = PathRegularization::new(it.mode, Subpath::Camera, it.tau_n);
+    let mut rule = it.path_regularization(Subpath::Camera);
     let mut camera = Vec::with_capacity(m);
     for i in 1..=m {
         let y = vertex(i, i - 1, rule);
@@ -284,7 +284,7 @@ fn weight_sum(it: &Iteration, path: &CompletePath) -> (f64, bool) {
         // emission's is the bare selection probability.
         emission.direct_pdf_a /= distance(m, m + 1).powi(2);
     }
-    let light_rule = PathRegularization::new(it.mode, Subpath::Light, it.tau_n);
+    let light_rule = it.path_regularization(Subpath::Light);
     let mut ray = SubpathRay::from_light(&it.mis, &emission);
     let mut light_path = Vec::with_capacity(m);
     for i in (1..=m).rev() {
@@ -341,7 +341,7 @@ fn weight_sum(it: &Iteration, path: &CompletePath) -> (f64, bool) {
         // Light tracing from y_1, regularized as seen from the camera
         // (see `Iteration::connect_to_camera`).
         let (z, light_state) = &light_path[0];
-        let seen_rule = PathRegularization::new(it.mode, Subpath::Camera, it.tau_n);
+        let seen_rule = it.path_regularization(Subpath::Camera);
         let seen = PathVertex::new(&r.scene, z.point, z.wi, Vec3::ONE, seen_rule);
         if !seen.is_specular() {
             sum += it.mis.light_tracing_weight(

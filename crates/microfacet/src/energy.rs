@@ -1,0 +1,339 @@
+//! Energy compensation of regularized lobes (ARCHITECTURE.md, "Energy-preserving
+//! regularization"), after Kulla & Conty, "Revisiting Physically Based
+//! Shading at Imageworks" (SIGGRAPH 2017 course), §"Energy compensation".
+//!
+//! A single-scattering Smith or V-cavity lobe loses energy as alpha grows
+//! (a white GGX conductor keeps 0.988 at alpha 0.1, 0.688 at 0.5, normal
+//! incidence). Regularization raises alpha to alpha-hat and so darkens the
+//! image. Kulla & Conty add a lobe 1 - E(mu); here the same construction is
+//! applied to the *difference* between the original and the regularized lobe:
+//!
+//! dE(mu) = max(0, E_alpha(mu) - E_alpha-hat(mu)),
+//! f_c(wi, wo) = dE(mu_i) dE(mu_o) / (pi dE_avg), dE_avg = 2 int_0^1 dE(mu) mu dmu,
+//!
+//! with E_a(mu) the directional albedo of the lobe at width a and Fresnel 1.
+//! f_c is symmetric (reciprocal), and int f_c(wi, wo) mu_o dwo
+//! = dE(mu_i) 2 pi int dE(mu) mu dmu / (pi dE_avg) = dE(mu_i) exactly, so the
+//! regularized lobe plus f_c reflects what the original did, E_alpha(mu_i)
+//! (white furnace), up to table error. As alpha-hat -> alpha, dE -> 0 and the
+//! term vanishes: the regularization stays consistent.
+//!
+//! E_a(mu) is tabulated per NDF and shadowing model (`AlbedoTable`), computed
+//! serially at first use by quadrature over microfacet normals. dE(mu) is the
+//! difference of two rows of the table interpolated linearly in s = sqrt(mu),
+//! so it is piecewise linear in s, and dE_avg is integrated in closed form on
+//! that same function: the furnace identity holds exactly for the
+//! interpolated dE.
+
+use std::f32::consts::FRAC_1_PI;
+use std::sync::OnceLock;
+
+use glam::{Vec2, Vec3};
+
+use crate::model::MicrofacetModel;
+use crate::ndf::NdfKind;
+use crate::shadowing::Shadowing;
+
+/// Table nodes in mu = cos theta, uniform in sqrt(mu) on [0, 1]: the albedo
+/// changes fastest near grazing (mu of the order of alpha), where uniform
+/// nodes in mu missed it by 9e-3.
+pub const TABLE_MU: usize = 40;
+/// Table nodes in alpha, uniform in sqrt(alpha) on [0, `TABLE_ALPHA_MAX`]
+/// (small widths change the albedo near grazing fastest, as above).
+pub const TABLE_ALPHA: usize = 40;
+/// Largest tabulated alpha: regularization never raises alpha beyond 1
+/// (SPEC §5's alpha_max), and a lobe already wider is left unchanged.
+pub const TABLE_ALPHA_MAX: f32 = 1.0;
+/// The mu = 0 column is evaluated at this cosine: exactly grazing
+/// directions have no reflection to integrate (every lobe returns 0 there).
+const GRAZING_MU: f64 = 1e-3;
+/// Gauss-Legendre nodes in the radial uniform of the NDF sampler.
+const QUADRATURE_RADIAL: usize = 48;
+/// Midpoint nodes over the half azimuth [0, pi] (the integrand is symmetric
+/// about the plane of incidence and periodic, where the midpoint rule
+/// converges fastest).
+const QUADRATURE_AZIMUTH: usize = 48;
+/// Below this dE_avg the compensation carries nothing a renderer could see
+/// (1e-6 of the energy) and is left out, so dE(mu)/dE_avg never divides by
+/// a rounding-sized number.
+const MIN_DEFICIT_AVERAGE: f32 = 1e-6;
+
+/// Directional albedo E(mu, alpha) of a white (F = 1) Torrance-Sparrow lobe
+/// of one NDF and shadowing model, on a `TABLE_ALPHA` x `TABLE_MU` grid.
+#[derive(Clone, Debug)]
+pub struct AlbedoTable {
+    /// Row-major by alpha: `e[k * TABLE_MU + j]` = E(mu_j, alpha_k).
+    e: Vec<f32>,
+}
+
+impl AlbedoTable {
+    /// Computes the table by quadrature (see `albedo_quadrature`).
+    pub fn compute(kind: NdfKind, shadowing: Shadowing) -> Self {
+        let mut e = Vec::with_capacity(TABLE_ALPHA * TABLE_MU);
+        for k in 0..TABLE_ALPHA {
+            for j in 0..TABLE_MU {
+                e.push(albedo_quadrature(kind, shadowing, alpha_node(k), mu_node(j)) as f32);
+            }
+        }
+        Self { e }
+    }
+
+    /// E(mu, alpha), bilinear in the table (alpha clamped to the table).
+    pub fn albedo(&self, mu: f32, alpha: f32) -> f32 {
+        let (j, t) = cell(mu, TABLE_MU, 1.0);
+        let row = self.row(alpha);
+        lerp(row(j), row(j + 1), t)
+    }
+
+    /// mu -> E(mu_j, alpha) at node j, linear in alpha between rows.
+    fn row(&self, alpha: f32) -> impl Fn(usize) -> f32 + '_ {
+        let (k, s) = cell(alpha, TABLE_ALPHA, TABLE_ALPHA_MAX);
+        move |j| lerp(self.e[k * TABLE_MU + j], self.e[(k + 1) * TABLE_MU + j], s)
+    }
+
+    /// The node values of dE(mu) = max(0, E(mu, alpha) - E(mu, alpha_hat))
+    /// before clamping, at every mu node.
+    fn deficit_nodes(&self, alpha: f32, alpha_hat: f32) -> [f32; TABLE_MU] {
+        let (original, regularized) = (self.row(alpha), self.row(alpha_hat));
+        std::array::from_fn(|j| original(j) - regularized(j))
+    }
+}
+
+/// The shared table of `kind` with `shadowing`, computed at first use.
+pub fn albedo_table(kind: NdfKind, shadowing: Shadowing) -> &'static AlbedoTable {
+    static TABLES: [OnceLock<AlbedoTable>; 6] = [const { OnceLock::new() }; 6];
+    let index = match kind {
+        NdfKind::Ggx => 0,
+        NdfKind::Beckmann => 1,
+        NdfKind::BlinnPhong => 2,
+    } + match shadowing {
+        Shadowing::Smith => 0,
+        Shadowing::VCavity => 3,
+    };
+    TABLES[index].get_or_init(|| AlbedoTable::compute(kind, shadowing))
+}
+
+/// mu of table column j, s_j^2 with s_j uniform (the first one evaluated
+/// at `GRAZING_MU`).
+fn mu_node(j: usize) -> f64 {
+    (j as f64 / (TABLE_MU - 1) as f64).powi(2).max(GRAZING_MU)
+}
+
+/// alpha of table row k, s_k^2 with s_k uniform.
+fn alpha_node(k: usize) -> f32 {
+    (k as f32 / (TABLE_ALPHA - 1) as f32).powi(2) * TABLE_ALPHA_MAX
+}
+
+/// (cell index, fraction in the cell) of `x` on `n` nodes uniform in
+/// sqrt(x / max) over [0, max]: the table is linear in sqrt(x) per cell.
+fn cell(x: f32, n: usize, max: f32) -> (usize, f32) {
+    let s = (x / max).clamp(0.0, 1.0).sqrt() * (n - 1) as f32;
+    let i = (s as usize).min(n - 2);
+    (i, s - i as f32)
+}
+
+fn lerp(a: f32, b: f32, t: f32) -> f32 {
+    a + (b - a) * t
+}
+
+/// E(mu, alpha) = int f(wi, wo) <wo,n> dwo of a white lobe, written as an
+/// integral over microfacet normals drawn from D(h)<h,n> (`Ndf::sample_d_cos`,
+/// which every NDF has): with wo = reflect(wi, h) and dwo = 4 <wo,h> dh
+/// (SPEC §3), f <wo,n> dwo = D G <wi,h> / <wi,n> dh, so
+/// E = int_[0,1]^2 G(wi, wo) <wi,h> / (<wi,n> <h,n>) du. The integrand is
+/// continuous (G -> 0 as wo reaches the horizon, <wi,h> -> 0 at the
+/// back-facing cut): Gauss-Legendre in the radial uniform, midpoint in
+/// azimuth. alpha = 0 is the mirror, E = 1.
+pub fn albedo_quadrature(kind: NdfKind, shadowing: Shadowing, alpha: f32, mu: f64) -> f64 {
+    if alpha <= 0.0 {
+        return 1.0;
+    }
+    let model = MicrofacetModel::new(kind, alpha, shadowing);
+    let wi = Vec3::new((1.0 - mu * mu).max(0.0).sqrt() as f32, 0.0, mu as f32);
+    // Smith's G1(wi) does not depend on h (given <wi,h> > 0): computed once
+    // (Blinn-Phong's exact Lambda costs an incomplete beta function).
+    let g1_wi = match shadowing {
+        Shadowing::Smith => Some(model.ndf.g1(wi)),
+        Shadowing::VCavity => None,
+    };
+    let mut sum = 0.0;
+    for &(u1, w1) in gauss_legendre_radial() {
+        for m in 0..QUADRATURE_AZIMUTH {
+            // Half azimuth [0, 1/2) of the sampler's u.y, doubled below.
+            let u2 = (m as f64 + 0.5) / (2 * QUADRATURE_AZIMUTH) as f64;
+            let h = model.ndf.sample_d_cos(Vec2::new(u1 as f32, u2 as f32));
+            let wi_h = wi.dot(h);
+            let wo = 2.0 * wi_h * h - wi;
+            if !(wi_h > 0.0 && wo.z > 0.0 && h.z > 0.0) {
+                continue;
+            }
+            let g = match g1_wi {
+                Some(g1_wi) => g1_wi * model.g1(wo, h),
+                None => model.g(wi, wo, h),
+            };
+            sum += w1 * f64::from(g * wi_h) / (mu * f64::from(h.z));
+        }
+    }
+    sum / QUADRATURE_AZIMUTH as f64
+}
+
+/// Gauss-Legendre nodes and weights on [0, 1] for the radial uniform.
+fn gauss_legendre_radial() -> &'static [(f64, f64)] {
+    static NODES: OnceLock<Vec<(f64, f64)>> = OnceLock::new();
+    NODES.get_or_init(|| gauss_legendre(QUADRATURE_RADIAL))
+}
+
+/// The 8-point Gauss-Legendre rule on [0, 1] (exact for polynomials of
+/// degree 15), for the Fresnel average of `Fresnel::average`.
+pub(crate) fn gauss_legendre_8() -> &'static [(f64, f64)] {
+    static NODES: OnceLock<Vec<(f64, f64)>> = OnceLock::new();
+    NODES.get_or_init(|| gauss_legendre(8))
+}
+
+/// n-point Gauss-Legendre rule on [0, 1]: roots of P_n by Newton's method
+/// from Tricomi's initial guess cos(pi (i - 1/4)/(n + 1/2)) (Abramowitz &
+/// Stegun 25.4.29; Numerical Recipes §4.6), mapped from [-1, 1].
+fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
+    (0..n)
+        .map(|i| {
+            let mut x = (std::f64::consts::PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
+            for _ in 0..100 {
+                let (p, dp) = legendre(n, x);
+                let dx = p / dp;
+                x -= dx;
+                if dx.abs() < 1e-15 {
+                    break;
+                }
+            }
+            let (_, dp) = legendre(n, x);
+            let weight = 2.0 / ((1.0 - x * x) * dp * dp);
+            (0.5 * (1.0 - x), 0.5 * weight)
+        })
+        .collect()
+}
+
+/// (P_n(x), P_n'(x)) by the three-term recurrence.
+fn legendre(n: usize, x: f64) -> (f64, f64) {
+    let (mut p0, mut p1) = (1.0, x);
+    for k in 2..=n {
+        let k = k as f64;
+        let p2 = ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k;
+        p0 = p1;
+        p1 = p2;
+    }
+    (p1, n as f64 * (x * p1 - p0) / (x * x - 1.0))
+}
+
+/// The compensation lobe of a regularized model: what it needs beyond the
+/// model itself (the original alpha, dE_avg, the colour).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Compensation {
+    /// The original (unregularized) alpha.
+    pub alpha: f32,
+    /// dE_avg = 2 int_0^1 dE(mu) mu dmu.
+    pub deficit_average: f32,
+    /// The colour of the compensated energy: the lobe's Fresnel average
+    /// F_avg = 2 int F(mu) mu dmu (Kulla & Conty's choice for their
+    /// multiple-scattering colour; direction-independent, so f_c stays
+    /// reciprocal); white until the lobe sets it.
+    pub tint: Vec3,
+}
+
+impl Compensation {
+    /// The compensation of `model` (at alpha-hat) for a lobe of width
+    /// `alpha`, or `None` when it would carry nothing (alpha-hat <= alpha,
+    /// or dE_avg below `MIN_DEFICIT_AVERAGE`).
+    pub fn new(model: &MicrofacetModel, alpha: f32) -> Option<Self> {
+        let alpha_hat = model.alpha();
+        if !(alpha_hat > alpha) || model.is_smooth() {
+            return None;
+        }
+        let table = albedo_table(model.ndf.kind(), model.shadowing);
+        let nodes = table.deficit_nodes(alpha, alpha_hat);
+        let average = positive_part_moment(&nodes) as f32;
+        (average > MIN_DEFICIT_AVERAGE).then_some(Self {
+            alpha,
+            deficit_average: average,
+            tint: Vec3::ONE,
+        })
+    }
+
+    /// dE(mu) of the regularized `model` (its alpha is alpha-hat).
+    pub fn deficit(&self, model: &MicrofacetModel, mu: f32) -> f32 {
+        let table = albedo_table(model.ndf.kind(), model.shadowing);
+        (table.albedo(mu, self.alpha) - table.albedo(mu, model.alpha())).max(0.0)
+    }
+
+    /// E_alpha-hat(mu) (white) of the regularized `model`.
+    pub fn regularized_albedo(&self, model: &MicrofacetModel, mu: f32) -> f32 {
+        albedo_table(model.ndf.kind(), model.shadowing).albedo(mu, model.alpha())
+    }
+
+    /// f_c(wi, wo) = dE(mu_i) dE(mu_o) / (pi dE_avg), untinted.
+    pub fn value(&self, model: &MicrofacetModel, mu_i: f32, mu_o: f32) -> f32 {
+        self.deficit(model, mu_i) * self.deficit(model, mu_o) * FRAC_1_PI / self.deficit_average
+    }
+
+    /// The probability of sampling the compensation lobe for a query at
+    /// `mu_i`: its share dE / (E_alpha-hat + dE) of the white albedo.
+    pub fn probability(&self, model: &MicrofacetModel, mu_i: f32) -> f32 {
+        let deficit = self.deficit(model, mu_i);
+        let total = deficit + self.regularized_albedo(model, mu_i);
+        if total > 0.0 {
+            (deficit / total).clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    }
+}
+
+/// 2 int_0^1 max(0, y) mu dmu for y linear in s = sqrt(mu) between the
+/// values `nodes` at s = 0, 1/(n-1), ..., 1: with mu = s^2 the moment is
+/// 4 int_0^1 max(0, y(s)) s^3 ds, a polynomial per cell, integrated in
+/// closed form with the sign change inside a cell located exactly.
+fn positive_part_moment(nodes: &[f32; TABLE_MU]) -> f64 {
+    let h = 1.0 / (TABLE_MU - 1) as f64;
+    let mut sum = 0.0;
+    for j in 0..TABLE_MU - 1 {
+        let (a, y0, y1) = (j as f64 * h, f64::from(nodes[j]), f64::from(nodes[j + 1]));
+        // Sub-interval [s0, s1] of the cell where y > 0.
+        let root = a + h * y0 / (y0 - y1);
+        let (s0, s1) = match (y0 > 0.0, y1 > 0.0) {
+            (false, false) => continue,
+            (true, true) => (a, a + h),
+            (true, false) => (a, root),
+            (false, true) => (root, a + h),
+        };
+        // y(s) = p + q s; int (p + q s) s^3 ds = p s^4/4 + q s^5/5.
+        let q = (y1 - y0) / h;
+        let p = y0 - q * a;
+        let antiderivative = |s: f64| p * s.powi(4) / 4.0 + q * s.powi(5) / 5.0;
+        sum += antiderivative(s1) - antiderivative(s0);
+    }
+    4.0 * sum
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gauss_legendre_integrates_polynomials_exactly() {
+        let rule = gauss_legendre(8);
+        let sum: f64 = rule.iter().map(|&(x, w)| w * x.powi(15)).sum();
+        assert!((sum - 1.0 / 16.0).abs() < 1e-14, "{sum}");
+        let total: f64 = rule.iter().map(|&(_, w)| w).sum();
+        assert!((total - 1.0).abs() < 1e-14);
+    }
+
+    #[test]
+    fn positive_part_moment_matches_the_integral() {
+        // y = 1 everywhere: 2 int mu dmu = 1.
+        assert!((positive_part_moment(&[1.0; TABLE_MU]) - 1.0).abs() < 1e-12);
+        // y = s - 1/2 (node-exact in s = sqrt(mu)):
+        // 4 int_{1/2}^1 (s - 1/2) s^3 ds = 4 (31/160 - 15/128) = 0.30625.
+        let nodes = std::array::from_fn(|j| j as f32 / (TABLE_MU - 1) as f32 - 0.5);
+        let m = positive_part_moment(&nodes);
+        assert!((m - 0.30625).abs() < 1e-6, "{m}");
+    }
+}
