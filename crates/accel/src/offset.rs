@@ -108,7 +108,8 @@ pub fn offset_ray_origin_scaled(p: Vec3, n_geometric: Vec3, scale: f32) -> Vec3 
 /// the side the new ray leaves to): pbrt-v4's `OffsetRayOrigin`
 /// (Interaction.h; Pharr, Jakob and Humphreys, 4th ed., §6.8.6): by
 /// d = |n| . error along n, each coordinate then rounded one float further
-/// away from `p`, so the origin lies outside the error box on the side of
+/// along n (pbrt-v4 rounds only where the offset is non-zero; here a
+/// zero error still moves one float), so the origin lies outside the error box on the side of
 /// `n`. For points whose error is known in closed form (a reprojected
 /// sphere point, [`crate::Sphere::hit_point`]); triangle points use
 /// [`offset_ray_origin`].
@@ -128,9 +129,9 @@ pub fn offset_ray_origin_bounded(p: Vec3, n: Vec3, error: Vec3) -> Vec3 {
     let offset = d * n;
     let mut o = p + offset;
     for i in 0..3 {
-        if offset[i] > 0.0 {
+        if n[i] > 0.0 {
             o[i] = o[i].next_up();
-        } else if offset[i] < 0.0 {
+        } else if n[i] < 0.0 {
             o[i] = o[i].next_down();
         }
     }
