@@ -243,8 +243,7 @@ impl Bvh {
         let valid_spheres: Vec<u32> = (0..spheres.len() as u32)
             .filter(|&j| {
                 let s = &spheres[j as usize];
-                s.is_valid()
-                    && s.center.abs().max_element() + s.radius <= MAX_COORDINATE
+                s.is_valid() && s.center.abs().max_element() + s.radius <= MAX_COORDINATE
             })
             .collect();
         for &j in &valid_spheres {
@@ -422,8 +421,7 @@ impl Bvh {
                     t_int = t;
                     best = Some((slot, 0.0, 0.0));
                 }
-            } else if let Some((t, b1, b2)) =
-                r.transform.intersect(&self.triangles[slot], *t_max)
+            } else if let Some((t, b1, b2)) = r.transform.intersect(&self.triangles[slot], *t_max)
                 && accept(slot, b1, b2)
             {
                 *t_max = t;

@@ -778,7 +778,11 @@ fn filtered_queries_skip_rejected_hits() {
             let even = |id: u32, _: f32, _: f32| id.is_multiple_of(2);
             let got = bvh.intersect_where(o, d, t_max, even);
             let want = reference.intersect(o, d, t_max);
-            assert_eq!(got.map(|h| h.primitive), want.map(|h| h.primitive), "{o} {d}");
+            assert_eq!(
+                got.map(|h| h.primitive),
+                want.map(|h| h.primitive),
+                "{o} {d}"
+            );
             assert_eq!(bvh.occluded_where(o, d, t_max, even), want.is_some());
             hits += usize::from(want.is_some());
 

@@ -31,7 +31,10 @@ fn reference_t(s: &Sphere, o: Vec3, d: Vec3) -> Option<f64> {
     if disc < 0.0 {
         return None;
     }
-    let (t0, t1) = ((-b - disc.sqrt()) / (2.0 * a), (-b + disc.sqrt()) / (2.0 * a));
+    let (t0, t1) = (
+        (-b - disc.sqrt()) / (2.0 * a),
+        (-b + disc.sqrt()) / (2.0 * a),
+    );
     [t0, t1].into_iter().find(|&t| t > 0.0)
 }
 
@@ -128,7 +131,9 @@ fn hits_from_inside() {
         radius: 2.0,
     };
     let bvh = Bvh::build_with_spheres(&[], &[s], BuildOptions::default());
-    let h = bvh.intersect(s.center, Vec3::new(0.0, 0.0, 0.5), f32::INFINITY).unwrap();
+    let h = bvh
+        .intersect(s.center, Vec3::new(0.0, 0.0, 0.5), f32::INFINITY)
+        .unwrap();
     assert_eq!((h.t, h.primitive), (4.0, 0));
     assert!(bvh.intersect(s.center, Vec3::Z, 1.9).is_none());
     assert!(bvh.occluded(s.center, Vec3::Z, 2.1));

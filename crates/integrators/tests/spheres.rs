@@ -81,7 +81,8 @@ fn sphere_light_sampling_is_unbiased() {
     }
     // Emitted rays: uniform points, cosine directions, so every ray carries
     // exactly the power pi L 4 pi r^2 (the only light: pmf 1).
-    let power = std::f64::consts::PI * lamp_luminance() * 4.0 * std::f64::consts::PI * f64::from(r * r);
+    let power =
+        std::f64::consts::PI * lamp_luminance() * 4.0 * std::f64::consts::PI * f64::from(r * r);
     let mut rays = 0;
     for _ in 0..10_000 {
         // `None` only for a direction on the disk's rim (cos 0).
@@ -178,7 +179,9 @@ fn pt_bpt_vcm_agree_with_analytic_glass_and_emissive_spheres() {
 /// An emissive sphere of radius 0.5 filling a third of the view, analytic
 /// or tessellated with `rings` rings.
 fn lamp_ball(rings: Option<u32>) -> scene::Scene {
-    let tessellate = rings.map_or(String::new(), |n| format!("tessellate = true\nrings = {n}\n"));
+    let tessellate = rings.map_or(String::new(), |n| {
+        format!("tessellate = true\nrings = {n}\n")
+    });
     let text = format!(
         "[camera]\nfrom = [0, 0, 2.2]\nat = [0, 0, 0]\nfov = 40\n\n{LAMP}\n\
          [[shape]]\ntype = \"sphere\"\nmaterial = \"lamp\"\ncenter = [0, 0, 0]\nradius = 0.5\n\

@@ -278,11 +278,10 @@ impl SceneBuilder {
         self.triangle_materials
             .extend(other.triangle_materials.iter().map(|m| m + material_offset));
         let sphere_offset = self.spheres.len() as u32;
-        self.spheres
-            .extend(other.spheres.iter().map(|s| Sphere {
-                material: s.material + material_offset,
-                ..*s
-            }));
+        self.spheres.extend(other.spheres.iter().map(|s| Sphere {
+            material: s.material + material_offset,
+            ..*s
+        }));
         self.materials
             .extend(other.materials.into_iter().map(|mut m| {
                 if let crate::material::Surface::Textured(ref mut pbr) = m.surface {

@@ -88,7 +88,11 @@ mod tests {
             let (phi, theta) = (2.0 * PI * uv.x, PI * uv.y);
             s.axis * theta.cos() + (t * phi.cos() + b * phi.sin()) * theta.sin()
         };
-        for uv in [Vec2::new(0.1, 0.3), Vec2::new(0.7, 0.8), Vec2::new(0.45, 0.5)] {
+        for uv in [
+            Vec2::new(0.1, 0.3),
+            Vec2::new(0.7, 0.8),
+            Vec2::new(0.45, 0.5),
+        ] {
             let n = point(uv);
             assert!((s.uv(n) - uv).length() < 1e-5, "{uv}");
             let (dpdu, dpdv) = s.uv_derivatives(n);

@@ -257,7 +257,9 @@ fn check_light(scene: &Scene, light: &Light) -> Result<(), String> {
                 return Err(format!("material {} does not exist", s.material));
             };
             light_value("emission", material.emission)?;
-            light_power(std::f64::consts::PI * f64::from(material.emission.max_element()) * s.area())
+            light_power(
+                std::f64::consts::PI * f64::from(material.emission.max_element()) * s.area(),
+            )
         }
     }
 }
