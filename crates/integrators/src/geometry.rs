@@ -80,7 +80,8 @@ impl Frame {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfacePoint {
     /// Position, interpolated from the triangle's vertices (more accurate
-    /// than origin + t direction far from the origin).
+    /// than origin + t direction far from the origin), or on a sphere
+    /// recomputed in f64 and reprojected onto it.
     pub p: Vec3,
     /// Unit geometric normal from the triangle's winding: the emitting side of
     /// an area light.

@@ -1,5 +1,6 @@
 //! Light selection and sampling: lights are chosen in proportion to their
-//! power, then a point (or direction) on the chosen light is sampled. The
+//! power, then a point (or direction) on the chosen light is sampled
+//! (emissive triangles and spheres uniformly by area). The
 //! constant environment is sampled uniformly over the sphere; an environment
 //! map by its distribution ([`crate::environment`]), and both emit light
 //! subpaths from a disk covering the scene's bounding sphere.

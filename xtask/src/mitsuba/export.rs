@@ -623,4 +623,32 @@ mod tests {
             fs::remove_dir_all(dir).unwrap();
         }
     }
+
+    /// An analytic sphere becomes a Mitsuba `sphere` with its centre,
+    /// radius, orientation, bsdf and emitter.
+    #[test]
+    fn spheres_export_as_mitsuba_spheres() {
+        let dir = std::env::temp_dir().join(format!("xtask-mitsuba-spheres-{}", std::process::id()));
+        fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("scene.toml");
+        fs::write(
+            &path,
+            "[[material]]\nname = \"ball\"\ntype = \"diffuse\"\n\n\
+             [[material]]\nname = \"lamp\"\ntype = \"diffuse\"\nemission = [1, 1, 1]\n\n\
+             [[shape]]\ntype = \"sphere\"\nmaterial = \"ball\"\ncenter = [1, -2, 0.5]\nradius = 0.25\n\n\
+             [[shape]]\ntype = \"sphere\"\nmaterial = \"lamp\"\ncenter = [0, 0, 0]\nradius = 9\ninside = true\n",
+        )
+        .unwrap();
+        let scene = scene::load(&path, &LoadOptions::default()).unwrap();
+        fs::remove_dir_all(&dir).unwrap();
+        let xml = sphere_xml(&scene, &scene.spheres[0]).unwrap();
+        assert!(xml.contains(r#"<point name="center" x="1" y="-2" z="0.5"/>"#), "{xml}");
+        assert!(xml.contains(r#"<float name="radius" value="0.25"/>"#));
+        assert!(xml.contains(r#"<boolean name="flip_normals" value="false"/>"#));
+        assert!(xml.contains("diffuse") && !xml.contains("emitter"));
+        let xml = sphere_xml(&scene, &scene.spheres[1]).unwrap();
+        assert!(xml.contains(r#"<boolean name="flip_normals" value="true"/>"#));
+        assert!(xml.contains("<emitter type=\"area\">"));
+        assert!(check_lights(&scene).is_ok());
+    }
 }
