@@ -170,10 +170,6 @@ struct PreparedRay {
     t_max: f32,
     /// Triangle-test `t` to the caller's `t`: multiply by both (exact).
     to_caller: (f32, f32),
-    /// The sphere test's ray: the caller's origin and the direction scaled
-    /// by 2^-k (exact), whose `t` is the triangle test's times 2^m.
-    origin: Vec3,
-    unit: Vec3,
 }
 
 impl Bvh {
@@ -414,7 +410,7 @@ impl Bvh {
         let mut t_int = r.t_max;
         let test = |slot: usize, t_max: &mut f32| {
             if SPHERES && self.ids[slot] as usize >= self.triangle_count {
-                if let Some(t) = self.sphere_test(slot, &r, *t_max)
+                if let Some(t) = self.sphere_test(slot, &r, origin, direction, *t_max)
                     && accept(slot, 0.0, 0.0)
                 {
                     *t_max = t;
@@ -443,13 +439,23 @@ impl Bvh {
         self.refine(slot, origin, direction, t_max, (t, b1, b2))
     }
 
-    /// The sphere test of the sphere in `slot`, in the triangle test's `t`
-    /// units (see [`Bvh::prepare`]).
+    /// The sphere test of the sphere in `slot` for the caller's ray, in
+    /// the triangle test's `t` units (see [`Bvh::prepare`]): on the
+    /// direction scaled by 2^-k (exact), whose `t` is the triangle test's
+    /// times 2^m.
     #[inline]
-    fn sphere_test(&self, slot: usize, r: &PreparedRay, t_max: f32) -> Option<f32> {
+    fn sphere_test(
+        &self,
+        slot: usize,
+        r: &PreparedRay,
+        origin: Vec3,
+        direction: Vec3,
+        t_max: f32,
+    ) -> Option<f32> {
         let sphere = &self.spheres[self.ids[slot] as usize - self.triangle_count];
+        let unit = direction * r.to_caller.1;
         let to_unit = f64::from(r.to_caller.0);
-        let t = sphere.intersect(r.origin, r.unit, f64::from(t_max) * to_unit)? / to_unit;
+        let t = sphere.intersect(origin, unit, f64::from(t_max) * to_unit)? / to_unit;
         let t = t as f32;
         (t > 0.0 && t < t_max).then_some(t)
     }
@@ -493,7 +499,7 @@ impl Bvh {
     /// result is kept inside the triangle (`b1, b2 >= 0`, `b1 + b2 <= 1`) and
     /// inside `(0, t_max)`, where the f32 test put it. `None` only for a hit
     /// beyond f32 range.
-    #[inline]
+    #[inline(always)]
     fn refine(
         &self,
         slot: usize,
@@ -585,7 +591,9 @@ impl Bvh {
         let mut occluded = false;
         let test = |slot: usize, t_max: &mut f32| {
             let hit = if SPHERES && self.ids[slot] as usize >= self.triangle_count {
-                self.sphere_test(slot, &r, *t_max).is_some() && accept(slot, 0.0, 0.0)
+                self.sphere_test(slot, &r, origin, direction, *t_max)
+                    .is_some()
+                    && accept(slot, 0.0, 0.0)
             } else {
                 r.transform
                     .intersect(&self.triangles[slot], *t_max)
@@ -659,8 +667,6 @@ impl Bvh {
             },
             t_max: t_max * pow2(k) * pow2(-m),
             to_caller: (pow2(m), pow2(-k)),
-            origin,
-            unit,
         })
     }
 }

@@ -331,6 +331,7 @@ impl Lights {
     /// produces the point `p` (normal `n`) of emissive primitive
     /// `primitive` (a triangle or sphere, see `SurfacePoint::primitive`):
     /// [`Lights::area_pdfs`]'s area density times d^2 / |cos|.
+    #[inline]
     pub fn area_pdf_w(&self, primitive: u32, from: Vec3, p: Vec3, n: Vec3) -> f32 {
         let d = p - from;
         let dist2 = d.length_squared();

@@ -628,7 +628,8 @@ mod tests {
     /// radius, orientation, bsdf and emitter.
     #[test]
     fn spheres_export_as_mitsuba_spheres() {
-        let dir = std::env::temp_dir().join(format!("xtask-mitsuba-spheres-{}", std::process::id()));
+        let dir =
+            std::env::temp_dir().join(format!("xtask-mitsuba-spheres-{}", std::process::id()));
         fs::create_dir_all(&dir).unwrap();
         let path = dir.join("scene.toml");
         fs::write(
@@ -642,7 +643,10 @@ mod tests {
         let scene = scene::load(&path, &LoadOptions::default()).unwrap();
         fs::remove_dir_all(&dir).unwrap();
         let xml = sphere_xml(&scene, &scene.spheres[0]).unwrap();
-        assert!(xml.contains(r#"<point name="center" x="1" y="-2" z="0.5"/>"#), "{xml}");
+        assert!(
+            xml.contains(r#"<point name="center" x="1" y="-2" z="0.5"/>"#),
+            "{xml}"
+        );
         assert!(xml.contains(r#"<float name="radius" value="0.25"/>"#));
         assert!(xml.contains(r#"<boolean name="flip_normals" value="false"/>"#));
         assert!(xml.contains("diffuse") && !xml.contains("emitter"));
