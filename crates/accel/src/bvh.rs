@@ -1,11 +1,12 @@
-//! Triangle BVH: obvhs builds and traverses the tree; this module owns the
-//! triangles, the ray/triangle test and the mapping back to caller ids.
+//! BVH over triangles and spheres: obvhs builds and traverses the tree;
+//! this module owns the primitives, the ray/triangle test (the ray/sphere
+//! test is `sphere.rs`'s) and the mapping back to caller ids.
 
 use std::ops::ControlFlow;
 
 use glam::{Vec3, Vec3A};
 use obvhs::{
-    BvhBuildParams,
+    Boundable, BvhBuildParams,
     aabb::Aabb,
     bvh2::{Bvh2, leaf_collapser::collapse, reinsertion::ReinsertionOptimizer},
     cwbvh::{CwBvh, bvh2_to_cwbvh::bvh2_to_cwbvh},
@@ -14,6 +15,7 @@ use obvhs::{
     triangle::Triangle,
 };
 
+use crate::sphere::Sphere;
 use crate::traverse::{NodeRay, traverse_binary, traverse_wide};
 use crate::triangle::{RayTransform, is_degenerate};
 
@@ -26,18 +28,21 @@ pub const MAX_COORDINATE: f32 = 1e15;
 /// (only seen with adversarial inputs) are traversed as a BVH2 instead.
 const MAX_WIDE_DEPTH: usize = 24;
 
-/// A ray hit: distance, caller triangle id and barycentrics.
+/// A ray hit: distance, caller primitive id and barycentrics.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
     /// Ray parameter of the hit, in units of the direction's length:
     /// the hit point is `origin + t * direction`.
     pub t: f32,
-    /// Index of the hit triangle in the slice given to [`Bvh::build`].
-    pub triangle: u32,
-    /// Barycentric weight of the triangle's vertex 1.
+    /// The hit primitive: a triangle's index in the slice given to
+    /// [`Bvh::build`], or, from [`Bvh::triangle_count`] on, the triangle
+    /// count plus a sphere's index in the slice given to
+    /// [`Bvh::build_with_spheres`] ([`Bvh::sphere_of`]).
+    pub primitive: u32,
+    /// Barycentric weight of the triangle's vertex 1 (0 for a sphere).
     pub b1: f32,
     /// Barycentric weight of the triangle's vertex 2 (vertex 0 weighs
-    /// `1 - b1 - b2`).
+    /// `1 - b1 - b2`; 0 for a sphere).
     pub b2: f32,
 }
 
@@ -112,7 +117,8 @@ enum Tree {
     Binary(Bvh2, usize),
 }
 
-/// A bounding volume hierarchy over a triangle list, answering closest-hit
+/// A bounding volume hierarchy over a triangle list and a sphere list
+/// ([`Bvh::build_with_spheres`]), answering closest-hit
 /// ([`Bvh::intersect`]) and any-hit ([`Bvh::occluded`]) ray queries.
 ///
 /// Triangles are two-sided. Triangles with zero area (coincident or exactly
@@ -121,14 +127,19 @@ enum Tree {
 /// they still count in [`Bvh::triangle_count`] and keep their ids. An empty
 /// (or all-degenerate) list gives a BVH that never hits.
 ///
+/// Spheres with a non-finite centre or a radius that is not finite and
+/// positive are likewise never hit, but keep their ids.
+///
 /// Queries do not allocate and take `&self`: share one `Bvh` between threads.
 pub struct Bvh {
     tree: Tree,
-    /// Triangles in obvhs' primitive slot order.
+    /// Triangles in obvhs' primitive slot order (zero at sphere slots).
     triangles: Vec<[Vec3A; 3]>,
     /// Caller id of each slot.
     ids: Vec<u32>,
     triangle_count: usize,
+    /// The spheres, by sphere index (caller id minus `triangle_count`).
+    spheres: Vec<Sphere>,
     bounds: (Vec3, Vec3),
     /// floor(log2) of the largest coordinate magnitude of the scene.
     scene_exponent: i32,
@@ -185,9 +196,27 @@ impl Bvh {
     /// If there are more than `u32::MAX` triangles (ids are `u32`).
     #[must_use]
     pub fn build_with(triangles: &[[Vec3; 3]], options: BuildOptions) -> Self {
+        Self::build_with_spheres(triangles, &[], options)
+    }
+
+    /// Builds a BVH over `triangles` and `spheres` in one tree. Hits report
+    /// triangle `i` as primitive `i` and sphere `j` as primitive
+    /// `triangles.len() + j`. Without spheres the tree, and every query's
+    /// result, is exactly [`Bvh::build_with`]'s; with spheres the presets'
+    /// pre-splits of large triangles are skipped (they split triangles
+    /// only, and only `Slow` and `VerySlow` use them).
+    ///
+    /// # Panics
+    /// If there are more than `u32::MAX` primitives (ids are `u32`).
+    #[must_use]
+    pub fn build_with_spheres(
+        triangles: &[[Vec3; 3]],
+        spheres: &[Sphere],
+        options: BuildOptions,
+    ) -> Self {
         assert!(
-            u32::try_from(triangles.len()).is_ok(),
-            "accel::Bvh supports at most u32::MAX triangles"
+            u32::try_from(triangles.len() + spheres.len()).is_ok(),
+            "accel::Bvh supports at most u32::MAX primitives"
         );
         let mut min = Vec3::INFINITY;
         let mut max = Vec3::NEG_INFINITY;
@@ -207,6 +236,17 @@ impl Bvh {
                 valid_ids.push(id as u32);
             }
         }
+        let valid_spheres: Vec<u32> = (0..spheres.len() as u32)
+            .filter(|&j| {
+                let s = &spheres[j as usize];
+                s.is_valid() && s.center.abs().max_element() + s.radius <= MAX_COORDINATE
+            })
+            .collect();
+        for &j in &valid_spheres {
+            let (lo, hi) = spheres[j as usize].bounds();
+            min = min.min(lo);
+            max = max.max(hi);
+        }
         let bounds = if min.x <= max.x {
             (min, max)
         } else {
@@ -217,10 +257,11 @@ impl Bvh {
             triangles: Vec::new(),
             ids: Vec::new(),
             triangle_count: triangles.len(),
+            spheres: spheres.to_vec(),
             bounds,
             scene_exponent: 0,
         };
-        if valid_ids.is_empty() {
+        if valid_ids.is_empty() && valid_spheres.is_empty() {
             return bvh;
         }
         let prims: Vec<Triangle> = valid_ids
@@ -234,15 +275,37 @@ impl Bvh {
                 }
             })
             .collect();
-        let (tree, slots) = build_tree(&prims, options);
+        let (tree, slots) = if valid_spheres.is_empty() {
+            build_tree(&prims, Some(&prims), options)
+        } else {
+            // Triangles' boxes first, then the spheres': a primitive index
+            // below prims.len() is a triangle.
+            let boxes: Vec<Aabb> = prims
+                .iter()
+                .map(Triangle::aabb)
+                .chain(valid_spheres.iter().map(|&j| {
+                    let (lo, hi) = spheres[j as usize].bounds();
+                    Aabb::new(lo.into(), hi.into())
+                }))
+                .collect();
+            build_tree(&boxes, None, options)
+        };
         bvh.triangles = slots
             .iter()
             .map(|&s| {
-                let t = &prims[s as usize];
-                [t.v0, t.v1, t.v2]
+                prims
+                    .get(s as usize)
+                    .map_or([Vec3A::ZERO; 3], |t| [t.v0, t.v1, t.v2])
             })
             .collect();
-        bvh.ids = slots.iter().map(|&s| valid_ids[s as usize]).collect();
+        let first_sphere = triangles.len() as u32;
+        bvh.ids = slots
+            .iter()
+            .map(|&s| match valid_ids.get(s as usize) {
+                Some(&id) => id,
+                None => first_sphere + valid_spheres[s as usize - prims.len()],
+            })
+            .collect();
         bvh.tree = tree;
         let scene_scale = bounds.0.abs().max(bounds.1.abs()).max_element();
         bvh.scene_exponent = exponent(scene_scale).clamp(-100, 100);
@@ -250,15 +313,30 @@ impl Bvh {
     }
 
     /// Number of triangles given to the build, including those that can
-    /// never be hit.
+    /// never be hit: the first sphere's primitive id.
     #[must_use]
     pub fn triangle_count(&self) -> usize {
         self.triangle_count
     }
 
+    /// The spheres given to the build, by sphere index.
+    #[must_use]
+    pub fn spheres(&self) -> &[Sphere] {
+        &self.spheres
+    }
+
+    /// The sphere index of primitive id `primitive`, `None` for a triangle.
+    #[inline]
+    #[must_use]
+    pub fn sphere_of(&self, primitive: u32) -> Option<usize> {
+        (primitive as usize)
+            .checked_sub(self.triangle_count)
+            .filter(|&j| j < self.spheres.len())
+    }
+
     /// Axis-aligned bounds `(min, max)` of all triangles with finite
-    /// coordinates within [`MAX_COORDINATE`] (degenerate ones included);
-    /// `(0, 0)` when there are none.
+    /// coordinates within [`MAX_COORDINATE`] (degenerate ones included)
+    /// and of all valid spheres; `(0, 0)` when there are none.
     #[must_use]
     pub fn bounds(&self) -> (Vec3, Vec3) {
         self.bounds
@@ -286,31 +364,17 @@ impl Bvh {
     /// edge), one of them is returned; which one depends only on the BVH.
     #[must_use]
     pub fn intersect(&self, origin: Vec3, direction: Vec3, t_max: f32) -> Option<Hit> {
-        let r = self.prepare(origin, direction, t_max)?;
-        let mut best: Option<(usize, f32, f32)> = None;
-        let mut t_int = r.t_max;
-        let test = |slot: usize, t_max: &mut f32| {
-            if let Some((t, b1, b2)) = r.transform.intersect(&self.triangles[slot], *t_max) {
-                *t_max = t;
-                t_int = t;
-                best = Some((slot, b1, b2));
-            }
-            ControlFlow::Continue(())
-        };
-        match &self.tree {
-            Tree::Empty => {}
-            Tree::Wide(bvh) => traverse_wide(bvh, &r.node, r.t_max, test),
-            Tree::Binary(bvh, depth) => traverse_binary(bvh, *depth, &r.node, r.t_max, test),
+        if self.spheres.is_empty() {
+            self.closest::<false>(origin, direction, t_max, |_, _, _| true)
+        } else {
+            self.closest::<true>(origin, direction, t_max, |_, _, _| true)
         }
-        let (slot, b1, b2) = best?;
-        let t = t_int * r.to_caller.0 * r.to_caller.1;
-        self.refine(slot, origin, direction, t_max, (t, b1, b2))
     }
 
-    /// [`Bvh::intersect`] among the hits that `accept(triangle, b1, b2)`
+    /// [`Bvh::intersect`] among the hits that `accept(primitive, b1, b2)`
     /// (caller id and barycentrics) keeps: a rejected hit is passed through
-    /// as if the triangle were not there (alpha cut-outs, stochastic
-    /// transparency). `accept` may be called for any triangle the ray hits
+    /// as if the primitive were not there (alpha cut-outs, stochastic
+    /// transparency). `accept` may be called for any primitive the ray hits
     /// before the closest accepted one, in any order; it should depend only
     /// on its arguments (and the ray).
     #[must_use]
@@ -322,14 +386,39 @@ impl Bvh {
         t_max: f32,
         mut accept: impl FnMut(u32, f32, f32) -> bool,
     ) -> Option<Hit> {
-        // The traversal of `intersect` with the test added (kept separate,
-        // so that the plain query's code is exactly what it was).
+        let accept = |slot: usize, b1, b2| accept(self.ids[slot], b1, b2);
+        if self.spheres.is_empty() {
+            self.closest::<false>(origin, direction, t_max, accept)
+        } else {
+            self.closest::<true>(origin, direction, t_max, accept)
+        }
+    }
+
+    /// The closest-hit traversal; `accept(slot, b1, b2)` may reject a hit.
+    /// `SPHERES`: whether any slot may hold a sphere (without, the test is
+    /// the triangle test alone, as before spheres existed).
+    #[inline(always)]
+    fn closest<const SPHERES: bool>(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        t_max: f32,
+        mut accept: impl FnMut(usize, f32, f32) -> bool,
+    ) -> Option<Hit> {
         let r = self.prepare(origin, direction, t_max)?;
         let mut best: Option<(usize, f32, f32)> = None;
         let mut t_int = r.t_max;
         let test = |slot: usize, t_max: &mut f32| {
-            if let Some((t, b1, b2)) = r.transform.intersect(&self.triangles[slot], *t_max)
-                && accept(self.ids[slot], b1, b2)
+            if SPHERES && self.ids[slot] as usize >= self.triangle_count {
+                if let Some(t) = self.sphere_test(slot, &r, origin, direction, *t_max)
+                    && accept(slot, 0.0, 0.0)
+                {
+                    *t_max = t;
+                    t_int = t;
+                    best = Some((slot, 0.0, 0.0));
+                }
+            } else if let Some((t, b1, b2)) = r.transform.intersect(&self.triangles[slot], *t_max)
+                && accept(slot, b1, b2)
             {
                 *t_max = t;
                 t_int = t;
@@ -344,7 +433,62 @@ impl Bvh {
         }
         let (slot, b1, b2) = best?;
         let t = t_int * r.to_caller.0 * r.to_caller.1;
+        if SPHERES && self.ids[slot] as usize >= self.triangle_count {
+            return self.refine_sphere(slot, origin, direction, t_max, t);
+        }
         self.refine(slot, origin, direction, t_max, (t, b1, b2))
+    }
+
+    /// The sphere test of the sphere in `slot` for the caller's ray, in
+    /// the triangle test's `t` units (see [`Bvh::prepare`]): on the
+    /// direction scaled by 2^-k (exact), whose `t` is the triangle test's
+    /// times 2^m.
+    #[inline]
+    fn sphere_test(
+        &self,
+        slot: usize,
+        r: &PreparedRay,
+        origin: Vec3,
+        direction: Vec3,
+        t_max: f32,
+    ) -> Option<f32> {
+        let sphere = &self.spheres[self.ids[slot] as usize - self.triangle_count];
+        let unit = direction * r.to_caller.1;
+        let to_unit = f64::from(r.to_caller.0);
+        let t = sphere.intersect(origin, unit, f64::from(t_max) * to_unit)? / to_unit;
+        let t = t as f32;
+        (t > 0.0 && t < t_max).then_some(t)
+    }
+
+    /// The sphere hit in `slot` recomputed with the caller's ray (the test
+    /// is exact up to the f64 rounding; only the power-of-two scalings
+    /// differ), kept inside `(0, t_max)` as [`Bvh::refine`] does.
+    #[cold]
+    fn refine_sphere(
+        &self,
+        slot: usize,
+        origin: Vec3,
+        direction: Vec3,
+        t_max: f32,
+        fallback: f32,
+    ) -> Option<Hit> {
+        let sphere = &self.spheres[self.ids[slot] as usize - self.triangle_count];
+        let t = sphere
+            .intersect(origin, direction, f64::from(t_max))
+            .map_or(fallback, |t| t as f32);
+        let t = if t > 0.0 && t < t_max {
+            t
+        } else if fallback > 0.0 && fallback < t_max {
+            fallback
+        } else {
+            return None;
+        };
+        Some(Hit {
+            t,
+            primitive: self.ids[slot],
+            b1: 0.0,
+            b2: 0.0,
+        })
     }
 
     /// The hit on the triangle in `slot` recomputed in f64 (Möller–Trumbore
@@ -355,7 +499,7 @@ impl Bvh {
     /// result is kept inside the triangle (`b1, b2 >= 0`, `b1 + b2 <= 1`) and
     /// inside `(0, t_max)`, where the f32 test put it. `None` only for a hit
     /// beyond f32 range.
-    #[inline]
+    #[inline(always)]
     fn refine(
         &self,
         slot: usize,
@@ -392,13 +536,13 @@ impl Bvh {
         };
         t.is_finite().then_some(Hit {
             t,
-            triangle: self.ids[slot],
+            primitive: self.ids[slot],
             b1,
             b2,
         })
     }
 
-    /// Whether any triangle is hit along `origin + t * direction` with
+    /// Whether any primitive is hit along `origin + t * direction` with
     /// `0 < t < t_max` (any-hit query with early exit, for shadow and
     /// connection rays).
     ///
@@ -406,30 +550,14 @@ impl Bvh {
     /// occluded.
     #[must_use]
     pub fn occluded(&self, origin: Vec3, direction: Vec3, t_max: f32) -> bool {
-        let Some(r) = self.prepare(origin, direction, t_max) else {
-            return false;
-        };
-        let mut occluded = false;
-        let test = |slot: usize, t_max: &mut f32| {
-            if r.transform
-                .intersect(&self.triangles[slot], *t_max)
-                .is_some()
-            {
-                occluded = true;
-                ControlFlow::Break(())
-            } else {
-                ControlFlow::Continue(())
-            }
-        };
-        match &self.tree {
-            Tree::Empty => {}
-            Tree::Wide(bvh) => traverse_wide(bvh, &r.node, r.t_max, test),
-            Tree::Binary(bvh, depth) => traverse_binary(bvh, *depth, &r.node, r.t_max, test),
+        if self.spheres.is_empty() {
+            self.any::<false>(origin, direction, t_max, |_, _, _| true)
+        } else {
+            self.any::<true>(origin, direction, t_max, |_, _, _| true)
         }
-        occluded
     }
 
-    /// [`Bvh::occluded`] by the hits that `accept(triangle, b1, b2)` keeps
+    /// [`Bvh::occluded`] by the hits that `accept(primitive, b1, b2)` keeps
     /// (see [`Bvh::intersect_where`]).
     #[must_use]
     #[inline]
@@ -440,15 +568,38 @@ impl Bvh {
         t_max: f32,
         mut accept: impl FnMut(u32, f32, f32) -> bool,
     ) -> bool {
+        let accept = |slot: usize, b1, b2| accept(self.ids[slot], b1, b2);
+        if self.spheres.is_empty() {
+            self.any::<false>(origin, direction, t_max, accept)
+        } else {
+            self.any::<true>(origin, direction, t_max, accept)
+        }
+    }
+
+    /// The any-hit traversal (see [`Bvh::closest`]).
+    #[inline(always)]
+    fn any<const SPHERES: bool>(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        t_max: f32,
+        mut accept: impl FnMut(usize, f32, f32) -> bool,
+    ) -> bool {
         let Some(r) = self.prepare(origin, direction, t_max) else {
             return false;
         };
         let mut occluded = false;
         let test = |slot: usize, t_max: &mut f32| {
-            if r.transform
-                .intersect(&self.triangles[slot], *t_max)
-                .is_some_and(|(_, b1, b2)| accept(self.ids[slot], b1, b2))
-            {
+            let hit = if SPHERES && self.ids[slot] as usize >= self.triangle_count {
+                self.sphere_test(slot, &r, origin, direction, *t_max)
+                    .is_some()
+                    && accept(slot, 0.0, 0.0)
+            } else {
+                r.transform
+                    .intersect(&self.triangles[slot], *t_max)
+                    .is_some_and(|(_, b1, b2)| accept(slot, b1, b2))
+            };
+            if hit {
                 occluded = true;
                 ControlFlow::Break(())
             } else {
@@ -523,13 +674,21 @@ impl Bvh {
 /// Builds the obvhs tree (the steps of obvhs' `build_*_from_tris` helpers,
 /// without their debug-build validation pass) and returns it with the slot ->
 /// input index map.
-fn build_tree(prims: &[Triangle], options: BuildOptions) -> (Tree, Vec<u32>) {
-    let config = options.quality.params();
+/// `splittable`: the triangles of `prims` when they may be pre-split (all
+/// of `prims` are triangles); `None` turns the presets' pre-splits off.
+fn build_tree<T: Boundable>(
+    prims: &[T],
+    splittable: Option<&[Triangle]>,
+    options: BuildOptions,
+) -> (Tree, Vec<u32>) {
+    let mut config = options.quality.params();
+    config.pre_split &= splittable.is_some();
     let indices: Vec<u32> = (0..prims.len() as u32).collect();
     let mut bvh2 = if config.pre_split {
         let mut largest_half_area = 0.0f32;
         let mut total_half_area = 0.0f64;
-        let mut aabbs: Vec<Aabb> = prims
+        let triangles = splittable.unwrap_or_default();
+        let mut aabbs: Vec<Aabb> = triangles
             .iter()
             .map(|t| {
                 let aabb = t.aabb();
@@ -540,11 +699,11 @@ fn build_tree(prims: &[Triangle], options: BuildOptions) -> (Tree, Vec<u32>) {
             })
             .collect();
         let mut indices = indices;
-        let avg_half_area = (total_half_area / prims.len() as f64) as f32;
+        let avg_half_area = (total_half_area / triangles.len() as f64) as f32;
         split_aabbs_preset(
             &mut aabbs,
             &mut indices,
-            prims,
+            triangles,
             avg_half_area,
             largest_half_area,
         );

@@ -34,9 +34,11 @@
 mod bvh;
 mod grid;
 mod offset;
+mod sphere;
 mod traverse;
 mod triangle;
 
 pub use bvh::{BuildOptions, BuildQuality, Bvh, Hit, Layout, MAX_COORDINATE};
 pub use grid::HashGrid;
-pub use offset::{offset_ray_origin, offset_ray_origin_scaled};
+pub use offset::{offset_ray_origin, offset_ray_origin_bounded, offset_ray_origin_scaled};
+pub use sphere::{HIT_POINT_RELATIVE_ERROR, Sphere};

@@ -103,6 +103,41 @@ pub fn offset_ray_origin_scaled(p: Vec3, n_geometric: Vec3, scale: f32) -> Vec3 
     )
 }
 
+/// Moves a point `p` whose coordinates are within `error` of the surface
+/// (a per-coordinate bound) off it along the unit normal `n` (flipped to
+/// the side the new ray leaves to): pbrt-v4's `OffsetRayOrigin`
+/// (Interaction.h; Pharr, Jakob and Humphreys, 4th ed., §6.8.6): by
+/// d = |n| . error along n, each coordinate then rounded one float further
+/// along n (pbrt-v4 rounds only where the offset is non-zero; here a
+/// zero error still moves one float), so the origin lies outside the error box on the side of
+/// `n`. For points whose error is known in closed form (a reprojected
+/// sphere point, [`crate::Sphere::hit_point`]); triangle points use
+/// [`offset_ray_origin`].
+///
+/// Returns `p` unchanged when `n` is zero or not finite.
+#[must_use]
+pub fn offset_ray_origin_bounded(p: Vec3, n: Vec3, error: Vec3) -> Vec3 {
+    let n = if (n.length_squared() - 1.0).abs() <= UNIT_TOLERANCE {
+        n
+    } else {
+        n.normalize_or_zero()
+    };
+    if n == Vec3::ZERO {
+        return p;
+    }
+    let d = n.abs().dot(error);
+    let offset = d * n;
+    let mut o = p + offset;
+    for i in 0..3 {
+        if n[i] > 0.0 {
+            o[i] = o[i].next_up();
+        } else if n[i] < 0.0 {
+            o[i] = o[i].next_down();
+        }
+    }
+    if o.is_finite() { o } else { p }
+}
+
 /// World-space offset per unit of normal for coordinates below `ORIGIN`:
 /// `FLOAT_SCALE * scale / ORIGIN` (= scale / 2048) for scale in
 /// [`MIN_SCALE`, `ORIGIN`], the chapter's `FLOAT_SCALE` above (and for NaN).
@@ -190,6 +225,20 @@ mod tests {
             offset_ray_origin_scaled(q, Vec3::X, 1e-6),
             offset_ray_origin(q, Vec3::X)
         );
+    }
+
+    #[test]
+    fn bounded_offset_leaves_the_error_box() {
+        let p = Vec3::new(1.0, -2.0, 1e-3);
+        let e = Vec3::new(1e-6, 2e-6, 1e-9);
+        let n = Vec3::new(0.6, 0.0, -0.8);
+        let o = offset_ray_origin_bounded(p, n, e);
+        // Beyond the plane through the box's farthest corner along n.
+        assert!((o - p).dot(n) > n.abs().dot(e));
+        assert_eq!(offset_ray_origin_bounded(p, Vec3::ZERO, e), p);
+        // Zero error still moves by one float.
+        let o = offset_ray_origin_bounded(p, Vec3::X, Vec3::ZERO);
+        assert_eq!(o.x, 1.0f32.next_up());
     }
 
     #[test]

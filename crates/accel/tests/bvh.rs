@@ -236,7 +236,7 @@ fn rays_from_offset_surface_points_match_brute_force() {
             rays.push((o, d, f32::INFINITY));
             for bvh in &bvhs {
                 assert_ne!(
-                    bvh.intersect(o, d, f32::INFINITY).map(|h| h.triangle),
+                    bvh.intersect(o, d, f32::INFINITY).map(|h| h.primitive),
                     Some(id as u32),
                     "self-intersection"
                 );
@@ -280,7 +280,7 @@ fn no_self_intersection_across_scales() {
                     let n_side = if d.dot(n) > 0.0 { n } else { -n };
                     let o = offset_ray_origin(p, n_side);
                     let hit = bvh.intersect(o, d, f32::INFINITY);
-                    if hit.is_some_and(|h| h.triangle as usize == id) {
+                    if hit.is_some_and(|h| h.primitive as usize == id) {
                         self_hits += 1;
                     }
                     // Leaving a convex closed mesh outwards: nothing to hit.
@@ -299,7 +299,7 @@ fn no_self_intersection_across_scales() {
                     // A second bounce from the hit point, computed from the
                     // hit's barycentrics as a renderer does.
                     if let Some(h) = hit {
-                        let t2 = tris[h.triangle as usize];
+                        let t2 = tris[h.primitive as usize];
                         let q = t2[0] * (1.0 - h.b1 - h.b2) + t2[1] * h.b1 + t2[2] * h.b2;
                         let n2 = (t2[1] - t2[0]).cross(t2[2] - t2[0]);
                         let cos2 = rng.uniform_f32() * 2.0 - 1.0;
@@ -308,7 +308,7 @@ fn no_self_intersection_across_scales() {
                         let o2 = offset_ray_origin(q, n2_side);
                         if bvh
                             .intersect(o2, d2, f32::INFINITY)
-                            .is_some_and(|h2| h2.triangle == h.triangle)
+                            .is_some_and(|h2| h2.primitive == h.primitive)
                         {
                             self_hits += 1;
                         }
@@ -665,7 +665,7 @@ fn rays_never_leak_out_of_a_tiny_closed_box() {
                     escaped += 1;
                 }
                 // A second bounce from the hit point, from its barycentrics.
-                let t2 = tris[h.triangle as usize];
+                let t2 = tris[h.primitive as usize];
                 let q = t2[0] * (1.0 - h.b1 - h.b2) + t2[1] * h.b1 + t2[2] * h.b2;
                 let n2 = geometric_normal(&t2);
                 if on_edge(q, n2) {
@@ -778,7 +778,11 @@ fn filtered_queries_skip_rejected_hits() {
             let even = |id: u32, _: f32, _: f32| id.is_multiple_of(2);
             let got = bvh.intersect_where(o, d, t_max, even);
             let want = reference.intersect(o, d, t_max);
-            assert_eq!(got.map(|h| h.triangle), want.map(|h| h.triangle), "{o} {d}");
+            assert_eq!(
+                got.map(|h| h.primitive),
+                want.map(|h| h.primitive),
+                "{o} {d}"
+            );
             assert_eq!(bvh.occluded_where(o, d, t_max, even), want.is_some());
             hits += usize::from(want.is_some());
 

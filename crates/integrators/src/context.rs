@@ -5,7 +5,7 @@
 use std::cell::Cell;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use accel::{Bvh, Hit};
+use accel::{BuildOptions, Bvh, Hit};
 use glam::Vec3;
 use regularization::tau::{alpha_cap, alpha_tau};
 use regularization::{Lobe, Mode};
@@ -31,7 +31,8 @@ thread_local! {
 pub struct SceneContext {
     /// The scene.
     pub scene: Scene,
-    /// Its triangles for ray queries.
+    /// Its triangles and spheres for ray queries (spheres numbered after
+    /// the triangles).
     pub bvh: Bvh,
     /// Light selection and sampling.
     pub lights: Lights,
@@ -50,8 +51,10 @@ pub struct SceneContext {
     /// [`vertex_scale`] of each triangle, for ray-origin offsets: computed
     /// once, like the normals, not at every hit.
     vertex_scales: Vec<f32>,
-    /// Per triangle: its material has an alpha mode other than opaque.
-    /// Empty when no triangle has one: ray queries then skip the test.
+    /// Per triangle: its material has an alpha mode other than opaque
+    /// (false for every sphere: spheres are opaque, their materials' alpha
+    /// is not applied). Empty when no triangle has one: ray queries then
+    /// skip the test.
     alpha_tested: Vec<bool>,
     /// Some used material has a normal or bump map.
     normal_mapped: bool,
@@ -62,7 +65,15 @@ pub struct SceneContext {
 impl SceneContext {
     /// Prepares `scene` (builds the BVH on the current rayon pool).
     pub fn new(scene: Scene, config: RenderConfig) -> Self {
-        let bvh = Bvh::build(&scene.triangles);
+        let spheres: Vec<accel::Sphere> = scene
+            .spheres
+            .iter()
+            .map(|s| accel::Sphere {
+                center: s.center,
+                radius: s.radius,
+            })
+            .collect();
+        let bvh = Bvh::build_with_spheres(&scene.triangles, &spheres, BuildOptions::default());
         let bounds = BoundingSphere::of(&scene);
         let lights = Lights::new(&scene, bounds);
         let camera = CameraRays::new(scene.camera);
@@ -82,12 +93,15 @@ impl SceneContext {
             .iter()
             .map(|m| !material_of(m).maps.alpha.is_opaque())
             .collect();
-        if !alpha_tested.contains(&true) {
+        if alpha_tested.contains(&true) {
+            alpha_tested.resize(scene.triangles.len() + scene.spheres.len(), false);
+        } else {
             alpha_tested = Vec::new();
         }
         let normal_mapped = scene
             .triangle_materials
             .iter()
+            .chain(scene.spheres.iter().map(|s| &s.material))
             .any(|m| material_of(m).maps.normal.is_some());
         Self {
             features: SceneFeatures::of(&scene),
@@ -202,11 +216,16 @@ impl SceneContext {
         }
     }
 
-    /// The surface point of a hit (its shading normal perturbed by the
-    /// material's normal map, if any).
+    /// The surface point of a hit of the ray `origin + t direction` (its
+    /// shading normal perturbed by the material's normal map, if any). A
+    /// sphere's point is recomputed from the ray in f64 and reprojected
+    /// onto the sphere (`accel::Sphere::hit_point`).
     #[inline]
-    pub fn surface_point(&self, hit: &Hit) -> SurfacePoint {
-        let i = hit.triangle as usize;
+    pub fn surface_point(&self, hit: &Hit, origin: Vec3, direction: Vec3) -> SurfacePoint {
+        if let Some(j) = self.bvh.sphere_of(hit.primitive) {
+            return self.sphere_point(j, hit, origin, direction);
+        }
+        let i = hit.primitive as usize;
         let point = SurfacePoint::new(
             &self.scene,
             self.geometric_normals[i],
@@ -217,6 +236,21 @@ impl SceneContext {
             && let Some(map) = &self.scene.materials[point.material as usize].maps.normal
         {
             return crate::normal_map::apply(&self.scene, map, &point, hit.b1, hit.b2);
+        }
+        point
+    }
+
+    /// [`SceneContext::surface_point`] on sphere `j` (out of line: triangle
+    /// scenes keep the triangle path inlined).
+    #[inline(never)]
+    fn sphere_point(&self, j: usize, hit: &Hit, origin: Vec3, direction: Vec3) -> SurfacePoint {
+        let sphere = &self.scene.spheres[j];
+        let (p, n, error) = self.bvh.spheres()[j].hit_point(origin, direction, hit.t);
+        let point = SurfacePoint::on_sphere(sphere, hit.primitive, p, n, error);
+        if self.normal_mapped
+            && let Some(map) = &self.scene.materials[point.material as usize].maps.normal
+        {
+            return crate::normal_map::apply_on_sphere(&self.scene, map, &point, sphere, n);
         }
         point
     }

@@ -21,7 +21,7 @@ pub struct BoundingSphere {
 pub const MIN_SCENE_RADIUS: f32 = 1e-3;
 
 impl BoundingSphere {
-    /// The bounding sphere of `scene`'s triangles.
+    /// The bounding sphere of `scene`'s triangles and spheres.
     pub fn of(scene: &Scene) -> Self {
         let (lo, hi) = scene.bounds();
         Self {
@@ -80,7 +80,8 @@ impl Frame {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfacePoint {
     /// Position, interpolated from the triangle's vertices (more accurate
-    /// than origin + t direction far from the origin).
+    /// than origin + t direction far from the origin), or on a sphere
+    /// recomputed in f64 and reprojected onto it.
     pub p: Vec3,
     /// Unit geometric normal from the triangle's winding: the emitting side of
     /// an area light.
@@ -91,12 +92,39 @@ pub struct SurfacePoint {
     pub frame: Frame,
     /// Texture coordinates.
     pub uv: Vec2,
-    /// Triangle index.
-    pub triangle: u32,
+    /// Primitive id ([`accel::Hit::primitive`]): a triangle index, or the
+    /// triangle count plus a sphere index.
+    pub primitive: u32,
     /// Material index.
     pub material: u32,
-    /// [`vertex_scale`] of the triangle: the scale of `p`'s rounding error.
-    pub scale: f32,
+    /// The error of `p`, which a ray leaving it must clear.
+    pub error: PointError,
+}
+
+/// How far a computed surface point may lie from its surface: what a
+/// ray-origin offset must clear.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PointError {
+    /// Interpolated from triangle vertices whose largest coordinate
+    /// magnitude is this ([`vertex_scale`]; infinity for a point light):
+    /// the Wächter-Binder offset (`accel::offset_ray_origin_scaled`).
+    Vertices(f32),
+    /// At most this per coordinate (a reprojected sphere point,
+    /// `accel::Sphere::hit_point`): pbrt-v4's offset
+    /// (`accel::offset_ray_origin_bounded`).
+    Bounded(Vec3),
+}
+
+impl PointError {
+    /// `p` moved off its surface along `n` (on the side the new ray
+    /// leaves to) by enough to clear this error.
+    #[inline]
+    pub fn offset(self, p: Vec3, n: Vec3) -> Vec3 {
+        match self {
+            Self::Vertices(scale) => accel::offset_ray_origin_scaled(p, n, scale),
+            Self::Bounded(error) => accel::offset_ray_origin_bounded(p, n, error),
+        }
+    }
 }
 
 /// The largest coordinate magnitude of a triangle's vertices: the error of
@@ -113,7 +141,7 @@ impl SurfacePoint {
     /// geometric normal `n_winding` ([`Scene::geometric_normal`]) and the
     /// vertex scale `scale` ([`vertex_scale`]).
     pub fn new(scene: &Scene, n_winding: Vec3, scale: f32, hit: &Hit) -> Self {
-        let i = hit.triangle as usize;
+        let i = hit.primitive as usize;
         let b = Vec3::new(1.0 - hit.b1 - hit.b2, hit.b1, hit.b2);
         let interpolate = |v: [Vec3; 3]| v[0] * b.x + v[1] * b.y + v[2] * b.z;
         let ns = interpolate(scene.normals[i])
@@ -131,9 +159,34 @@ impl SurfacePoint {
             ng,
             frame: Frame::from_normal(ns),
             uv: uv[0] * b.x + uv[1] * b.y + uv[2] * b.z,
-            triangle: hit.triangle,
+            primitive: hit.primitive,
             material: scene.triangle_materials[i],
-            scale,
+            error: PointError::Vertices(scale),
+        }
+    }
+
+    /// The point of analytic sphere `sphere` (primitive id `primitive`) in
+    /// outward unit direction `n` from its centre, at `p` with error bound
+    /// `error` (`accel::Sphere::hit_point`): geometric and shading normal
+    /// are the exact normal (facing the centre for an `inside` sphere), uv
+    /// the sphere's parametrisation.
+    pub fn on_sphere(
+        sphere: &scene::Sphere,
+        primitive: u32,
+        p: Vec3,
+        n: Vec3,
+        error: Vec3,
+    ) -> Self {
+        let n_winding = if sphere.inside { -n } else { n };
+        Self {
+            p,
+            n_winding,
+            ng: n_winding,
+            frame: Frame::from_normal(n_winding),
+            uv: sphere.uv(n),
+            primitive,
+            material: sphere.material,
+            error: PointError::Bounded(error),
         }
     }
 
@@ -149,7 +202,7 @@ impl SurfacePoint {
     /// Origin of a ray leaving in direction `w` (Wächter and Binder offset,
     /// scaled for geometry far below unit size near the origin).
     pub fn spawn_origin(&self, w: Vec3) -> Vec3 {
-        accel::offset_ray_origin_scaled(self.p, self.ng_towards(w), self.scale)
+        self.error.offset(self.p, self.ng_towards(w))
     }
 }
 

@@ -1,5 +1,6 @@
 //! Light selection and sampling: lights are chosen in proportion to their
-//! power, then a point (or direction) on the chosen light is sampled. The
+//! power, then a point (or direction) on the chosen light is sampled
+//! (emissive triangles and spheres uniformly by area). The
 //! constant environment is sampled uniformly over the sphere; an environment
 //! map by its distribution ([`crate::environment`]), and both emit light
 //! subpaths from a disk covering the scene's bounding sphere.
@@ -11,7 +12,7 @@ use mis::EmitterKind;
 use scene::{Light, Scene};
 
 use crate::environment::EnvironmentDistribution;
-use crate::geometry::{BoundingSphere, vertex_scale};
+use crate::geometry::{BoundingSphere, PointError, vertex_scale};
 
 /// Luminance weights (Rec. 709) to turn RGB power into one number.
 pub(crate) fn luminance(c: Vec3) -> f32 {
@@ -122,9 +123,10 @@ pub struct LightPoint {
     pub p: Vec3,
     /// Geometric normal (zero for point lights).
     pub n: Vec3,
-    /// The emitting triangle's [`crate::geometry::vertex_scale`] (infinity
-    /// for point lights: no offset).
-    pub scale: f32,
+    /// The error of `p` (an emitting triangle's
+    /// [`crate::geometry::vertex_scale`], infinity for point lights: no
+    /// offset; a sphere point's bound).
+    pub error: PointError,
 }
 
 /// The scene's lights with a power-proportional selection distribution.
@@ -136,16 +138,20 @@ pub struct Lights {
     /// Selection probability per light.
     pmf: Vec<f32>,
     /// Per light: the area density of choosing a point of an area light
-    /// (selection probability / triangle area), 0 for other lights.
+    /// (selection probability / triangle or sphere area), 0 for other lights.
     area_pdf_a: Vec<f32>,
-    /// Per light: an area light's geometric normal (emitting side), zero
-    /// for other lights. Stored: every light sample needs it.
+    /// Per light: an emissive triangle's geometric normal (emitting side),
+    /// zero for other lights (a sphere's varies). Stored: every light
+    /// sample needs it.
     area_normal: Vec<Vec3>,
     /// Per light: an area light's [`vertex_scale`] (ray-origin offsets),
     /// infinity for other lights.
     area_scale: Vec<f32>,
-    /// Light index of each emissive triangle (`u32::MAX` for others).
-    triangle_light: Vec<u32>,
+    /// Light index of each emissive primitive, by primitive id (triangles,
+    /// then spheres; `u32::MAX` for others).
+    primitive_light: Vec<u32>,
+    /// The first sphere's primitive id (the triangle count).
+    first_sphere: u32,
     /// Index of the environment light, if any.
     environment: Option<u32>,
     /// The environment map's index in `Scene::environment_maps` and its
@@ -163,7 +169,8 @@ impl Lights {
     /// infinity emit into the scene's bounding sphere `bounds`.
     pub fn new(scene: &Scene, bounds: BoundingSphere) -> Self {
         let scene_radius = bounds.radius;
-        let mut triangle_light = vec![u32::MAX; scene.triangles.len()];
+        let first_sphere = scene.triangles.len() as u32;
+        let mut primitive_light = vec![u32::MAX; scene.triangles.len() + scene.spheres.len()];
         let mut environment = None;
         let mut environment_map = None;
         let power: Vec<f32> = scene
@@ -205,10 +212,17 @@ impl Lights {
                         })
                     }
                     Light::Area { triangle } => {
-                        triangle_light[triangle as usize] = i as u32;
+                        primitive_light[triangle as usize] = i as u32;
                         let m =
                             &scene.materials[scene.triangle_materials[triangle as usize] as usize];
                         PI * scene.triangle_area(triangle as usize) * luminance(m.emission)
+                    }
+                    Light::Sphere { sphere } => {
+                        // pi L A, A = 4 pi r^2, as for a triangle.
+                        primitive_light[(first_sphere + sphere) as usize] = i as u32;
+                        let s = &scene.spheres[sphere as usize];
+                        let m = &scene.materials[s.material as usize];
+                        (std::f64::consts::PI * s.area() * f64::from(luminance(m.emission))) as f32
                     }
                 };
                 if p.is_finite() { p.max(0.0) } else { 0.0 }
@@ -242,7 +256,13 @@ impl Lights {
             .lights
             .iter()
             .zip(&pmf)
-            .map(|(light, &pmf)| area_triangle(light).map_or(0.0, |t| pmf / scene.triangle_area(t)))
+            .map(|(light, &pmf)| match *light {
+                Light::Area { triangle } => pmf / scene.triangle_area(triangle as usize),
+                Light::Sphere { sphere } => {
+                    (f64::from(pmf) / scene.spheres[sphere as usize].area()) as f32
+                }
+                _ => 0.0,
+            })
             .collect();
         let area_normal = scene
             .lights
@@ -263,7 +283,8 @@ impl Lights {
             area_pdf_a,
             area_normal,
             area_scale,
-            triangle_light,
+            primitive_light,
+            first_sphere,
             environment,
             environment_map,
             scene_centre: bounds.centre,
@@ -307,13 +328,15 @@ impl Lights {
     }
 
     /// Density, in solid angle at `from`, with which [`Lights::sample`]
-    /// produces the point `p` (normal `n`) of emissive triangle `triangle`:
+    /// produces the point `p` (normal `n`) of emissive primitive
+    /// `primitive` (a triangle or sphere, see `SurfacePoint::primitive`):
     /// [`Lights::area_pdfs`]'s area density times d^2 / |cos|.
-    pub fn area_pdf_w(&self, triangle: u32, from: Vec3, p: Vec3, n: Vec3) -> f32 {
+    #[inline]
+    pub fn area_pdf_w(&self, primitive: u32, from: Vec3, p: Vec3, n: Vec3) -> f32 {
         let d = p - from;
         let dist2 = d.length_squared();
         let cos = (n.dot(d) / dist2.sqrt()).abs();
-        let pdf = self.area_pdfs(triangle, cos).direct_pdf * dist2 / cos;
+        let pdf = self.area_pdfs(primitive, cos).direct_pdf * dist2 / cos;
         if pdf.is_finite() { pdf } else { 0.0 }
     }
 
@@ -344,7 +367,7 @@ impl Lights {
                 point: Some(LightPoint {
                     p: position,
                     n: Vec3::ZERO,
-                    scale: f32::INFINITY,
+                    error: PointError::Vertices(f32::INFINITY),
                 }),
                 is_delta: true,
                 mis: EmitterPdfs {
@@ -434,10 +457,39 @@ impl Lights {
                     point: Some(LightPoint {
                         p: q,
                         n,
-                        scale: self.area_scale[index],
+                        error: PointError::Vertices(self.area_scale[index]),
                     }),
                     is_delta: false,
                     mis: self.area_pdfs(triangle, n.dot(-wi)),
+                }
+            }
+            Light::Sphere { sphere } => {
+                // A uniform point of the whole sphere (density 1 / 4 pi r^2
+                // in area; the half facing away is rejected below).
+                let s = &scene.spheres[sphere as usize];
+                let outward = uniform_sphere(u);
+                let (q, error) = sphere_point(s, outward);
+                let n = if s.inside { -outward } else { outward };
+                let wi = (q - p).try_normalize()?;
+                if n.dot(-wi) <= 0.0 {
+                    return None; // Emitting side turned away.
+                }
+                let primitive = self.first_sphere + sphere;
+                let pdf = self.area_pdf_w(primitive, p, q, n);
+                if pdf <= 0.0 {
+                    return None;
+                }
+                LightSample {
+                    wi,
+                    li: sphere_radiance(scene, s, outward),
+                    pdf,
+                    point: Some(LightPoint {
+                        p: q,
+                        n,
+                        error: PointError::Bounded(error),
+                    }),
+                    is_delta: false,
+                    mis: self.area_pdfs(primitive, n.dot(-wi)),
                 }
             }
         };
@@ -450,14 +502,14 @@ impl Lights {
         PI * self.scene_radius * self.scene_radius
     }
 
-    /// MIS pdfs of the point of emissive triangle `triangle` seen at cosine
-    /// `cos_light` (towards the other vertex): the one area density of
-    /// every technique that reaches an area light.
+    /// MIS pdfs of the point of emissive primitive `primitive` (triangle
+    /// or sphere) seen at cosine `cos_light` (towards the other vertex):
+    /// the one area density of every technique that reaches an area light.
     #[inline]
-    pub fn area_pdfs(&self, triangle: u32, cos_light: f32) -> EmitterPdfs {
+    pub fn area_pdfs(&self, primitive: u32, cos_light: f32) -> EmitterPdfs {
         let pdf_a = self
-            .triangle_light
-            .get(triangle as usize)
+            .primitive_light
+            .get(primitive as usize)
             .filter(|&&l| l != u32::MAX)
             .map_or(0.0, |&l| self.area_pdf_a[l as usize]);
         EmitterPdfs {
@@ -604,6 +656,25 @@ impl Lights {
                     mis,
                 }
             }
+            Light::Sphere { sphere } => {
+                // A uniform point of the sphere, a cosine-distributed
+                // direction around its emitting normal.
+                let s = &scene.spheres[sphere as usize];
+                let outward = uniform_sphere(u_position);
+                let (p, error) = sphere_point(s, outward);
+                let n = if s.inside { -outward } else { outward };
+                let local = cosine_hemisphere(u_direction);
+                if local.z <= 0.0 {
+                    return None;
+                }
+                let mis = self.area_pdfs(self.first_sphere + sphere, local.z);
+                Emission {
+                    origin: accel::offset_ray_origin_bounded(p, n, error),
+                    direction: crate::geometry::Frame::from_normal(n).to_world(local),
+                    throughput: sphere_radiance(scene, s, outward) * local.z / mis.emission_pdf_w,
+                    mis,
+                }
+            }
         };
         (emission.throughput.is_finite() && emission.throughput.max_element() > 0.0)
             .then_some(emission)
@@ -648,6 +719,28 @@ fn mapped_area_radiance(scene: &Scene, material: &scene::Material, i: usize, u: 
     let [t0, t1, t2] = scene.uvs[i];
     let uv = t0 * (1.0 - b1 - b2) + t1 * b1 + t2 * b2;
     material.emission_at(uv, &scene.textures) * material.maps.alpha.coverage(uv, &scene.textures)
+}
+
+/// The point of sphere `s` in outward unit direction `n` and its error
+/// bound (`accel::Sphere::point_at`).
+fn sphere_point(s: &scene::Sphere, n: Vec3) -> (Vec3, Vec3) {
+    accel::Sphere {
+        center: s.center,
+        radius: s.radius,
+    }
+    .point_at(n)
+}
+
+/// Radiance emitted by sphere `s` at its point in outward direction `n`:
+/// the material's factor, times its emissive texture at the point's uv
+/// when it has one (chosen by the factor's power, as triangles are; alpha
+/// does not apply to spheres).
+fn sphere_radiance(scene: &Scene, s: &scene::Sphere, n: Vec3) -> Vec3 {
+    let material = &scene.materials[s.material as usize];
+    match material.maps.emission {
+        None => material.emission,
+        Some(_) => material.emission_at(s.uv(n), &scene.textures),
+    }
 }
 
 /// Density of [`uniform_sphere`]: 1 / (4 pi).

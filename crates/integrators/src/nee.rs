@@ -42,7 +42,7 @@ pub fn visible(ctx: &SceneContext, vertex: &PathVertex, ls: &LightSample) -> boo
                 lp.p
             } else {
                 let n = if lp.n.dot(-ls.wi) > 0.0 { lp.n } else { -lp.n };
-                accel::offset_ray_origin_scaled(lp.p, n, lp.scale)
+                lp.error.offset(lp.p, n)
             };
             !ctx.occluded(origin, end - origin, 1.0)
         }

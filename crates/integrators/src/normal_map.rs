@@ -44,19 +44,59 @@ pub fn apply(
     b1: f32,
     b2: f32,
 ) -> SurfacePoint {
+    let i = point.primitive as usize;
+    perturb(
+        scene,
+        map,
+        point,
+        |n| tangent_frame(scene, i, n, b1, b2),
+        || uv_derivatives(scene, i),
+    )
+}
+
+/// [`apply`] on an analytic sphere: the tangent frame is the sphere's
+/// parametrisation's, dp/du and dp/dv at outward direction `n_outward`
+/// (`scene::Sphere::uv_derivatives`), with the bitangent sign of the glTF
+/// convention as for triangles without file tangents.
+pub fn apply_on_sphere(
+    scene: &Scene,
+    map: &NormalMap,
+    point: &SurfacePoint,
+    sphere: &scene::Sphere,
+    n_outward: Vec3,
+) -> SurfacePoint {
+    let (dpdu, dpdv) = sphere.uv_derivatives(n_outward);
+    perturb(
+        scene,
+        map,
+        point,
+        |n| (dpdu, bitangent_sign(n, dpdu, dpdv)),
+        || (dpdu, dpdv),
+    )
+}
+
+/// The perturbation itself, given the point's tangent and bitangent sign
+/// (`tangent(n)`) and its uv derivatives (`derivatives()`), each computed
+/// only for the map kind that needs it.
+fn perturb(
+    scene: &Scene,
+    map: &NormalMap,
+    point: &SurfacePoint,
+    tangent: impl FnOnce(Vec3) -> (Vec3, f32),
+    derivatives: impl FnOnce() -> (Vec3, Vec3),
+) -> SurfacePoint {
     let Some(texture) = scene.textures.get(map.texture) else {
         return *point;
     };
     let n = point.frame.n;
-    let i = point.triangle as usize;
     let perturbed = match map.kind {
         NormalMapKind::Tangent { scale } => {
-            let (tangent, sign) = tangent_frame(scene, i, n, b1, b2);
+            let (tangent, sign) = tangent(n);
             let texel = texture.sample(point.uv).truncate();
             tangent_space_normal(texel, scale, n, tangent, sign)
         }
         NormalMapKind::Height { scale } => {
-            let (dpdu, dpdv) = uv_derivatives(scene, i);
+            let (dpdu, dpdv) = derivatives();
             let (w, h) = (texture.width as f32, texture.height as f32);
             let height = |uv: Vec2| scale * texture.sample(uv).x;
             let h0 = height(point.uv);
@@ -74,6 +114,16 @@ pub fn apply(
     }
 }
 
+/// The glTF bitangent sign of a frame derived from uv derivatives: its
+/// bitangent points to decreasing v.
+fn bitangent_sign(n: Vec3, dpdu: Vec3, dpdv: Vec3) -> f32 {
+    if n.cross(dpdu).dot(-dpdv) < 0.0 {
+        -1.0
+    } else {
+        1.0
+    }
+}
+
 /// The tangent at barycentrics (b1, b2) of triangle `i` and the sign of its
 /// bitangent: the file's when it has one, else from the uv derivatives.
 fn tangent_frame(scene: &Scene, i: usize, n: Vec3, b1: f32, b2: f32) -> (Vec3, f32) {
@@ -82,13 +132,7 @@ fn tangent_frame(scene: &Scene, i: usize, n: Vec3, b1: f32, b2: f32) -> (Vec3, f
         return (xyz, if t[0].w < 0.0 { -1.0 } else { 1.0 });
     }
     let (dpdu, dpdv) = uv_derivatives(scene, i);
-    // glTF's bitangent points to decreasing v.
-    let sign = if n.cross(dpdu).dot(-dpdv) < 0.0 {
-        -1.0
-    } else {
-        1.0
-    };
-    (dpdu, sign)
+    (dpdu, bitangent_sign(n, dpdu, dpdv))
 }
 
 /// dp/du and dp/dv of triangle `i` (pbrt-v3 §3.6.2: solve the 2x2 system

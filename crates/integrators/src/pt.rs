@@ -139,13 +139,13 @@ impl PathTracer {
                 }
                 break;
             };
-            let point = ctx.surface_point(&hit);
+            let point = ctx.surface_point(&hit, walk.origin, walk.direction);
             walk.arrive(&ctx.scene, &point, hit.t);
             let wi = -walk.direction;
             if let Some(emission) = ctx.emitted(&point, wi) {
                 let weight = self.emitter_hit_weight(&bounce, || {
                     ctx.lights
-                        .area_pdf_w(point.triangle, bounce.from, point.p, point.n_winding)
+                        .area_pdf_w(point.primitive, bounce.from, point.p, point.n_winding)
                 });
                 radiance += walk.throughput * emission * weight;
             }

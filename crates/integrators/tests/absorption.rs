@@ -143,7 +143,7 @@ fn an_absorbing_slab_transmits_exp_of_minus_sigma_a_times_thickness() {
     }
 }
 
-/// A rough (alpha 0.5) absorbing glass sphere (diameter 1) on a diffuse
+/// A rough (alpha 0.5) absorbing analytic glass sphere (diameter 1) on a diffuse
 /// floor under a small area light, seen from the front and above.
 fn sphere_scene() -> String {
     "[camera]\nfrom = [0, 1.2, 1.8]\nat = [0, 0.45, 0]\nfov = 40\n\n\
@@ -153,7 +153,7 @@ fn sphere_scene() -> String {
      [[material]]\nname = \"lamp\"\ntype = \"diffuse\"\nreflectance = [0, 0, 0]\nemission = [12, 12, 12]\n\n\
      [[shape]]\ntype = \"quad\"\nmaterial = \"floor\"\norigin = [-3, 0, 3]\nu = [6, 0, 0]\nv = [0, 0, -6]\n\n\
      [[shape]]\ntype = \"quad\"\nmaterial = \"lamp\"\norigin = [-0.5, 2, -0.5]\nu = [1, 0, 0]\nv = [0, 0, 1]\n\n\
-     [[shape]]\ntype = \"sphere\"\nmaterial = \"glass\"\ncenter = [0, 0.5, 0]\nradius = 0.5\nrings = 24\n"
+     [[shape]]\ntype = \"sphere\"\nmaterial = \"glass\"\ncenter = [0, 0.5, 0]\nradius = 0.5\n"
         .to_string()
 }
 

@@ -117,7 +117,9 @@ fn run(cli: &Cli) -> Result<ExitCode, Error> {
     };
     let size = (resolution.x, resolution.y);
     let film = ("film", settings::film_bytes(resolution.x, resolution.y));
-    let bvh = scene.triangles.len() as u64 * integrators::BVH_BUILD_BYTES_PER_TRIANGLE;
+    // A sphere costs a BVH slot like a triangle.
+    let primitives = (scene.triangles.len() + scene.spheres.len()) as u64;
+    let bvh = primitives * integrators::BVH_BUILD_BYTES_PER_TRIANGLE;
     settings::check_memory(
         &[film, ("BVH", bvh)],
         size,

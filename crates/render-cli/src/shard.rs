@@ -81,6 +81,21 @@ pub fn scene_hash(scene: &Scene) -> u64 {
     for &m in &scene.triangle_materials {
         h.write_u32(m);
     }
+    // Nothing is written for a scene without spheres: its hash is what it
+    // was before spheres existed.
+    for sphere in &scene.spheres {
+        floats(
+            &mut h,
+            &mut sphere
+                .center
+                .to_array()
+                .into_iter()
+                .chain([sphere.radius])
+                .chain(sphere.axis.to_array()),
+        );
+        h.write_u32(sphere.material);
+        h.write_u8(u8::from(sphere.inside));
+    }
     for t in &scene.textures {
         h.write_u32(t.width);
         h.write_u32(t.height);

@@ -18,11 +18,13 @@ pub const NEAR_SPECULAR_ALPHA: f32 = 0.1;
 pub struct SceneFeatures {
     /// Triangle count.
     pub triangles: usize,
-    /// Materials used by at least one triangle.
+    /// Analytic sphere count.
+    pub spheres: usize,
+    /// Materials used by at least one triangle or sphere.
     pub materials: usize,
     /// Textures.
     pub textures: usize,
-    /// Emissive triangles.
+    /// Emissive triangles and spheres.
     pub area_lights: usize,
     /// Point, spot and directional lights.
     pub delta_lights: usize,
@@ -51,15 +53,19 @@ impl SceneFeatures {
         for &m in &scene.triangle_materials {
             used[m as usize] = true;
         }
+        for s in &scene.spheres {
+            used[s.material as usize] = true;
+        }
         let mut f = SceneFeatures {
             triangles: scene.triangles.len(),
+            spheres: scene.spheres.len(),
             textures: scene.textures.len(),
             degenerate_triangles: scene.report.degenerate_triangles,
             ..Default::default()
         };
         for light in &scene.lights {
             match light {
-                Light::Area { .. } => f.area_lights += 1,
+                Light::Area { .. } | Light::Sphere { .. } => f.area_lights += 1,
                 Light::Environment { .. } => f.environment = true,
                 Light::EnvironmentMap { .. } => {
                     f.environment = true;
@@ -93,8 +99,8 @@ impl fmt::Display for SceneFeatures {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(
             f,
-            "triangles:        {} ({} degenerate skipped)",
-            self.triangles, self.degenerate_triangles
+            "triangles:        {} ({} degenerate skipped), analytic spheres: {}",
+            self.triangles, self.degenerate_triangles, self.spheres
         )?;
         writeln!(
             f,
@@ -105,7 +111,7 @@ impl fmt::Display for SceneFeatures {
         )?;
         writeln!(
             f,
-            "lights:           {} emissive triangles, {} point/spot/directional, environment: {}",
+            "lights:           {} emissive triangles or spheres, {} point/spot/directional, environment: {}",
             self.area_lights,
             self.delta_lights,
             match (self.environment, self.environment_map) {

@@ -19,6 +19,7 @@ pub mod obj;
 pub mod paths;
 pub mod scene;
 pub mod shapes;
+pub mod sphere;
 pub mod texture;
 pub mod validate;
 
@@ -36,6 +37,7 @@ pub use features::SceneFeatures;
 pub use light::Light;
 pub use material::{Material, Medium, Surface};
 pub use scene::{LoadReport, RenderSettings, Scene, triangle_cross, triangle_normal};
+pub use sphere::Sphere;
 pub use texture::Texture;
 
 /// Resolution when neither the manifest nor the caller gives one: 512 pixels

@@ -1,5 +1,5 @@
-//! Light sources. Emissive triangles are lights too (`Light::Area`), with the
-//! radiance of their material.
+//! Light sources. Emissive triangles and spheres are lights too
+//! (`Light::Area`, `Light::Sphere`), with the radiance of their material.
 
 use glam::Vec3;
 
@@ -49,6 +49,12 @@ pub enum Light {
     Area {
         /// Triangle index.
         triangle: u32,
+    },
+    /// An emissive analytic sphere (index into the scene's spheres),
+    /// emitting on the side its normals face.
+    Sphere {
+        /// Sphere index.
+        sphere: u32,
     },
 }
 

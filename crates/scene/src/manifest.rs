@@ -42,7 +42,11 @@
 //! material = "glass"
 //! center = [0, 0.5, 0]
 //! radius = 0.5
-//! # axis = [0, 1, 0], cap = 180 (degrees), inside = false, rings = 64
+//! # axis = [0, 1, 0]            # pole of the uv parametrisation (and of a cap)
+//! # inside = false              # normals face the centre
+//! # tessellate = false          # true: triangles (rings x 2 rings quads) instead of
+//! #                             # the analytic sphere; a cap below 180 is always tessellated
+//! # cap = 180 (degrees), rings = 48 (tessellated spheres only)
 //! # quad: origin = [..], u = [..], v = [..] (faces u x v)
 //! [[light]]
 //! type = "point"                # point | spot | directional | environment
@@ -71,6 +75,7 @@ use crate::material::{Material, Medium, Surface};
 use crate::paths::ReferencePolicy;
 use crate::scene::{RenderSettings, SceneBuilder};
 use crate::shapes;
+use crate::sphere::Sphere;
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -152,6 +157,7 @@ struct ShapeSection {
     cap: Option<f32>,
     inside: Option<bool>,
     rings: Option<u32>,
+    tessellate: Option<bool>,
     origin: Option<[f32; 3]>,
     u: Option<[f32; 3]>,
     v: Option<[f32; 3]>,
@@ -581,13 +587,31 @@ fn add_shapes(
                 if !(radius > 0.0 && radius.is_finite()) {
                     return Err(invalid(format!("radius must be > 0, got {radius}")));
                 }
-                let rings = s.rings.unwrap_or(48).clamp(2, 1024);
                 let axis = vec3(s.axis).unwrap_or(Vec3::Y);
+                let cap = s.cap.unwrap_or(180.0);
+                if !s.tessellate.unwrap_or(false) && cap >= 180.0 {
+                    if s.rings.is_some() {
+                        builder.report.warnings.push(format!(
+                            "{}: {element}: `rings` only applies with `tessellate = true`",
+                            path.display()
+                        ));
+                    }
+                    let sphere = Sphere {
+                        center: need(s.center, "center")?,
+                        radius,
+                        axis: axis.try_normalize().unwrap_or(Vec3::Y),
+                        material,
+                        inside: s.inside.unwrap_or(false),
+                    };
+                    builder.add_sphere(path, &element, sphere)?;
+                    continue;
+                }
+                let rings = s.rings.unwrap_or(48).clamp(2, 1024);
                 shapes::sphere(
                     need(s.center, "center")?,
                     radius,
                     axis,
-                    s.cap.unwrap_or(180.0),
+                    cap,
                     rings,
                     s.inside.unwrap_or(false),
                 )

@@ -9,6 +9,7 @@ use crate::environment::EnvironmentMap;
 use crate::error::SceneError;
 use crate::light::Light;
 use crate::material::Material;
+use crate::sphere::Sphere;
 use crate::texture::Texture;
 
 /// Render settings a manifest's `[render]` table may suggest, as written
@@ -54,7 +55,7 @@ pub struct LoadReport {
     pub ignored: Vec<String>,
 }
 
-/// A triangle scene in world space.
+/// A scene of triangles and analytic spheres in world space.
 #[derive(Clone, Debug)]
 pub struct Scene {
     /// Triangle vertices, counter-clockwise seen from the front.
@@ -69,11 +70,15 @@ pub struct Scene {
     pub tangents: Vec<[Vec4; 3]>,
     /// Material index per triangle.
     pub triangle_materials: Vec<u32>,
+    /// Analytic spheres (beside the triangles: ray queries number them
+    /// after the triangles).
+    pub spheres: Vec<Sphere>,
     /// Materials.
     pub materials: Vec<Material>,
     /// Textures referenced by materials.
     pub textures: Vec<Texture>,
-    /// Lights, including one `Light::Area` per emissive triangle.
+    /// Lights, including one `Light::Area` per emissive triangle and one
+    /// `Light::Sphere` per emissive sphere.
     pub lights: Vec<Light>,
     /// Environment maps referenced by `Light::EnvironmentMap`.
     pub environment_maps: Vec<EnvironmentMap>,
@@ -86,9 +91,10 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// Axis-aligned bounds of all triangles ((0, 0) for an empty scene).
+    /// Axis-aligned bounds of all triangles and spheres ((0, 0) for an
+    /// empty scene).
     pub fn bounds(&self) -> (Vec3, Vec3) {
-        bounds_of(&self.triangles)
+        bounds_with_spheres(&self.triangles, &self.spheres)
     }
 
     /// Area of triangle `i`.
@@ -126,6 +132,19 @@ impl Scene {
     }
 }
 
+/// [`bounds_of`] the triangles, grown by the spheres' boxes.
+pub(crate) fn bounds_with_spheres(triangles: &[[Vec3; 3]], spheres: &[Sphere]) -> (Vec3, Vec3) {
+    let (mut min, mut max) = bounds_of(triangles);
+    if triangles.is_empty() && !spheres.is_empty() {
+        (min, max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+    }
+    for s in spheres {
+        min = min.min(s.center - Vec3::splat(s.radius));
+        max = max.max(s.center + Vec3::splat(s.radius));
+    }
+    (min, max)
+}
+
 pub(crate) fn bounds_of(triangles: &[[Vec3; 3]]) -> (Vec3, Vec3) {
     let mut min = Vec3::splat(f32::INFINITY);
     let mut max = Vec3::splat(f32::NEG_INFINITY);
@@ -148,6 +167,7 @@ pub struct SceneBuilder {
     pub(crate) uvs: Vec<[Vec2; 3]>,
     pub(crate) tangents: Vec<[Vec4; 3]>,
     pub(crate) triangle_materials: Vec<u32>,
+    pub(crate) spheres: Vec<Sphere>,
     pub(crate) materials: Vec<Material>,
     pub(crate) textures: Vec<Texture>,
     pub(crate) lights: Vec<Light>,
@@ -218,6 +238,20 @@ impl SceneBuilder {
         Ok(())
     }
 
+    /// Adds an analytic sphere. A non-finite centre or axis, or a radius
+    /// that is not finite and positive, is an error naming `element`.
+    pub(crate) fn add_sphere(
+        &mut self,
+        path: &Path,
+        element: &str,
+        sphere: Sphere,
+    ) -> Result<(), SceneError> {
+        crate::validate::check_sphere(&sphere)
+            .map_err(|e| SceneError::invalid(path, element.to_owned(), e))?;
+        self.spheres.push(sphere);
+        Ok(())
+    }
+
     /// Sets the file's tangents of the triangle just added, if
     /// [`SceneBuilder::add_triangle`] kept it (it had `before` triangles).
     pub(crate) fn set_last_tangents(&mut self, before: usize, tangents: [Vec4; 3]) {
@@ -245,6 +279,11 @@ impl SceneBuilder {
         self.uvs.extend(other.uvs);
         self.triangle_materials
             .extend(other.triangle_materials.iter().map(|m| m + material_offset));
+        let sphere_offset = self.spheres.len() as u32;
+        self.spheres.extend(other.spheres.iter().map(|s| Sphere {
+            material: s.material + material_offset,
+            ..*s
+        }));
         self.materials
             .extend(other.materials.into_iter().map(|mut m| {
                 if let crate::material::Surface::Textured(ref mut pbr) = m.surface {
@@ -266,6 +305,9 @@ impl SceneBuilder {
                 Light::Area { triangle } => Light::Area {
                     triangle: triangle + triangle_offset,
                 },
+                Light::Sphere { sphere } => Light::Sphere {
+                    sphere: sphere + sphere_offset,
+                },
                 Light::EnvironmentMap { map } => Light::EnvironmentMap {
                     map: map + map_offset,
                 },
@@ -285,10 +327,16 @@ impl SceneBuilder {
         resolution: glam::UVec2,
         render: RenderSettings,
     ) -> Scene {
-        self.lights.retain(|l| !matches!(l, Light::Area { .. }));
+        self.lights
+            .retain(|l| !matches!(l, Light::Area { .. } | Light::Sphere { .. }));
         for (i, &m) in self.triangle_materials.iter().enumerate() {
             if self.materials[m as usize].is_emissive() {
                 self.lights.push(Light::Area { triangle: i as u32 });
+            }
+        }
+        for (i, s) in self.spheres.iter().enumerate() {
+            if self.materials[s.material as usize].is_emissive() {
+                self.lights.push(Light::Sphere { sphere: i as u32 });
             }
         }
         self.report.non_manifold_edges = count_non_manifold_edges(&self.triangles);
@@ -296,7 +344,7 @@ impl SceneBuilder {
             self.tangents.resize(self.triangles.len(), [Vec4::ZERO; 3]);
         }
         // An empty scene is refused or warned about by `validate`.
-        let (min, max) = bounds_of(&self.triangles);
+        let (min, max) = bounds_with_spheres(&self.triangles, &self.spheres);
         let camera = camera.unwrap_or_else(|| Camera::framing(min, max, resolution));
         Scene {
             triangles: self.triangles,
@@ -304,6 +352,7 @@ impl SceneBuilder {
             uvs: self.uvs,
             tangents: self.tangents,
             triangle_materials: self.triangle_materials,
+            spheres: self.spheres,
             materials: self.materials,
             textures: self.textures,
             lights: self.lights,

@@ -75,6 +75,15 @@ pub fn validate(scene: &mut Scene, path: &Path, allow: Allow) -> Result<(), Scen
             ));
         }
     }
+    for (i, sphere) in scene.spheres.iter().enumerate() {
+        check_sphere(sphere).map_err(|e| invalid(format!("sphere {i}"), e))?;
+        if scene.materials.get(sphere.material as usize).is_none() {
+            return Err(invalid(
+                format!("sphere {i}"),
+                format!("material {} does not exist", sphere.material),
+            ));
+        }
+    }
     for m in &scene.materials {
         let element = || format!("material {}", crate::error::quoted(&m.name));
         check_material(&m.surface, m.emission).map_err(|e| invalid(element(), e))?;
@@ -113,7 +122,7 @@ pub fn validate(scene: &mut Scene, path: &Path, allow: Allow) -> Result<(), Scen
             "position, direction or field of view is NaN or infinite".into(),
         ));
     }
-    let empty = if scene.triangles.is_empty() {
+    let empty = if scene.triangles.is_empty() && scene.spheres.is_empty() {
         Some("the scene has no geometry")
     } else if scene.lights.is_empty() {
         Some("the scene has no light and no environment: it renders black")
@@ -144,6 +153,7 @@ fn light_kind(light: &Light) -> &'static str {
         Light::Environment { .. } => "environment",
         Light::EnvironmentMap { .. } => "environment map",
         Light::Area { .. } => "emissive triangle",
+        Light::Sphere { .. } => "emissive sphere",
     }
 }
 
@@ -238,7 +248,30 @@ fn check_light(scene: &Scene, light: &Light) -> Result<(), String> {
             let area = 0.5 * crate::scene::triangle_cross(t).length();
             light_power(std::f64::consts::PI * f64::from(material.emission.max_element()) * area)
         }
+        Light::Sphere { sphere } => {
+            let i = sphere as usize;
+            let Some(s) = scene.spheres.get(i) else {
+                return Err(format!("sphere {i} does not exist"));
+            };
+            let Some(material) = scene.materials.get(s.material as usize) else {
+                return Err(format!("material {} does not exist", s.material));
+            };
+            light_value("emission", material.emission)?;
+            light_power(
+                std::f64::consts::PI * f64::from(material.emission.max_element()) * s.area(),
+            )
+        }
     }
+}
+
+/// An analytic sphere's geometry: finite centre and axis, a finite
+/// radius > 0, a unit axis.
+pub(crate) fn check_sphere(s: &crate::sphere::Sphere) -> Result<(), String> {
+    finite("center", s.center)?;
+    if !(s.radius.is_finite() && s.radius > 0.0) {
+        return Err(format!("radius must be finite and > 0, got {}", s.radius));
+    }
+    unit("axis", s.axis)
 }
 
 fn finite(name: &str, v: Vec3) -> Result<(), String> {

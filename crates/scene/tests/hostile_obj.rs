@@ -383,6 +383,7 @@ fn assert_finite(scene: &Scene) {
                 .get(map as usize)
                 .is_some_and(|m| m.max_value().is_finite()),
             Light::Area { triangle } => (triangle as usize) < scene.triangles.len(),
+            Light::Sphere { sphere } => (sphere as usize) < scene.spheres.len(),
         };
         assert!(ok, "{l:?}");
     }

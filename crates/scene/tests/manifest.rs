@@ -273,3 +273,53 @@ fn dielectrics_take_a_tint_and_an_absorption() {
         );
     }
 }
+
+/// `shape = "sphere"` is an analytic sphere (no triangles; an emissive one
+/// is a `Light::Sphere`), unless `tessellate = true` or a cap below 180
+/// degrees asks for triangles; `rings` without `tessellate` is a warning.
+#[test]
+fn spheres_are_analytic_unless_tessellated() {
+    let base = "[[material]]\nname = \"lamp\"\ntype = \"diffuse\"\nemission = [1, 1, 1]\n\n\
+                [[shape]]\ntype = \"sphere\"\nmaterial = \"lamp\"\ncenter = [1, 2, 3]\nradius = 0.5\n";
+    let load_text = |name: &str, extra: &str| {
+        load(
+            &write_manifest(name, &format!("{base}{extra}")),
+            &LoadOptions::default(),
+        )
+        .unwrap()
+    };
+    let analytic = load_text("analytic-sphere", "");
+    assert_eq!((analytic.triangles.len(), analytic.spheres.len()), (0, 1));
+    assert_eq!(analytic.lights, vec![Light::Sphere { sphere: 0 }]);
+    let s = analytic.spheres[0];
+    assert_eq!(
+        (s.center, s.radius, s.axis, s.inside),
+        (Vec3::new(1.0, 2.0, 3.0), 0.5, Vec3::Y, false)
+    );
+    let (min, max) = analytic.bounds();
+    assert_eq!(
+        (min, max),
+        (Vec3::new(0.5, 1.5, 2.5), Vec3::new(1.5, 2.5, 3.5))
+    );
+    assert!(analytic.report.warnings.is_empty());
+
+    let tessellated = load_text("tessellated-sphere", "tessellate = true\nrings = 4\n");
+    // 4 rings x 8 segments x 2 triangles, less the degenerate ones at the poles.
+    assert!((48..=64).contains(&tessellated.triangles.len()) && tessellated.spheres.is_empty());
+    assert!(
+        tessellated
+            .lights
+            .iter()
+            .all(|l| matches!(l, Light::Area { .. }))
+    );
+    let cap = load_text("cap-sphere", "cap = 90\n");
+    assert!(!cap.triangles.is_empty() && cap.spheres.is_empty());
+    let rings = load_text("rings-sphere", "rings = 16\ninside = true\n");
+    assert_eq!(rings.spheres.len(), 1);
+    assert!(rings.spheres[0].inside);
+    assert!(
+        rings.report.warnings.iter().any(|w| w.contains("rings")),
+        "{:?}",
+        rings.report.warnings
+    );
+}

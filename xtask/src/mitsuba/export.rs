@@ -43,6 +43,10 @@ pub(super) struct Exported {
 ///   direction at the third vertex). Differences left: Mitsuba's roulette
 ///   survival is capped at 0.95 (ours at 1) and its light choice is uniform
 ///   over emitting shapes; both are unbiased, so only the noise differs.
+/// - analytic spheres: Mitsuba's `sphere` shape (centre, radius; with
+///   `flip_normals` for an `inside` sphere), so both render the same
+///   geometry; bsdf and emitter as for meshes. Mitsuba's sphere uv differ
+///   from ours (textured materials are refused anyway).
 /// - environment: see [`environment_xml`].
 pub(super) fn export(scene: &Scene, options: &Options, dir: &Path) -> Result<Exported, String> {
     check_lights(scene)?;
@@ -58,14 +62,19 @@ pub(super) fn export(scene: &Scene, options: &Options, dir: &Path) -> Result<Exp
         emitters += usize::from(mesh.material.is_emissive());
         smooth_meshes += usize::from(mesh.smooth);
     }
+    for sphere in &scene.spheres {
+        shapes.push_str(&sphere_xml(scene, sphere)?);
+        emitters += usize::from(scene.materials[sphere.material as usize].is_emissive());
+    }
     shapes.push_str(&environment_xml(scene, dir)?);
     let xml_path = dir.join("scene.xml");
     crate::write_file(&xml_path, scene_xml(scene, options, &shapes))?;
     Ok(Exported {
         xml: xml_path,
         summary: format!(
-            "{} meshes, {emitters} emitting, {}",
+            "{} meshes, {} spheres, {emitters} emitting, {}",
             by_material.len(),
+            scene.spheres.len(),
             if smooth_meshes == 0 {
                 "face normals".to_string()
             } else {
@@ -86,10 +95,10 @@ fn check_lights(scene: &Scene) -> Result<(), String> {
     match scene
         .lights
         .iter()
-        .find(|l| !matches!(l, Light::Area { .. }) && !l.is_environment())
+        .find(|l| !matches!(l, Light::Area { .. } | Light::Sphere { .. }) && !l.is_environment())
     {
         Some(light) => Err(format!(
-            "the Mitsuba export handles emissive triangles and environments only; the scene has {light:?}"
+            "the Mitsuba export handles emissive triangles and spheres and environments only; the scene has {light:?}"
         )),
         None => Ok(()),
     }
@@ -165,6 +174,37 @@ fn shape_xml(mesh: &Mesh) -> String {
     }
     shape.push_str("    </shape>\n");
     shape
+}
+
+/// The `<shape type="sphere">` of an analytic sphere, with its material's
+/// `<bsdf>` and an `area` emitter when it emits.
+fn sphere_xml(scene: &Scene, sphere: &scene::Sphere) -> Result<String, String> {
+    let material = &scene.materials[sphere.material as usize];
+    let c = sphere.center;
+    let mut shape = format!(
+        r#"    <shape type="sphere">
+        <point name="center" x="{}" y="{}" z="{}"/>
+        <float name="radius" value="{}"/>
+        <boolean name="flip_normals" value="{}"/>
+{}"#,
+        c.x,
+        c.y,
+        c.z,
+        sphere.radius,
+        sphere.inside,
+        bsdf_xml(material)?
+    );
+    if material.is_emissive() {
+        let _ = writeln!(
+            shape,
+            r#"        <emitter type="area">
+            <rgb name="radiance" value="{}"/>
+        </emitter>"#,
+            rgb(material.emission)
+        );
+    }
+    shape.push_str("    </shape>\n");
+    Ok(shape)
 }
 
 /// The `<bsdf>` of a material, or why it has none in Mitsuba 3.
@@ -583,5 +623,37 @@ mod tests {
         if std::env::var_os("XTASK_KEEP_EXPORT").is_none() {
             fs::remove_dir_all(dir).unwrap();
         }
+    }
+
+    /// An analytic sphere becomes a Mitsuba `sphere` with its centre,
+    /// radius, orientation, bsdf and emitter.
+    #[test]
+    fn spheres_export_as_mitsuba_spheres() {
+        let dir =
+            std::env::temp_dir().join(format!("xtask-mitsuba-spheres-{}", std::process::id()));
+        fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("scene.toml");
+        fs::write(
+            &path,
+            "[[material]]\nname = \"ball\"\ntype = \"diffuse\"\n\n\
+             [[material]]\nname = \"lamp\"\ntype = \"diffuse\"\nemission = [1, 1, 1]\n\n\
+             [[shape]]\ntype = \"sphere\"\nmaterial = \"ball\"\ncenter = [1, -2, 0.5]\nradius = 0.25\n\n\
+             [[shape]]\ntype = \"sphere\"\nmaterial = \"lamp\"\ncenter = [0, 0, 0]\nradius = 9\ninside = true\n",
+        )
+        .unwrap();
+        let scene = scene::load(&path, &LoadOptions::default()).unwrap();
+        fs::remove_dir_all(&dir).unwrap();
+        let xml = sphere_xml(&scene, &scene.spheres[0]).unwrap();
+        assert!(
+            xml.contains(r#"<point name="center" x="1" y="-2" z="0.5"/>"#),
+            "{xml}"
+        );
+        assert!(xml.contains(r#"<float name="radius" value="0.25"/>"#));
+        assert!(xml.contains(r#"<boolean name="flip_normals" value="false"/>"#));
+        assert!(xml.contains("diffuse") && !xml.contains("emitter"));
+        let xml = sphere_xml(&scene, &scene.spheres[1]).unwrap();
+        assert!(xml.contains(r#"<boolean name="flip_normals" value="true"/>"#));
+        assert!(xml.contains("<emitter type=\"area\">"));
+        assert!(check_lights(&scene).is_ok());
     }
 }

@@ -313,13 +313,13 @@ pub fn check_ray(
             if !rel(f64::from(h.t), t) {
                 return Err(format!("t differs: {}", ctx()));
             }
-            if h.triangle == id {
+            if h.primitive == id {
                 if (f64::from(h.b1) - b1).abs() > 1e-4 || (f64::from(h.b2) - b2).abs() > 1e-4 {
                     return Err(format!("barycentrics differ: {}", ctx()));
                 }
             } else {
                 // A tie: the reported triangle must itself be hit at (about) t.
-                let Some(&tri) = tris.get(h.triangle as usize) else {
+                let Some(&tri) = tris.get(h.primitive as usize) else {
                     return Err(format!("bad id: {}", ctx()));
                 };
                 let own = reference_hit(&tri, origin, direction, f64::INFINITY)

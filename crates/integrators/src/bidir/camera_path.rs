@@ -43,7 +43,7 @@ impl Iteration<'_> {
                 }
                 break;
             };
-            let point = ctx.surface_point(&hit);
+            let point = ctx.surface_point(&hit, walk.origin, walk.direction);
             walk.arrive(&ctx.scene, &point, hit.t);
             let wi = -walk.direction;
             let vertex = PathVertex::new(&ctx.scene, point, wi, walk.throughput, regularization);
@@ -52,7 +52,7 @@ impl Iteration<'_> {
             if let Some(emission) = ctx.emitted(&point, wi) {
                 let pdfs = ctx
                     .lights
-                    .area_pdfs(point.triangle, point.n_winding.dot(wi));
+                    .area_pdfs(point.primitive, point.n_winding.dot(wi));
                 let w = self.mis.emitter_hit_weight(&state, &pdfs.hit());
                 radiance += walk.throughput * emission * w as f32;
             }

@@ -102,7 +102,7 @@ impl Iteration<'_> {
             let Some(hit) = ctx.intersect(walk.origin, walk.direction, f32::INFINITY) else {
                 break;
             };
-            let point = ctx.surface_point(&hit);
+            let point = ctx.surface_point(&hit, walk.origin, walk.direction);
             walk.arrive(&ctx.scene, &point, hit.t);
             let wi = -walk.direction;
             let vertex = PathVertex::new(&ctx.scene, point, wi, walk.throughput, regularization);

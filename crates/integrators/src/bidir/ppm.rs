@@ -67,7 +67,7 @@ impl Iteration<'_> {
                 }
                 break;
             };
-            let point = ctx.surface_point(&hit);
+            let point = ctx.surface_point(&hit, walk.origin, walk.direction);
             walk.arrive(&ctx.scene, &point, hit.t);
             let wi = -walk.direction;
             if let Some(emission) = ctx.emitted(&point, wi) {

@@ -85,9 +85,9 @@ fn light_vertex_bound_holds_towards_every_direction() {
             ng,
             frame: crate::geometry::Frame::from_normal(ns),
             uv: Vec2::ZERO,
-            triangle: 0,
+            primitive: 0,
             material: material(true),
-            scale: 1.0,
+            error: crate::geometry::PointError::Vertices(1.0),
         };
         for wi in sphere_directions(64) {
             let (vertex, light) = light_vertex(point, wi);
@@ -146,7 +146,7 @@ fn complete_paths(it: &Iteration, index: usize) -> Vec<CompletePath> {
         let Some(hit) = r.intersect(origin, direction, f32::INFINITY) else {
             break;
         };
-        let point = r.surface_point(&hit);
+        let point = r.surface_point(&hit, origin, direction);
         let vertex = PathVertex::new(&r.scene, point, -direction, Vec3::ONE, regularization);
         regularization = vertex.regularization;
         let emission = r.scene.materials[point.material as usize].emission;
@@ -156,7 +156,7 @@ fn complete_paths(it: &Iteration, index: usize) -> Vec<CompletePath> {
         {
             let d = last.p - point.p;
             let cos = point.n_winding.dot(d.normalize()).abs();
-            let pdfs = r.lights.area_pdfs(point.triangle, cos);
+            let pdfs = r.lights.area_pdfs(point.primitive, cos);
             let d2 = f64::from(d.length_squared());
             paths.push(CompletePath {
                 camera: camera.clone(),
