@@ -195,7 +195,10 @@ fn lamp_ball(rings: Option<u32>) -> scene::Scene {
 /// positions along the silhouette. Tessellations are inscribed, so their
 /// mean is below the analytic sphere's, by a deficit that shrinks as
 /// (pi / rings)^2: measured 0.23, 0.051 and 3.8e-4 of the mean at 3, 6
-/// and 96 rings (16 iterations at 32 x 32).
+/// and 96 rings (16 iterations at 32 x 32) with the earlier sampler; with
+/// the padded one (stratified pixel positions, the same in both renders)
+/// 0.225, 0.053 and 0: no sample falls in the 96-ring sliver, so that one
+/// is only bounded.
 #[test]
 fn tessellated_spheres_converge_to_the_analytic_one() {
     let render = |scene| {
@@ -213,7 +216,7 @@ fn tessellated_spheres_converge_to_the_analytic_one() {
         .collect();
     eprintln!("relative deficit of the image mean at 3, 6, 96 rings: {deficits:?}");
     assert!(
-        deficits[0] > deficits[1] && deficits[1] > deficits[2] && deficits[2] > 0.0,
+        deficits[0] > deficits[1] && deficits[1] > deficits[2] && deficits[2] >= 0.0,
         "{deficits:?}"
     );
     // The 96-ring deficit is a few (pi / 96)^2 ~ 1e-3 at most.
