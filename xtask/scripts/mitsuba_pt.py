@@ -77,6 +77,10 @@ def main():
         for _ in range(max(1, args.repeat)):
             t0 = time.perf_counter()
             image = mi.render(scene, spp=args.spp, seed=args.seed)
+            # The LLVM variants record the render lazily: evaluate it and
+            # wait for it inside the timed region (no-ops in scalar variants).
+            dr.eval(image)
+            dr.sync_thread()
             render_s.append(time.perf_counter() - t0)
 
         # Mitsuba 3.9.1 / Dr.Jit 1.5.0 also hang writing an EXR with a pool of
