@@ -391,12 +391,14 @@ material = "glass"
 center = [0, 0.45, 0]
 radius = 0.45
 rings = 6
+tessellate = true
 [[shape]]
 type = "sphere"
 material = "core"
 center = [0, 0.45, 0]
 radius = 0.25
 rings = 6
+tessellate = true
 [[shape]]
 type = "quad"
 material = "lamp"
@@ -445,12 +447,14 @@ material = "smooth"
 center = [-0.5, 0.4, 0]
 radius = 0.4
 rings = 16
+tessellate = true
 [[shape]]
 type = "sphere"
 material = "rough"
 center = [0.5, 0.4, 0]
 radius = 0.4
 rings = 16
+tessellate = true
 [[shape]]
 type = "quad"
 material = "lamp"
@@ -491,6 +495,7 @@ material = "ball"
 center = [0, 0.45, 0]
 radius = 0.45
 rings = 3
+tessellate = true
 [[shape]]
 type = "quad"
 material = "lamp"

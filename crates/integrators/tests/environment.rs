@@ -137,12 +137,14 @@ material = "matte"
 center = [-0.55, 0.45, 0]
 radius = 0.45
 rings = 12
+tessellate = true
 [[shape]]
 type = "sphere"
 material = "glossy"
 center = [0.55, 0.45, 0]
 radius = 0.45
 rings = 12
+tessellate = true
 {light}
 "#
     )

@@ -39,6 +39,7 @@ center = [0, 0, 0]
 radius = 1
 inside = true
 rings = 96
+tessellate = true
 "#
         ),
     )

@@ -46,12 +46,14 @@ material = "glass"
 center = [0.5, 0.5, 0]
 radius = 0.5
 rings = 8
+tessellate = true
 [[shape]]
 type = "sphere"
 material = "metal"
 center = [-0.6, 0.4, 0.2]
 radius = 0.4
 rings = 8
+tessellate = true
 [[shape]]
 type = "quad"
 material = "lamp"
