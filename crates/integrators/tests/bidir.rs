@@ -168,6 +168,35 @@ fn sds_caustic_needs_merging_or_regularization() {
     );
 }
 
+/// `Mode::Unsampleable` (issue 21, point 4) blurs only what no technique
+/// of the integrator samples unregularized. In `caustic-glass` every path
+/// that reaches the camera through a regularizable vertex meets a diffuse
+/// surface first or after the mirror, where VCM merges: unsampleable VCM is
+/// unregularized VCM, bit for bit, while selective VCM is not. BPT has no
+/// merges: the caustic seen in the mirror still needs the blur, and gets it.
+#[test]
+fn unsampleable_regularizes_only_what_no_technique_samples() {
+    let vcm = |mode| {
+        render(
+            "caustic-glass",
+            (40, 30),
+            config(Algorithm::Vcm, mode, 3),
+            4,
+        )
+        .mean()
+    };
+    let off = vcm(Mode::Off);
+    assert_eq!(vcm(Mode::Unsampleable), off);
+    assert_ne!(vcm(Mode::Selective), off);
+    let bpt = |mode| caustic_in_mirror(config(Algorithm::Bpt, mode, 1), 64);
+    let (bpt_off, bpt_unsampleable) = (bpt(Mode::Off), bpt(Mode::Unsampleable));
+    eprintln!("caustic in the mirror, bpt: off {bpt_off}, unsampleable {bpt_unsampleable}");
+    assert!(
+        bpt_unsampleable > 2.0 * bpt_off,
+        "regularization finds the caustic"
+    );
+}
+
 /// As tau grows (the schedule's job as iterations go on) the regularized
 /// caustic sharpens towards the unregularized VCM reference: the error of
 /// regularized BPT shrinks from tau_1 to tau_10000.

@@ -9,8 +9,8 @@
 //! - [`tau`]: what tau bounds, in one place, and alpha-hat for reflection,
 //!   transmission and the strict variant.
 //! - [`schedule`]: the progressive tau_N (supp. §5) and the cone <-> tau maps.
-//! - [`selective`]: off / uniform / selective modes and the per-vertex tau_k
-//!   carried along a subpath.
+//! - [`selective`]: off / uniform / selective / unsampleable modes and the
+//!   per-vertex tau_k carried along a subpath.
 //! - [`pdf`]: the MIS pdf correction p-hat (paper eq. 13, supp. §4).
 //!
 //! Pure math on top of `microfacet`: no I/O, no threads, no global state.
@@ -25,5 +25,7 @@ pub use schedule::{
     DEFAULT_SCHEDULE_EXPONENT, MAX_SCHEDULE_EXPONENT, Schedule, ScheduleError, cone_of_tau,
     tau_of_cone,
 };
-pub use selective::{Energy, Mode, PathRegularization, Subpath, UnknownMode};
-pub use tau::{AlphaHat, Bound, Lobe, StrictError, alpha_hat, alpha_hat_strict, regularize};
+pub use selective::{Energy, Mode, PathRegularization, Subpath, Techniques, UnknownMode};
+pub use tau::{
+    AlphaHat, Bound, Lobe, StrictError, alpha_hat, alpha_hat_strict, is_bounded, regularize,
+};

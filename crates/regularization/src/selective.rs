@@ -7,13 +7,20 @@
 //! tau_N / max(rho^2, 1e-8), i.e. alpha_tau,k = alpha_tau,N rho; on light
 //! subpaths tau_k = tau_N. What is seen directly or only through mirrors stays
 //! sharp; a glass sphere seen on a diffuse floor is regularized.
+//!
+//! `Mode::Unsampleable` goes beyond the paper (issue 21, ARCHITECTURE.md):
+//! it regularizes only subpaths whose prefix does not yet guarantee that an
+//! unregularized technique of the integrator samples every path through it,
+//! after Kaplanyan & Dachsbacher 2013 ("Path Space Regularization for
+//! Holistic and Robust Light Transport"), who regularize only paths that no
+//! unbiased technique can sample.
 
 use std::fmt;
 use std::str::FromStr;
 
 use microfacet::Bsdf;
 
-use crate::tau::{AlphaHat, regularize};
+use crate::tau::{AlphaHat, is_bounded, regularize};
 
 /// Floor of rho^2 in tau_N / rho^2 (SPEC §5): keeps tau finite (at most
 /// 1e8 tau_N, far beyond any roughness f32 resolves) while rho = 0.
@@ -28,23 +35,27 @@ pub enum Mode {
     Uniform,
     /// The path-diffusion rule above (the default).
     Selective,
+    /// The selective rule, on subpaths whose prefix does not yet make every
+    /// path through it sampleable by an unregularized technique
+    /// ([`Techniques`]); `Selective` for integrators without such techniques.
+    Unsampleable,
 }
 
 impl Mode {
     /// Every mode with its name, as command lines and manifests spell it.
-    pub const ALL: [(Self, &'static str); 3] = [
+    pub const ALL: [(Self, &'static str); 4] = [
         (Self::Off, "off"),
         (Self::Uniform, "uniform"),
         (Self::Selective, "selective"),
+        (Self::Unsampleable, "unsampleable"),
     ];
 
-    /// The mode's name (`off`, `uniform`, `selective`).
+    /// The mode's name (`off`, `uniform`, `selective`, `unsampleable`).
     pub fn name(self) -> &'static str {
-        match self {
-            Self::Off => "off",
-            Self::Uniform => "uniform",
-            Self::Selective => "selective",
-        }
+        Self::ALL
+            .iter()
+            .find(|(mode, _)| *mode == self)
+            .map_or("off", |(_, name)| name)
     }
 }
 
@@ -56,7 +67,9 @@ impl fmt::Display for Mode {
 
 /// A name that is not a regularization mode.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-#[error("unknown regularization mode '{0}' (expected one of: off, uniform, selective)")]
+#[error(
+    "unknown regularization mode '{0}' (expected one of: off, uniform, selective, unsampleable)"
+)]
 pub struct UnknownMode(pub String);
 
 impl FromStr for Mode {
@@ -78,6 +91,32 @@ pub enum Subpath {
     Camera,
     /// Traced from a light (Importance).
     Light,
+}
+
+/// The unregularized techniques of an integrator that a subpath's prefix
+/// can guarantee (`Mode::Unsampleable`; SPEC §5 terms, tau_N the bound):
+/// a vertex is *bounded* when its lobe's peak density is at most tau_N
+/// (`tau::is_bounded`: regularization would not change it); the camera
+/// and a light's emission point count as bounded ends.
+///
+/// - `connections` (BPT, VCM): once a subpath's prefix has an edge between
+///   two bounded vertices, the connection at that edge samples every path
+///   through the prefix, each subpath sampling its own sharp lobes.
+/// - `merges` (VCM, photon mapping): once the prefix has a bounded vertex
+///   after its origin, merging there samples every path through it (the
+///   other subpath reaches the vertex by sampling alone). Light subpaths
+///   are then not regularized at all: a path through a light vertex that a
+///   technique evaluates is either merged at a bounded vertex or, if it
+///   has none, produced from the camera side, whose rule applies.
+///
+/// With neither (path tracing, whose only connection is next-event
+/// estimation at the path's end), `Unsampleable` is `Selective`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct Techniques {
+    /// Vertex connections (including light tracing).
+    pub connections: bool,
+    /// Vertex merging.
+    pub merges: bool,
 }
 
 /// Whether a regularized lobe keeps its original's directional albedo
@@ -105,6 +144,13 @@ pub struct PathRegularization {
     rho: f32,
     /// Energy compensation of the regularized lobes.
     energy: Energy,
+    /// The integrator's unregularized techniques (`Mode::Unsampleable`).
+    techniques: Techniques,
+    /// The previous vertex (or the subpath's origin) is bounded at tau_N.
+    previous_bounded: bool,
+    /// The prefix so far makes every path through it sampleable by one of
+    /// `techniques` (`Mode::Unsampleable`: no more regularization).
+    sampleable: bool,
 }
 
 impl PathRegularization {
@@ -116,7 +162,15 @@ impl PathRegularization {
             tau_n,
             rho: 0.0,
             energy: Energy::Preserved,
+            techniques: Techniques::default(),
+            previous_bounded: true,
+            sampleable: false,
         }
+    }
+
+    /// The same state for an integrator with unregularized `techniques`.
+    pub fn with_techniques(self, techniques: Techniques) -> Self {
+        Self { techniques, ..self }
     }
 
     /// The same state with energy compensation `energy`.
@@ -128,8 +182,12 @@ impl PathRegularization {
     pub fn tau(&self) -> f64 {
         match (self.mode, self.subpath) {
             (Mode::Off, _) => f64::INFINITY,
-            (Mode::Uniform, _) | (Mode::Selective, Subpath::Light) => self.tau_n,
-            (Mode::Selective, Subpath::Camera) => {
+            (Mode::Unsampleable, _) if self.sampleable => f64::INFINITY,
+            (Mode::Unsampleable, Subpath::Light) if self.techniques.merges => f64::INFINITY,
+            (Mode::Uniform, _) | (Mode::Selective | Mode::Unsampleable, Subpath::Light) => {
+                self.tau_n
+            }
+            (Mode::Selective | Mode::Unsampleable, Subpath::Camera) => {
                 self.tau_n / (f64::from(self.rho) * f64::from(self.rho)).max(MIN_RHO_SQUARED)
             }
         }
@@ -141,7 +199,9 @@ impl PathRegularization {
     pub fn regularize(&self, bsdf: &Bsdf) -> (Bsdf, Option<AlphaHat>) {
         match self.mode {
             Mode::Off => (*bsdf, None),
-            Mode::Uniform | Mode::Selective => regularize(bsdf, self.tau(), self.energy),
+            Mode::Uniform | Mode::Selective | Mode::Unsampleable => {
+                regularize(bsdf, self.tau(), self.energy)
+            }
         }
     }
 
@@ -149,13 +209,26 @@ impl PathRegularization {
     /// Lambertian lobe counts as alpha = 1, and so does a coated lobe with a
     /// diffuse base: the path may have left through the base, and rho is
     /// the largest alpha of the path's lobes, SPEC §5).
+    ///
+    /// In `Unsampleable` mode it also records whether the prefix now has
+    /// what one of the integrator's techniques needs ([`Techniques`]).
     pub fn after_vertex(self, bsdf: &Bsdf) -> Self {
         let alpha = match bsdf {
             Bsdf::Coated(c) if c.has_diffuse() => 1.0,
             _ => bsdf.alpha().unwrap_or(1.0).min(1.0),
         };
+        let (previous_bounded, sampleable) = if self.mode == Mode::Unsampleable {
+            let bounded = is_bounded(bsdf, self.tau_n);
+            let connectable = self.techniques.connections && self.previous_bounded;
+            let guaranteed = bounded && (connectable || self.techniques.merges);
+            (bounded, self.sampleable || guaranteed)
+        } else {
+            (self.previous_bounded, self.sampleable)
+        };
         Self {
             rho: self.rho.max(alpha),
+            previous_bounded,
+            sampleable,
             ..self
         }
     }
@@ -229,6 +302,80 @@ mod tests {
         assert_eq!(start.after_vertex(&coated(Vec3::splat(0.5))).tau(), 10.0);
         let after_coat = start.after_vertex(&coated(Vec3::ZERO)).tau();
         assert!((after_coat / 1000.0 - 1.0).abs() < 1e-6, "{after_coat}");
+    }
+
+    fn lambertian() -> Bsdf {
+        Bsdf::Lambertian(Lambertian {
+            reflectance: Vec3::ONE,
+        })
+    }
+
+    /// `Unsampleable` with connections: a subpath stops regularizing once
+    /// its prefix has an edge between two bounded vertices (the origin
+    /// counts as one), not after a single bounded vertex behind a mirror.
+    #[test]
+    fn unsampleable_stops_after_a_bounded_edge_with_connections() {
+        let connections = Techniques {
+            connections: true,
+            merges: false,
+        };
+        let tau_n = 10.0;
+        for subpath in [Subpath::Camera, Subpath::Light] {
+            let start = PathRegularization::new(Mode::Unsampleable, subpath, tau_n)
+                .with_techniques(connections);
+            let selective = PathRegularization::new(Mode::Selective, subpath, tau_n);
+            // Origin - diffuse: a connectable edge; nothing after it is blurred.
+            assert_eq!(start.after_vertex(&lambertian()).tau(), f64::INFINITY);
+            // Origin - mirror - diffuse: no bounded edge yet, the selective
+            // rule applies; one more bounded vertex makes one.
+            let behind_mirror = start.after_vertex(&mirror()).after_vertex(&lambertian());
+            let expected = selective
+                .after_vertex(&mirror())
+                .after_vertex(&lambertian())
+                .tau();
+            assert_eq!(behind_mirror.tau(), expected);
+            assert!(expected.is_finite());
+            assert_eq!(
+                behind_mirror.after_vertex(&lambertian()).tau(),
+                f64::INFINITY
+            );
+            // A glossy lobe sharper than tau_N bounds no edge.
+            let glossy = Bsdf::Conductor(Conductor {
+                model: MicrofacetModel::new(NdfKind::Ggx, 0.02, Shadowing::Smith),
+                fresnel: Fresnel::Schlick { f0: Vec3::ONE },
+            });
+            assert!(!crate::is_bounded(&glossy, tau_n) && crate::is_bounded(&glossy, 1e4));
+            let after_glossy = behind_mirror
+                .after_vertex(&glossy)
+                .after_vertex(&lambertian());
+            assert!(after_glossy.tau().is_finite());
+        }
+    }
+
+    /// With merges one bounded vertex is enough, and light subpaths are not
+    /// regularized; without connections or merges the rule is `Selective`.
+    #[test]
+    fn unsampleable_with_merges_and_without_techniques() {
+        let merges = Techniques {
+            connections: true,
+            merges: true,
+        };
+        let camera = PathRegularization::new(Mode::Unsampleable, Subpath::Camera, 10.0)
+            .with_techniques(merges);
+        let behind_mirror = camera.after_vertex(&mirror()).after_vertex(&lambertian());
+        assert_eq!(behind_mirror.tau(), f64::INFINITY);
+        let light = PathRegularization::new(Mode::Unsampleable, Subpath::Light, 10.0)
+            .with_techniques(merges);
+        assert_eq!(light.tau(), f64::INFINITY);
+        for subpath in [Subpath::Camera, Subpath::Light] {
+            let mut unsampleable = PathRegularization::new(Mode::Unsampleable, subpath, 10.0);
+            let mut selective = PathRegularization::new(Mode::Selective, subpath, 10.0);
+            for bsdf in [mirror(), lambertian(), lambertian(), mirror()] {
+                assert_eq!(unsampleable.tau(), selective.tau());
+                unsampleable = unsampleable.after_vertex(&bsdf);
+                selective = selective.after_vertex(&bsdf);
+            }
+        }
     }
 
     #[test]

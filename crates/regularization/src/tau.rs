@@ -266,19 +266,10 @@ pub fn strict_peak(kind: NdfKind, alpha: f32) -> f64 {
 /// `microfacet::SMOOTH_ALPHA`. With `Energy::Preserved` the widened lobe
 /// keeps the original's white albedo (`Bsdf::regularized`).
 pub fn regularize(bsdf: &Bsdf, tau: f64, energy: Energy) -> (Bsdf, Option<AlphaHat>) {
-    let (model, lobe) = match bsdf {
-        Bsdf::Lambertian(_) => return (*bsdf, None),
-        Bsdf::Conductor(c) => (c.model, Lobe::Reflection),
-        // Its microfacet part is a reflection lobe; the diffuse base has no
-        // roughness and is left as it is (`Bsdf::with_alpha`).
-        Bsdf::Coated(c) => (c.model, Lobe::Reflection),
-        Bsdf::Dielectric(d) => {
-            let eta_t = d.eta.max(1.0 / d.eta);
-            (d.model, Lobe::Dielectric { eta_i: 1.0, eta_t })
-        }
+    let Some(hat) = bsdf_alpha_hat(bsdf, tau) else {
+        return (*bsdf, None);
     };
-    let hat = alpha_hat(model.ndf.kind(), model.alpha(), lobe, tau);
-    let regularized = if hat.alpha == model.alpha() {
+    let regularized = if bsdf.alpha() == Some(hat.alpha) {
         *bsdf
     } else {
         match energy {
@@ -287,6 +278,32 @@ pub fn regularize(bsdf: &Bsdf, tau: f64, energy: Energy) -> (Bsdf, Option<AlphaH
         }
     };
     (regularized, Some(hat))
+}
+
+/// alpha-hat of the microfacet part of `bsdf` under tau (`None` for a lobe
+/// without roughness). A coated lobe's microfacet part is a reflection
+/// lobe; a dielectric is one interface, bounded both ways (`regularize`).
+fn bsdf_alpha_hat(bsdf: &Bsdf, tau: f64) -> Option<AlphaHat> {
+    let (model, lobe) = match bsdf {
+        Bsdf::Lambertian(_) => return None,
+        Bsdf::Conductor(c) => (c.model, Lobe::Reflection),
+        Bsdf::Coated(c) => (c.model, Lobe::Reflection),
+        Bsdf::Dielectric(d) => {
+            let eta_t = d.eta.max(1.0 / d.eta);
+            (d.model, Lobe::Dielectric { eta_i: 1.0, eta_t })
+        }
+    };
+    Some(alpha_hat(model.ndf.kind(), model.alpha(), lobe, tau))
+}
+
+/// True when regularizing `bsdf` at tau would leave it as it is: its peak
+/// outgoing density is already at most tau (SPEC §5), so a connection
+/// that evaluates it has a bounded value. A lobe without roughness is
+/// bounded; a delta lobe never is (not even an index-matched one, which
+/// no roughness can bound).
+pub fn is_bounded(bsdf: &Bsdf, tau: f64) -> bool {
+    bsdf_alpha_hat(bsdf, tau)
+        .is_none_or(|hat| Some(hat.alpha) == bsdf.alpha() && !bsdf.is_specular())
 }
 
 #[cfg(test)]

@@ -91,6 +91,12 @@ fn regularization(s: &mut String, renderer: &Renderer) {
             },
             r.alpha_tau_at(1)
         );
+        if r.mode == Mode::Unsampleable {
+            let _ = write!(
+                s,
+                "\n                  unsampleable: regularizes a subpath only until its prefix has a bounded edge (connections) or vertex (merges); path tracing uses the selective rule"
+            );
+        }
         if !renderer.regularization_matters(r.tau_at(1)) {
             let _ = write!(
                 s,

@@ -14,7 +14,7 @@
 //! integrator = "pt"             # pt | bpt | ppm | bpm | vcm
 //! iterations = 64
 //! max_depth = 16
-//! regularize = "selective"      # off | uniform | selective
+//! regularize = "selective"      # off | uniform | selective | unsampleable
 //! tau0 = 7.5                    # > 1/(2 pi)
 //! progressive = true            # false: tau stays tau0 (a fixed blur)
 //! regularize_energy = true      # false: regularized lobes lose energy (darker)

@@ -19,7 +19,12 @@ const LENGTH_KEYS: [&str; 8] = [
 ];
 
 /// Regularization modes every render case runs (with every integrator).
-const MODES: [Mode; 3] = [Mode::Off, Mode::Uniform, Mode::Selective];
+const MODES: [Mode; 4] = [
+    Mode::Off,
+    Mode::Uniform,
+    Mode::Selective,
+    Mode::Unsampleable,
+];
 
 /// Seed of every render (the images do not matter, only their numbers).
 const SEED: u64 = 7;
@@ -299,7 +304,7 @@ fn scaled_row(dir: &Path, scales: &[f64], tmp: &Path) -> Row {
         name: format!("scene: {name} scaled"),
         covers: format!(
             "scenes/{name} with positions and lengths x s (point/spot intensities x s^2, so the image is the same), \
-             s = {}; 32x24, {iterations} iterations, max depth {max_depth}; pt, bpt, ppm, bpm, vcm x off, uniform, selective",
+             s = {}; 32x24, {iterations} iterations, max depth {max_depth}; pt, bpt, ppm, bpm, vcm x off, uniform, selective, unsampleable",
             ordered
                 .iter()
                 .map(|s| format!("{s:e}"))
@@ -416,7 +421,7 @@ fn stiff_row(budget: Budget, dir: &Path) -> Row {
     Row {
         name: "scene: stiff as bundled".into(),
         covers: format!(
-            "scenes/stiff unscaled at {}x{}, {iterations} iterations, its max depth (16); pt, bpt, ppm, bpm, vcm x off, uniform, selective",
+            "scenes/stiff unscaled at {}x{}, {iterations} iterations, its max depth (16); pt, bpt, ppm, bpm, vcm x off, uniform, selective, unsampleable",
             size.x, size.y
         ),
         other: "samples the renderer zeroed (invalid_samples), or the scene does not load",

@@ -31,7 +31,10 @@ options:
                         model file.
   --configs LIST        comma-separated configs, each an algorithm (pt, bpt,
                         ppm, bpm, vcm) with regularization off, or with `-reg`:
-                        selective regularization, progressive tau from tau_0
+                        selective regularization, progressive tau from tau_0,
+                        or with `-uns`: the same with the `unsampleable` rule
+                        (blur only subpaths that no unregularized connection
+                        or merge of the algorithm samples)
                         [default: pt,pt-reg,bpt,bpt-reg,ppm,vcm,vcm-reg]
   --iterations N        iterations of every config [quick: 16, full: 1024]
   --reference-iterations N
@@ -88,6 +91,9 @@ pub struct Config {
     pub algorithm: Algorithm,
     /// Selective, progressive regularization (else off).
     pub regularized: bool,
+    /// With `regularized`: the `unsampleable` rule instead of `selective`
+    /// (config suffix `-uns`).
+    pub unsampleable: bool,
     /// tau_0 set by `--sweep tau0=...` (None: the study's tau_0).
     pub tau0: Option<f64>,
     /// lambda of r_N = r_0 N^-lambda set by `--sweep schedule-exponent=...`
@@ -104,6 +110,7 @@ impl Config {
         Self {
             algorithm,
             regularized,
+            unsampleable: false,
             tau0: None,
             exponent: None,
         }
@@ -111,16 +118,22 @@ impl Config {
 
     pub(super) fn parse(s: &str) -> Result<Self, String> {
         let s = s.trim().to_ascii_lowercase();
-        let (name, regularized) = match s.strip_suffix("-reg") {
-            Some(base) => (base, true),
-            None => (s.as_str(), false),
+        let (name, regularized, unsampleable) = if let Some(base) = s.strip_suffix("-reg") {
+            (base, true, false)
+        } else if let Some(base) = s.strip_suffix("-uns") {
+            (base, true, true)
+        } else {
+            (s.as_str(), false, false)
         };
         let algorithm = name.parse::<Algorithm>().map_err(|_| {
             format!(
-                "unknown config '{s}' (expected pt, bpt, ppm, bpm or vcm, each optionally with -reg)"
+                "unknown config '{s}' (expected pt, bpt, ppm, bpm or vcm, each optionally with -reg or -uns)"
             )
         })?;
-        Ok(Self::plain(algorithm, regularized))
+        Ok(Self {
+            unsampleable,
+            ..Self::plain(algorithm, regularized)
+        })
     }
 
     /// The renderer's configuration; `tau0` is the study's, which a swept
@@ -143,7 +156,11 @@ impl Config {
             )
             .map_err(|e| format!("{flag}: {e}"))?;
             Regularization {
-                mode: Mode::Selective,
+                mode: if self.unsampleable {
+                    Mode::Unsampleable
+                } else {
+                    Mode::Selective
+                },
                 schedule,
                 progressive: true,
                 energy: Energy::Preserved,
@@ -163,7 +180,11 @@ impl Config {
 
 impl fmt::Display for Config {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let suffix = if self.regularized { "-reg" } else { "" };
+        let suffix = match (self.regularized, self.unsampleable) {
+            (false, _) => "",
+            (true, false) => "-reg",
+            (true, true) => "-uns",
+        };
         let mut name = format!("{}{suffix}", self.algorithm.name());
         if let Some(t) = self.tau0 {
             name.push_str(&format!("@tau0={}", short_number(t)));
@@ -658,6 +679,7 @@ mod tests {
     fn configs_parse_and_print() {
         for name in [
             "pt", "pt-reg", "bpt", "bpt-reg", "ppm", "ppm-reg", "bpm", "bpm-reg", "vcm", "vcm-reg",
+            "bpt-uns", "vcm-uns",
         ] {
             assert_eq!(Config::parse(name).unwrap().to_string(), name);
         }
@@ -675,6 +697,11 @@ mod tests {
             .render_config(3, 9, 7.5)
             .unwrap();
         assert_eq!(off.regularization.mode, Mode::Off);
+        let unsampleable = Config::parse("vcm-uns")
+            .unwrap()
+            .render_config(3, 9, 7.5)
+            .unwrap();
+        assert_eq!(unsampleable.regularization.mode, Mode::Unsampleable);
     }
 
     #[test]

@@ -183,10 +183,16 @@ struct Iteration<'a> {
 
 impl Iteration<'_> {
     /// The regularization state at the start of a subpath of this iteration
-    /// (its mode, tau_N and the configured energy compensation).
+    /// (its mode, tau_N, the configured energy compensation, and the
+    /// unregularized techniques that `Mode::Unsampleable` relies on).
     fn path_regularization(&self, subpath: Subpath) -> PathRegularization {
+        let techniques = self.mis.techniques();
         PathRegularization::new(self.mode, subpath, self.tau_n)
             .with_energy(self.ctx.config.regularization.energy)
+            .with_techniques(regularization::Techniques {
+                connections: techniques.connections,
+                merges: techniques.merging,
+            })
     }
 }
 
