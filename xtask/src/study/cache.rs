@@ -111,18 +111,20 @@ pub fn scene_hash_of(scene_file: &Path) -> Result<u64, String> {
     Ok(scene_hash(&scene_files(dir, manifest)?))
 }
 
-/// The renderer's version: xtask's package version, the git commit when
-/// `git rev-parse HEAD` works, and a hash of `git diff HEAD` over the
-/// renderer's sources (`crates/`, `Cargo.lock`) when that is not empty, so
-/// an uncommitted change to the renderer does not reuse a stale reference.
+/// The renderer's version, the cache key's input: xtask's package version,
+/// the git object ids of the renderer's sources at HEAD (the `crates/` tree
+/// and `Cargo.lock`) when git works, and a hash of `git diff HEAD` over them
+/// when that is not empty, so an uncommitted change to the renderer does
+/// not reuse a stale reference while a commit that changes only documents,
+/// scenes or xtask keeps the cache.
 pub fn renderer_version(root: &Path) -> String {
     let mut version = format!("xtask {}", env!("CARGO_PKG_VERSION"));
     let git = |args: &[&str]| crate::git(root, args);
-    if let Some(head) = git(&["rev-parse", "HEAD"]) {
-        version.push_str(&format!(
-            ", commit {}",
-            String::from_utf8_lossy(&head).trim()
-        ));
+    let id = |object: &str| {
+        git(&["rev-parse", object]).map(|o| String::from_utf8_lossy(&o).trim().to_owned())
+    };
+    if let (Some(crates), Some(lock)) = (id("HEAD:crates"), id("HEAD:Cargo.lock")) {
+        version.push_str(&format!(", sources {crates}/{lock}"));
         if let Some(diff) = git(&["diff", "HEAD", "--", "crates", "Cargo.lock"])
             && !diff.is_empty()
         {
@@ -132,6 +134,17 @@ pub fn renderer_version(root: &Path) -> String {
         }
     }
     version
+}
+
+/// `version` with the commit it was measured at, for reports.
+pub fn with_commit(root: &Path, version: &str) -> String {
+    match crate::git(root, &["rev-parse", "HEAD"]) {
+        Some(head) => format!(
+            "{version}, commit {}",
+            String::from_utf8_lossy(&head).trim()
+        ),
+        None => version.to_owned(),
+    }
 }
 
 /// What a reference render depends on besides the scene and the renderer.
@@ -287,6 +300,45 @@ mod tests {
         for c in changed {
             assert_ne!(c.key(1, "v"), key, "{}", c.canonical());
         }
+    }
+
+    /// A commit of documents keeps the renderer version (and the cache); a
+    /// change under `crates/`, committed or not, changes it.
+    #[test]
+    fn renderer_version_follows_the_sources_not_the_commit() {
+        let dir = temp_dir("renderer-version");
+        let git = |args: &[&str]| {
+            let out = std::process::Command::new("git")
+                .args(["-c", "user.name=t", "-c", "user.email=t@t"])
+                .args(args)
+                .current_dir(&dir)
+                .output()
+                .unwrap();
+            assert!(out.status.success(), "git {args:?}: {out:?}");
+        };
+        git(&["init", "-q"]);
+        fs::create_dir_all(dir.join("crates")).unwrap();
+        fs::write(dir.join("crates").join("lib.rs"), "fn a() {}\n").unwrap();
+        fs::write(dir.join("Cargo.lock"), "lock\n").unwrap();
+        git(&["add", "-A"]);
+        git(&["commit", "-qm", "sources"]);
+        let first = renderer_version(&dir);
+        assert!(first.contains("sources "), "{first}");
+        fs::write(dir.join("README.md"), "text\n").unwrap();
+        git(&["add", "-A"]);
+        git(&["commit", "-qm", "docs"]);
+        assert_eq!(renderer_version(&dir), first);
+        fs::write(dir.join("crates").join("lib.rs"), "fn b() {}\n").unwrap();
+        let uncommitted = renderer_version(&dir);
+        assert!(uncommitted.contains("uncommitted changes"), "{uncommitted}");
+        git(&["commit", "-qam", "change"]);
+        let committed = renderer_version(&dir);
+        assert!(
+            committed != first && committed != uncommitted,
+            "{committed}"
+        );
+        assert!(with_commit(&dir, &committed).contains(", commit "));
+        fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]

@@ -64,7 +64,10 @@ options:
                         reference [default: the scene's, else 7.5]
   --out DIR             output folder [default: target/study/<scene name>]
   --rerender-reference  render the reference(s) even when cached (and update
-                        the cache)
+                        the cache). The cache key holds the renderer's sources
+                        (git ids of crates/ and Cargo.lock at HEAD, and any
+                        uncommitted change to them), not the commit: commits
+                        of documents, scenes elsewhere or xtask keep it
   --farm slurm          render uncached references on a Slurm cluster as
                         `cargo xtask farm slurm` does (shards, a merge), and
                         wait for them; their noise is not measured (a partial

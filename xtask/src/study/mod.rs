@@ -151,7 +151,7 @@ pub struct Study {
     pub max_depth: u32,
     /// tau_0 of regularized configs.
     pub tau0: f64,
-    /// Renderer version string (cache key input).
+    /// Renderer version string (the cache key's input) and commit.
     pub renderer_version: String,
     /// The references: the unbiased one first (unless skipped), then the
     /// regularized one.
@@ -255,7 +255,7 @@ fn run_with_cache(root: &Path, args: &[String], cache_dir: &Path) -> Result<(), 
         seed: options.seed,
         max_depth: settings.max_depth,
         tau0: settings.tau0,
-        renderer_version,
+        renderer_version: cache::with_commit(root, &renderer_version),
         references,
         unbiased_reason: unbiased.map(|(_, why)| why),
         sweep: options.sweep.describe(),
