@@ -20,7 +20,8 @@ reference, shows the bias of regularization (regularized minus unbiased
 reference) as bias.png and numbers beside both references' noise, and for
 every regularized config the time it takes to reach the final RMSE of the
 same algorithm without regularization (the goal: at most 1/4 of that
-config's time). Writes curves.csv, curves.json, report.md, charts (SVG and
+config's time), with a verdict read from the curves (met, no gain, or
+bias-limited where the RMSE stopped falling like noise). Writes curves.csv, curves.json, report.md, charts (SVG and
 PNG), bias.png and contact-sheet.png to the output folder.
 
 options:
