@@ -214,6 +214,8 @@ struct Goal {
     /// The regularized config's RMSE at its last checkpoint over the one
     /// before, per doubling of iterations (None with fewer than two).
     last_doubling: Option<f64>,
+    /// The regularized config's final RMSE.
+    final_rmse: f64,
 }
 
 /// RMSE per doubling of iterations when noise alone falls: 1/sqrt(2).
@@ -221,8 +223,10 @@ const NOISE_DOUBLING: f64 = std::f64::consts::FRAC_1_SQRT_2;
 /// Above this RMSE ratio per doubling the error has stopped falling like
 /// noise (which gives 0.707): bias dominates it.
 const BIAS_LIMITED_DOUBLING: f64 = 0.9;
-/// Ratios within [1/1.25, 1.25] count as "no change" in the verdict.
+/// Ratios within [1/1.25, 1.25] count as "no change" in the verdict, and
+/// so does a config that ends within 1 % of the level without reaching it.
 const NO_CHANGE: f64 = 1.25;
+const SAME_FINAL_RMSE: f64 = 1.01;
 
 /// The goal of issue 21: a regularized config reaches the unregularized
 /// one's final RMSE in at most this fraction of its time.
@@ -260,6 +264,9 @@ impl Goal {
             Some(r) if r <= GOAL_TIME_FRACTION => "met".into(),
             Some(r) if (1.0 / NO_CHANGE..=NO_CHANGE).contains(&r) => {
                 "no gain: about the unregularized time".into()
+            }
+            None if self.final_rmse <= SAME_FINAL_RMSE * self.level => {
+                "no gain: ends at about the unregularized RMSE".into()
             }
             Some(r) if r < 1.0 => bias_limited.map_or("faster, short of the goal".into(), |b| {
                 format!("faster, then {b}")
@@ -382,6 +389,7 @@ impl Goal {
             time_off: last.seconds,
             time_reg: metrics::time_to_reach(&reg.curve(rmse), level),
             cpu,
+            final_rmse: reg.points.last().map_or(f64::INFINITY, rmse),
             last_doubling: match reg.points.as_slice() {
                 [.., a, b] if b.iteration > a.iteration && rmse(a) > 0.0 => Some(
                     (rmse(b) / rmse(a))
@@ -1112,6 +1120,7 @@ mod tests {
         );
         assert!(verdict(&[(1.0, 0.3), (4.0, 0.2), (8.0, 0.199)]).starts_with("bias-limited"));
         assert!(verdict(&[(4.0, 0.8), (8.0, 0.4), (16.0, 0.2)]).starts_with("slower"));
+        assert!(verdict(&[(2.0, 0.4), (4.0, 0.2), (8.0, 0.1001)]).starts_with("no gain"));
     }
 
     #[test]
