@@ -95,6 +95,12 @@ fn base_color(name: &str) -> RGBColor {
         "bpm-reg" => RGBColor(247, 182, 210),
         "vcm" => RGBColor(214, 39, 40),
         "vcm-reg" => RGBColor(148, 103, 189),
+        // The `unsampleable` rule; PT treats it as selective.
+        "pt-uns" => RGBColor(23, 190, 207),
+        "bpt-uns" => RGBColor(0, 128, 128),
+        "ppm-uns" => RGBColor(110, 140, 0),
+        "bpm-uns" => RGBColor(200, 80, 150),
+        "vcm-uns" => RGBColor(0, 60, 140),
         _ => RGBColor(127, 127, 127),
     }
 }
@@ -225,7 +231,8 @@ fn draw<DB: DrawingBackend>(
     for series in &chart.series {
         let color = color_of(&series.name);
         let points: Vec<(f64, f64)> = visible(&series.points).collect();
-        let regularized = series.name.ends_with("-reg");
+        let base = series.name.split('@').next().unwrap_or_default();
+        let regularized = base.ends_with("-reg") || base.ends_with("-uns");
         c.draw_series(LineSeries::new(points.clone(), color.stroke_width(2)))?
             .label(series.name.as_str())
             .legend(move |(x, y)| {
