@@ -104,10 +104,13 @@ pub enum Subpath {
 ///   through the prefix, each subpath sampling its own sharp lobes.
 /// - `merges` (VCM, photon mapping): once the prefix has a bounded vertex
 ///   after its origin, merging there samples every path through it (the
-///   other subpath reaches the vertex by sampling alone). Light subpaths
-///   are then not regularized at all: a path through a light vertex that a
-///   technique evaluates is either merged at a bounded vertex or, if it
-///   has none, produced from the camera side, whose rule applies.
+///   other subpath reaches the vertex by sampling alone).
+///
+/// Light subpaths are never regularized in this mode: a light subpath's
+/// own vertices are only sampled, and sampling a sharp lobe never makes a
+/// path unsampleable; where a technique evaluates a light vertex (a
+/// connection), the vertex is rebuilt with the camera subpath's rule
+/// (SPEC §5), which decides.
 ///
 /// With neither (path tracing, whose only connection is next-event
 /// estimation at the path's end), `Unsampleable` is `Selective`.
@@ -183,7 +186,7 @@ impl PathRegularization {
         match (self.mode, self.subpath) {
             (Mode::Off, _) => f64::INFINITY,
             (Mode::Unsampleable, _) if self.sampleable => f64::INFINITY,
-            (Mode::Unsampleable, Subpath::Light) if self.techniques.merges => f64::INFINITY,
+            (Mode::Unsampleable, Subpath::Light) => f64::INFINITY,
             (Mode::Uniform, _) | (Mode::Selective | Mode::Unsampleable, Subpath::Light) => {
                 self.tau_n
             }
@@ -310,8 +313,8 @@ mod tests {
         })
     }
 
-    /// `Unsampleable` with connections: a subpath stops regularizing once
-    /// its prefix has an edge between two bounded vertices (the origin
+    /// `Unsampleable` with connections: a camera subpath stops regularizing
+    /// once its prefix has an edge between two bounded vertices (the camera
     /// counts as one), not after a single bounded vertex behind a mirror.
     #[test]
     fn unsampleable_stops_after_a_bounded_edge_with_connections() {
@@ -320,7 +323,8 @@ mod tests {
             merges: false,
         };
         let tau_n = 10.0;
-        for subpath in [Subpath::Camera, Subpath::Light] {
+        {
+            let subpath = Subpath::Camera;
             let start = PathRegularization::new(Mode::Unsampleable, subpath, tau_n)
                 .with_techniques(connections);
             let selective = PathRegularization::new(Mode::Selective, subpath, tau_n);
@@ -352,8 +356,9 @@ mod tests {
         }
     }
 
-    /// With merges one bounded vertex is enough, and light subpaths are not
-    /// regularized; without connections or merges the rule is `Selective`.
+    /// With merges one bounded vertex is enough; light subpaths are never
+    /// regularized; without connections or merges the camera rule is
+    /// `Selective`.
     #[test]
     fn unsampleable_with_merges_and_without_techniques() {
         let merges = Techniques {
@@ -364,17 +369,18 @@ mod tests {
             .with_techniques(merges);
         let behind_mirror = camera.after_vertex(&mirror()).after_vertex(&lambertian());
         assert_eq!(behind_mirror.tau(), f64::INFINITY);
-        let light = PathRegularization::new(Mode::Unsampleable, Subpath::Light, 10.0)
-            .with_techniques(merges);
-        assert_eq!(light.tau(), f64::INFINITY);
-        for subpath in [Subpath::Camera, Subpath::Light] {
-            let mut unsampleable = PathRegularization::new(Mode::Unsampleable, subpath, 10.0);
-            let mut selective = PathRegularization::new(Mode::Selective, subpath, 10.0);
-            for bsdf in [mirror(), lambertian(), lambertian(), mirror()] {
-                assert_eq!(unsampleable.tau(), selective.tau());
-                unsampleable = unsampleable.after_vertex(&bsdf);
-                selective = selective.after_vertex(&bsdf);
-            }
+        for techniques in [merges, Techniques::default()] {
+            let light = PathRegularization::new(Mode::Unsampleable, Subpath::Light, 10.0)
+                .with_techniques(techniques);
+            assert_eq!(light.tau(), f64::INFINITY);
+            assert_eq!(light.after_vertex(&mirror()).tau(), f64::INFINITY);
+        }
+        let mut unsampleable = PathRegularization::new(Mode::Unsampleable, Subpath::Camera, 10.0);
+        let mut selective = PathRegularization::new(Mode::Selective, Subpath::Camera, 10.0);
+        for bsdf in [mirror(), lambertian(), lambertian(), mirror()] {
+            assert_eq!(unsampleable.tau(), selective.tau());
+            unsampleable = unsampleable.after_vertex(&bsdf);
+            selective = selective.after_vertex(&bsdf);
         }
     }
 

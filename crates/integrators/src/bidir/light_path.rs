@@ -107,7 +107,7 @@ impl Iteration<'_> {
             let wi = -walk.direction;
             let vertex = PathVertex::new(&ctx.scene, point, wi, walk.throughput, regularization);
             let state = ray.arrive(&self.mis, f64::from(hit.t), f64::from(vertex.cos(wi)));
-            if !vertex.is_specular() {
+            if !vertex.is_specular() || self.stores_delta_vertices() {
                 vertices.push(LightVertex::new(&vertex, state, length));
             }
             if self.mis.techniques().connections && length < max_depth {
@@ -124,6 +124,20 @@ impl Iteration<'_> {
             };
             ray = state.scatter(&self.mis, &vertex.scatter_event(&s));
         }
+    }
+
+    /// True when light vertices with a delta lobe are stored too: in
+    /// `Unsampleable` mode light subpaths are not regularized, while a
+    /// camera subpath's rule may widen the same vertex, and its MIS weights
+    /// then count the connection to it, which must therefore be made
+    /// (`connect` rebuilds the vertex with the camera's rule and skips it if
+    /// it is still delta). Not with merging, whose photon map would gather
+    /// them on nearby surfaces; there the camera rule regularizes only
+    /// before the first bounded vertex, where alpha-hat is at most
+    /// alpha_tau,N times the prefix's largest alpha (< 0.0106 at the default
+    /// tau_0) and connections weigh little.
+    fn stores_delta_vertices(&self) -> bool {
+        self.mode == Mode::Unsampleable && !self.mis.techniques().merging
     }
 
     /// Light tracing (t = 1): connects a light vertex to the camera and
