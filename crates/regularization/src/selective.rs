@@ -184,12 +184,9 @@ impl PathRegularization {
     /// The bound tau_k for the next vertex (+infinity when nothing is regularized).
     pub fn tau(&self) -> f64 {
         match (self.mode, self.subpath) {
-            (Mode::Off, _) => f64::INFINITY,
-            (Mode::Unsampleable, _) if self.sampleable => f64::INFINITY,
-            (Mode::Unsampleable, Subpath::Light) => f64::INFINITY,
-            (Mode::Uniform, _) | (Mode::Selective | Mode::Unsampleable, Subpath::Light) => {
-                self.tau_n
-            }
+            (Mode::Off, _) | (Mode::Unsampleable, Subpath::Light) => f64::INFINITY,
+            (Mode::Unsampleable, Subpath::Camera) if self.sampleable => f64::INFINITY,
+            (Mode::Uniform, _) | (Mode::Selective, Subpath::Light) => self.tau_n,
             (Mode::Selective | Mode::Unsampleable, Subpath::Camera) => {
                 self.tau_n / (f64::from(self.rho) * f64::from(self.rho)).max(MIN_RHO_SQUARED)
             }
