@@ -165,24 +165,21 @@ pub fn value_at(curve: &[(f64, f64)], time: f64) -> Option<f64> {
     Some(last.1)
 }
 
-/// The first time at which a curve (time, error), sorted by time, falls to
-/// `level` or below, interpolated in log-log space; `None` if it never
-/// does. A curve already at or below `level` at its first point returns
-/// that point's time (the crossing was earlier, but was not measured).
+/// The time from which a curve (time, error), sorted by time, stays at or
+/// below `level`, interpolated in log-log space between its last point
+/// above the level and the next; `None` if it ends above. A dip below the
+/// level that rises again (a firefly, or stratification that helps only
+/// some iteration counts) does not count. A curve at or below `level` at
+/// every point returns its first time (the crossing was earlier, but was
+/// not measured).
 pub fn time_to_reach(curve: &[(f64, f64)], level: f64) -> Option<f64> {
-    let first = curve.first()?;
-    if first.1 <= level {
-        return Some(first.0);
-    }
-    for pair in curve.windows(2) {
-        let ((t0, e0), (t1, e1)) = (pair[0], pair[1]);
-        if e1 <= level {
-            // e0 > level >= e1: the crossing lies inside this segment.
-            let f = ((ln(level) - ln(e0)) / (ln(e1) - ln(e0))).clamp(0.0, 1.0);
-            return Some((ln(t0) + f * (ln(t1) - ln(t0))).exp());
-        }
-    }
-    None
+    let Some(last_above) = curve.iter().rposition(|&(_, e)| e > level) else {
+        return Some(curve.first()?.0);
+    };
+    let (&(t0, e0), &(t1, e1)) = (&curve[last_above], curve.get(last_above + 1)?);
+    // e0 > level >= e1: the crossing lies inside this segment.
+    let f = ((ln(level) - ln(e0)) / (ln(e1) - ln(e0))).clamp(0.0, 1.0);
+    Some((ln(t0) + f * (ln(t1) - ln(t0))).exp())
 }
 
 /// Equal-time comparison of two curves: at the smaller of their final
@@ -284,10 +281,18 @@ mod tests {
         assert_eq!(at_equal_time(&b, &late), None);
     }
 
+    /// On a non-monotone curve the level counts as reached where the curve
+    /// crosses it for good: the dip to 1.0 at t = 2 rises again to 3.0.
     #[test]
-    fn first_crossing_counts_on_non_monotone_curves() {
+    fn a_dip_that_rises_again_does_not_count() {
         let curve = [(1.0, 4.0), (2.0, 1.0), (4.0, 3.0), (8.0, 0.5)];
-        assert!(close(time_to_reach(&curve, 2.0).unwrap(), 2f64.powf(0.5)));
+        // Between (4, 3) and (8, 0.5): f = ln(2/3) / ln(1/6), t = 4 * 2^f.
+        let f = (2.0f64 / 3.0).ln() / (1.0f64 / 6.0).ln();
+        assert!(close(
+            time_to_reach(&curve, 2.0).unwrap(),
+            4.0 * 2f64.powf(f)
+        ));
         assert!(close(time_to_reach(&curve, 0.5).unwrap(), 8.0));
+        assert_eq!(time_to_reach(&[(1.0, 1.0), (2.0, 3.0)], 2.0), None);
     }
 }

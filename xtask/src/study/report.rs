@@ -667,8 +667,9 @@ fn md_goal(s: &mut String, study: &Study, comparisons: &Comparisons) {
         "\n## Time to reach the unregularized RMSE\n\n\
          Against the {} reference. For every regularized config: the final RMSE of the same \
          algorithm without regularization (at its last iteration) and its render time, the \
-         time the regularized config takes to reach that RMSE (log-log interpolation between \
-         checkpoints; its first checkpoint's time, an upper bound, when it starts below; \
+         time the regularized config takes to reach that RMSE for good (log-log interpolation \
+         after its last checkpoint above it; its first checkpoint's time, an upper bound, when \
+         it is below at every checkpoint; \
          `not reached` within its {} iterations), and their ratio; the goal \
          (issue 21) is a ratio of at most {GOAL_TIME_FRACTION}. Wall-clock times, with the \
          ratio in CPU time beside them (less disturbed by other processes). The verdict reads \
@@ -930,8 +931,9 @@ fn md_time_to_reach(s: &mut String, study: &Study, comparisons: &Comparisons) {
     let _ = writeln!(
         s,
         "Levels: the final RMSE of each config. Each cell is the render time (s) at which a \
-         config's RMSE first falls to the level (log-log interpolation between checkpoints; \
-         a config already below it at its first checkpoint shows that checkpoint's time), and \
+         config's RMSE falls to the level for good (log-log interpolation after its last \
+         checkpoint above the level, so a dip that rises again does not count; a config \
+         below it at every checkpoint shows its first checkpoint's time), and \
          in brackets how many times longer that is than the fastest config's; `-` when the \
          level is not reached within the run.\n"
     );
