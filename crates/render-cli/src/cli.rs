@@ -100,8 +100,9 @@ pub struct Cli {
     /// Which vertices are regularized: off (none); uniform (every vertex gets tau_N);
     /// selective (tau_N scaled by the roughness of the path so far: what is seen directly or
     /// in mirrors stays sharp, a caustic seen on a diffuse surface is blurred); unsampleable
-    /// (selective, but only on subpaths that no unregularized connection or merge of the
-    /// integrator could sample: BPT, BPM, PPM and VCM; PT treats it as selective).
+    /// (selective on camera subpaths until an unregularized connection or merge of the
+    /// integrator could sample every path through them, light subpaths stay sharp: BPT, BPM,
+    /// PPM and VCM; PT treats it as selective).
     /// [default: the manifest's, else selective]
     #[arg(long, value_name = "MODE", value_parser = parse_regularize,
           help_heading = "Regularization")]

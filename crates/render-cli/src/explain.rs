@@ -94,7 +94,7 @@ fn regularization(s: &mut String, renderer: &Renderer) {
         if r.mode == Mode::Unsampleable {
             let _ = write!(
                 s,
-                "\n                  unsampleable: regularizes a subpath only until its prefix has a bounded edge (connections) or vertex (merges); path tracing uses the selective rule"
+                "\n                  unsampleable: regularizes camera subpaths only until their prefix has a bounded edge (connections) or vertex (merges), never light subpaths; path tracing uses the selective rule"
             );
         }
         if !renderer.regularization_matters(r.tau_at(1)) {
