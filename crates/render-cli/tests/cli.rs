@@ -247,7 +247,7 @@ fn explain_prints_the_settings_and_renders() {
     assert!(output.status.success(), "{}", stderr(&output));
     let stdout = String::from_utf8(output.stdout).unwrap();
     for line in [
-        "regularize:       selective (manifest)",
+        "regularize:       unsampleable (manifest)",
         "iterations:       2 (flag)",
         "tau0:             7.5 (default)",
         "threads:          1",
