@@ -105,7 +105,7 @@ fn a_bad_manifest_value_says_it_came_from_the_manifest() {
     let box_obj = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cornell-box");
     let manifest = std::fs::read_to_string(box_obj.join("scene.toml"))
         .unwrap()
-        .replace("regularize = \"selective\"", "regularize = \"strict\"")
+        .replace("regularize = \"unsampleable\"", "regularize = \"strict\"")
         .replace(
             "file = \"cornell-box.obj\"",
             &format!(
