@@ -174,7 +174,8 @@ impl Dielectric {
     /// angles, or a microfacet within f32 rounding of the horizon (h.z below
     /// ~1e-7, e.g. GGX at u.x = 1 - 2^-24, u.y = 3/4), whose half vector
     /// recovered from the rounded wo can come out below it. A returned sample's pdf, reverse pdf and value are exactly
-    /// `pdf(wi, wo)`, `pdf(wo, wi)` and `eval(wi, wo)`.
+    /// `pdf(wi, wo)`, `pdf(wo, wi)` and `eval(wi, wo)`. A compensated
+    /// interface samples the mixture of the module docs (`sample_compensated`).
     pub fn sample(&self, wi: Vec3, uc: f32, u: Vec2, mode: TransportMode) -> Option<BsdfSample> {
         match self.compensation {
             Some(c) if !self.is_specular() => self.sample_compensated(&c, wi, uc, u, mode),

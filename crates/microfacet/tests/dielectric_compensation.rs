@@ -177,6 +177,7 @@ fn compensated_dielectric_keeps_the_original_albedo() {
     cases.push((NdfKind::Beckmann, Shadowing::VCavity, 2.4));
     let mut failures = Vec::new();
     let (mut worst, mut lost, mut gain): (f64, f64, f64) = (0.0, 0.0, 0.0);
+    let (mut worst_case, mut worst_at_tolerance) = (String::new(), 0.0);
     let mut seed = 0;
     for (kind, shadowing, eta) in cases {
         let table = dielectric_albedo_table(kind, shadowing);
@@ -211,7 +212,15 @@ fn compensated_dielectric_keeps_the_original_albedo() {
                             continue;
                         }
                         let difference = (e_hat - e).abs();
-                        worst = worst.max(difference);
+                        // The largest difference where the estimates resolve 1e-3.
+                        if SIGMAS * se < TOLERANCE && difference > worst {
+                            worst = difference;
+                            worst_case = format!("{name}: {e} vs {e_hat} +- {se}");
+                        }
+                        worst_at_tolerance = f64::max(
+                            worst_at_tolerance,
+                            (difference - SIGMAS * se) / tolerance(cos, seen),
+                        );
                         if difference > tolerance(cos, seen) + SIGMAS * se {
                             failures.push(format!(
                                 "{name}: original {e} +- {se}, compensated {e_hat} +- {se_hat} \
@@ -224,8 +233,9 @@ fn compensated_dielectric_keeps_the_original_albedo() {
         }
     }
     println!(
-        "largest |compensated - original| {worst:.2e}; largest loss without {lost:.3}; \
-         largest gain of a widened lobe {gain:.3}"
+        "largest |compensated - original| where resolved to 1e-3: {worst:.2e} ({worst_case}); \
+         largest (difference - 4 sigma)/tolerance {worst_at_tolerance:.2}; \
+         largest loss without {lost:.3}; largest gain of a widened lobe {gain:.3}"
     );
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
@@ -242,7 +252,7 @@ fn harness(alpha: f32) -> SphericalChi2 {
 
 /// The compensated interfaces' samplers against their mixture pdf (pbrt-v4's
 /// chi-square test, significance 0.01 with a Sidak correction), queried from
-/// both sides.
+/// both sides; the smallest p-value is printed.
 #[test]
 fn compensated_dielectric_sampling_matches_its_pdf() {
     let alpha_hat = 0.6;
@@ -257,12 +267,13 @@ fn compensated_dielectric_sampling_matches_its_pdf() {
             })
         })
         .collect();
-    let directions: Vec<Vec3> = incident_directions()
-        .into_iter()
-        .flat_map(|w| [w, -w])
-        .collect();
+    // Near normal and grazing from above, oblique from below (each side's
+    // code path, kept short: every run costs 200 000 samples).
+    let [near, oblique, grazing] = incident_directions();
+    let directions = [near, -oblique, grazing];
     let significance = sidak(0.01, lobes.len() * directions.len());
     let mut failures = Vec::new();
+    let mut smallest_p: f64 = 1.0;
     for (n, (name, bsdf)) in lobes.iter().enumerate() {
         let Bsdf::Dielectric(d) = bsdf else {
             unreachable!()
@@ -279,11 +290,13 @@ fn compensated_dielectric_sampling_matches_its_pdf() {
                 },
                 |wo| f64::from(bsdf.pdf(wi, wo)),
             );
+            smallest_p = smallest_p.min(outcome.p_value);
             if !outcome.passes(significance) {
                 failures.push(format!("{name} wi {wi}: {outcome:?}"));
             }
         }
     }
+    println!("smallest p-value {smallest_p:.3e} (threshold {significance:.3e})");
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
