@@ -93,8 +93,9 @@ impl Bsdf {
     /// The BSDF regularized to `alpha_hat` with its energy compensated
     /// (`crate::energy`): the microfacet lobe at alpha-hat plus the lobe that
     /// restores the original white albedo, tinted with the lobe's Fresnel
-    /// average (conductors, coats). Dielectrics are widened without
-    /// compensation (see ARCHITECTURE.md). Lambertian lobes are unchanged.
+    /// average (conductors, coats); for dielectrics the lobe that restores
+    /// the energy albedo, split between reflection and transmission
+    /// (`crate::dielectric_energy`). Lambertian lobes are unchanged.
     pub fn regularized(&self, alpha_hat: f32) -> Self {
         match *self {
             Bsdf::Conductor(c) => Bsdf::Conductor(Conductor {
@@ -105,7 +106,8 @@ impl Bsdf {
                 model: c.model.regularized(alpha_hat, c.specular_fresnel_average()),
                 ..c
             }),
-            Bsdf::Lambertian(_) | Bsdf::Dielectric(_) => self.with_alpha(alpha_hat),
+            Bsdf::Dielectric(d) => Bsdf::Dielectric(d.regularized(alpha_hat)),
+            Bsdf::Lambertian(_) => self.with_alpha(alpha_hat),
         }
     }
 
@@ -119,10 +121,7 @@ impl Bsdf {
                 model: c.model.with_alpha(alpha),
                 ..c
             }),
-            Bsdf::Dielectric(d) => Bsdf::Dielectric(Dielectric {
-                model: d.model.with_alpha(alpha),
-                ..d
-            }),
+            Bsdf::Dielectric(d) => Bsdf::Dielectric(d.with_alpha(alpha)),
             Bsdf::Coated(c) => Bsdf::Coated(Coated {
                 model: c.model.with_alpha(alpha),
                 ..c

@@ -13,13 +13,20 @@
 //! light crosses from; the sampling is unchanged (Fresnel decides), so only
 //! the value and the sample weight carry it. White leaves every value as the
 //! untinted lobe's, bit for bit.
+//!
+//! A regularized interface may carry an energy compensation lobe
+//! (`crate::dielectric_energy`): its value is added (its transmitted part
+//! tinted like the refraction), and sampling picks it with probability
+//! P_c(mu_i) (a cosine-weighted direction on the side its own coin picks), so
+//! `pdf` is the mixture (1 - P_c) p_lobe + P_c p_compensation.
 
 use glam::{DVec3, Vec2, Vec3};
 
-use crate::frame::{reflect, refract_f64};
+use crate::dielectric_energy::DielectricCompensation;
+use crate::frame::{cosine_hemisphere, reflect, refract_f64};
 use crate::fresnel;
 use crate::model::MicrofacetModel;
-use crate::sample::{BsdfSample, TransportMode};
+use crate::sample::{BsdfSample, ONE_MINUS_EPSILON, TransportMode};
 
 /// Interfaces with |eta - 1| below this are index-matched (SPEC §5): the lobe
 /// is treated as smooth (a delta), whatever its roughness. The refraction
@@ -40,6 +47,10 @@ pub struct Dielectric {
     /// Colour of the transmitted part (glTF's base colour on a transmissive
     /// material), each channel in [0, 1]; `Vec3::ONE` for clear glass.
     pub tint: Vec3,
+    /// The energy compensation of a regularized interface
+    /// (`crate::dielectric_energy`); `None` for every lobe a material
+    /// defines, and for one regularized without compensation.
+    pub compensation: Option<DielectricCompensation>,
 }
 
 /// f, forward pdf and reverse pdf of one configuration.
@@ -56,6 +67,35 @@ impl Dielectric {
             model,
             eta,
             tint: Vec3::ONE,
+            compensation: None,
+        }
+    }
+
+    /// The interface widened to `alpha_hat` with the energy compensation
+    /// that keeps its energy albedo (`crate::dielectric_energy`); without
+    /// compensation when alpha-hat does not exceed alpha, and for an
+    /// index-matched interface (a pass-through that regularization skips).
+    pub fn regularized(&self, alpha_hat: f32) -> Self {
+        let model = self.model.with_alpha(alpha_hat);
+        let compensation = if self.is_index_matched() {
+            None
+        } else {
+            DielectricCompensation::new(&model, self.model.alpha(), self.eta)
+        };
+        Self {
+            model,
+            compensation,
+            ..*self
+        }
+    }
+
+    /// The same interface with width `alpha` and no compensation (how
+    /// regularization applies alpha-hat when energy is not compensated).
+    pub fn with_alpha(&self, alpha: f32) -> Self {
+        Self {
+            model: self.model.with_alpha(alpha),
+            compensation: None,
+            ..*self
         }
     }
 
@@ -83,10 +123,15 @@ impl Dielectric {
     /// |<wi,h><wo,h>| / |cos_i cos_o| (1 - F) D G / (<wi,h> + eta <wo,h>)^2 for
     /// refraction in Radiance mode, times eta^2 in Importance mode
     /// (eta = eta_t/eta_i; equivalent to SPEC's eta_i^2, eta_t^2 numerators);
-    /// the refraction value times `tint` (module docs).
+    /// the refraction value times `tint` (module docs); plus the
+    /// compensation lobe of a regularized interface.
     pub fn eval(&self, wi: Vec3, wo: Vec3, mode: TransportMode) -> Vec3 {
-        self.evaluate(wi, wo, mode)
-            .map_or(Vec3::ZERO, |t| self.colour(t.f, wi.z * wo.z < 0.0))
+        let refracted = wi.z * wo.z < 0.0;
+        let lobe = self.evaluate(wi, wo, mode).map_or(0.0, |t| t.f);
+        let compensation = self
+            .compensation
+            .map_or(0.0, |c| c.value(&self.model, self.eta, wi, wo, mode));
+        self.colour(lobe + compensation, refracted)
     }
 
     /// A scalar value of the lobe as a colour: times `tint` when `refracted`.
@@ -100,9 +145,26 @@ impl Dielectric {
 
     /// Density of `wo` given `wi`: pdf_h(wi,h)/(4<wo,h>) F for reflection,
     /// pdf_h(wi,h) eta^2 |<wo,h>| / (<wi,h> + eta <wo,h>)^2 (1 - F) for refraction.
+    /// With compensation, the mixture of the module docs.
     pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        self.evaluate(wi, wo, TransportMode::Radiance)
-            .map_or(0.0, |t| t.pdf)
+        let lobe = self
+            .evaluate(wi, wo, TransportMode::Radiance)
+            .map_or(0.0, |t| t.pdf);
+        self.with_compensation_pdf(wi, wo, lobe)
+    }
+
+    /// The mixture density (1 - P_c(wi)) `p_lobe` + P_c(wi) p_c(wi, wo) of a
+    /// compensated interface (`p_lobe` unchanged without compensation), for
+    /// `pdf` and for p-hat at a regularized vertex.
+    pub fn with_compensation_pdf(&self, wi: Vec3, wo: Vec3, p_lobe: f32) -> f32 {
+        let Some(c) = self.compensation else {
+            return p_lobe;
+        };
+        let p_c = c.probability(&self.model, self.eta, wi);
+        if p_c == 0.0 || wi.z == 0.0 || wo.z == 0.0 {
+            return p_lobe;
+        }
+        (1.0 - p_c) * p_lobe + p_c * c.sampling_pdf(wi, wo)
     }
 
     /// Samples reflection or refraction through a sampled microfacet normal
@@ -112,8 +174,66 @@ impl Dielectric {
     /// angles, or a microfacet within f32 rounding of the horizon (h.z below
     /// ~1e-7, e.g. GGX at u.x = 1 - 2^-24, u.y = 3/4), whose half vector
     /// recovered from the rounded wo can come out below it. A returned sample's pdf, reverse pdf and value are exactly
-    /// `pdf(wi, wo)`, `pdf(wo, wi)` and `eval(wi, wo)`.
+    /// `pdf(wi, wo)`, `pdf(wo, wi)` and `eval(wi, wo)`. A compensated
+    /// interface samples the mixture of the module docs (`sample_compensated`).
     pub fn sample(&self, wi: Vec3, uc: f32, u: Vec2, mode: TransportMode) -> Option<BsdfSample> {
+        match self.compensation {
+            Some(c) if !self.is_specular() => self.sample_compensated(&c, wi, uc, u, mode),
+            _ => self.sample_lobe(wi, uc, u, mode),
+        }
+    }
+
+    /// Sampling with a compensation lobe: the coin `uc` picks it with
+    /// probability P_c(mu_i), then (rescaled) transmission with probability
+    /// t_s and a cosine-weighted direction on the chosen side; otherwise the
+    /// microfacet lobe (`uc` rescaled for its sampler). Value and both
+    /// densities are those of the mixture, `eval` and `pdf`.
+    fn sample_compensated(
+        &self,
+        c: &DielectricCompensation,
+        wi: Vec3,
+        uc: f32,
+        u: Vec2,
+        mode: TransportMode,
+    ) -> Option<BsdfSample> {
+        if wi.z == 0.0 {
+            return None;
+        }
+        let p_c = c.probability(&self.model, self.eta, wi);
+        let wo = if uc < p_c {
+            let side = crate::dielectric_energy::side(wi);
+            let transmitted = uc / p_c < c.transmitted_share(side);
+            let w = cosine_hemisphere(u)? * wi.z.signum();
+            if transmitted { -w } else { w }
+        } else {
+            let uc = ((uc - p_c) / (1.0 - p_c)).min(ONE_MINUS_EPSILON);
+            self.sample_lobe(wi, uc, u, mode)?.wo
+        };
+        let (pdf, pdf_reverse) = (self.pdf(wi, wo), self.pdf(wo, wi));
+        let f = self.eval(wi, wo, mode);
+        let refracted = wi.z * wo.z < 0.0;
+        let eta = if !refracted {
+            1.0
+        } else if wi.z > 0.0 {
+            self.eta
+        } else {
+            1.0 / self.eta
+        };
+        (pdf > 0.0 && pdf.is_finite() && pdf_reverse.is_finite() && f.is_finite()).then_some(
+            BsdfSample {
+                wo,
+                f,
+                pdf,
+                pdf_reverse,
+                eta,
+                is_specular: false,
+            },
+        )
+    }
+
+    /// The microfacet lobe's own sampler (the module's lobe without the
+    /// compensation; see `sample`).
+    fn sample_lobe(&self, wi: Vec3, uc: f32, u: Vec2, mode: TransportMode) -> Option<BsdfSample> {
         let (side, wi, eta) = self.oriented(wi)?;
         if self.is_specular() {
             return self.sample_smooth(wi, eta, uc, mode).map(|s| BsdfSample {

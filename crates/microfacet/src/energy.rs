@@ -46,7 +46,7 @@ pub const TABLE_ALPHA: usize = 40;
 pub const TABLE_ALPHA_MAX: f32 = 1.0;
 /// The mu = 0 column is evaluated at this cosine: exactly grazing
 /// directions have no reflection to integrate (every lobe returns 0 there).
-const GRAZING_MU: f64 = 1e-3;
+pub(crate) const GRAZING_MU: f64 = 1e-3;
 /// Gauss-Legendre nodes in the radial uniform of the NDF sampler.
 const QUADRATURE_RADIAL: usize = 48;
 /// Midpoint nodes over the half azimuth [0, pi] (the integrand is symmetric
@@ -56,7 +56,7 @@ const QUADRATURE_AZIMUTH: usize = 48;
 /// Below this dE_avg the compensation carries nothing a renderer could see
 /// (1e-6 of the energy) and is left out, so dE(mu)/dE_avg never divides by
 /// a rounding-sized number.
-const MIN_DEFICIT_AVERAGE: f32 = 1e-6;
+pub(crate) const MIN_DEFICIT_AVERAGE: f32 = 1e-6;
 
 /// Directional albedo E(mu, alpha) of a white (F = 1) Torrance-Sparrow lobe
 /// of one NDF and shadowing model, on a `TABLE_ALPHA` x `TABLE_MU` grid.
@@ -115,24 +115,24 @@ pub fn albedo_table(kind: NdfKind, shadowing: Shadowing) -> &'static AlbedoTable
 
 /// mu of table column j, s_j^2 with s_j uniform (the first one evaluated
 /// at `GRAZING_MU`).
-fn mu_node(j: usize) -> f64 {
+pub(crate) fn mu_node(j: usize) -> f64 {
     (j as f64 / (TABLE_MU - 1) as f64).powi(2).max(GRAZING_MU)
 }
 
 /// alpha of table row k, s_k^2 with s_k uniform.
-fn alpha_node(k: usize) -> f32 {
+pub(crate) fn alpha_node(k: usize) -> f32 {
     (k as f32 / (TABLE_ALPHA - 1) as f32).powi(2) * TABLE_ALPHA_MAX
 }
 
 /// (cell index, fraction in the cell) of `x` on `n` nodes uniform in
 /// sqrt(x / max) over [0, max]: the table is linear in sqrt(x) per cell.
-fn cell(x: f32, n: usize, max: f32) -> (usize, f32) {
+pub(crate) fn cell(x: f32, n: usize, max: f32) -> (usize, f32) {
     let s = (x / max).clamp(0.0, 1.0).sqrt() * (n - 1) as f32;
     let i = (s as usize).min(n - 2);
     (i, s - i as f32)
 }
 
-fn lerp(a: f32, b: f32, t: f32) -> f32 {
+pub(crate) fn lerp(a: f32, b: f32, t: f32) -> f32 {
     a + (b - a) * t
 }
 
@@ -193,7 +193,7 @@ pub(crate) fn gauss_legendre_8() -> &'static [(f64, f64)] {
 /// n-point Gauss-Legendre rule on [0, 1]: roots of P_n by Newton's method
 /// from Tricomi's initial guess cos(pi (i - 1/4)/(n + 1/2)) (Abramowitz &
 /// Stegun 25.4.29; Numerical Recipes §4.6), mapped from [-1, 1].
-fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
+pub(crate) fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
     (0..n)
         .map(|i| {
             let mut x = (std::f64::consts::PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
@@ -291,7 +291,7 @@ impl Compensation {
 /// values `nodes` at s = 0, 1/(n-1), ..., 1: with mu = s^2 the moment is
 /// 4 int_0^1 max(0, y(s)) s^3 ds, a polynomial per cell, integrated in
 /// closed form with the sign change inside a cell located exactly.
-fn positive_part_moment(nodes: &[f32; TABLE_MU]) -> f64 {
+pub(crate) fn positive_part_moment(nodes: &[f32; TABLE_MU]) -> f64 {
     let h = 1.0 / (TABLE_MU - 1) as f64;
     let mut sum = 0.0;
     for j in 0..TABLE_MU - 1 {

@@ -19,7 +19,9 @@
 //! - [`vndf`]: visible-normal samplers (GGX, Beckmann, V-cavity).
 //! - [`model`]: an NDF with its shadowing model and sampler.
 //! - [`energy`]: albedo tables and the compensation lobe that keeps a
-//!   regularized lobe's energy (Kulla & Conty 2017).
+//!   regularized lobe's energy (Kulla & Conty 2017);
+//!   [`dielectric_energy`]: the same for dielectrics (tables per eta and
+//!   side, a reciprocal reflection/transmission split).
 //! - [`fresnel`], [`bounds`], [`frame`], [`special`]: building blocks.
 //! - [`sample`]: what lobes return (a sampled direction) and the transport
 //!   mode; [`lambertian`], [`conductor`], [`dielectric`], [`coated`] (glTF
@@ -34,6 +36,7 @@ pub mod bsdf;
 pub mod coated;
 pub mod conductor;
 pub mod dielectric;
+pub mod dielectric_energy;
 pub mod energy;
 pub mod frame;
 pub mod fresnel;

@@ -26,7 +26,9 @@ use microfacet::{Bsdf, MicrofacetModel, Shadowing};
 ///   no counterpart in the original BSDF (eq. 13's ratio is undefined
 ///   where rho = 0), so the microfacet lobe's p-hat enters the regularized
 ///   lobe's own mixture in its place: (1 - P_c) p-hat + P_c mu_o/pi, by the
-///   same SPEC §6 argument as the coated mixture.
+///   same SPEC §6 argument as the coated mixture. The same for a compensated
+///   dielectric (`microfacet::dielectric_energy`), whose compensation lobe
+///   reflects and transmits: (1 - P_c) p-hat + P_c p_c(wi, wo).
 ///
 /// 0 where the unregularized BSDF is 0 through its shadowing (G = 0), where
 /// the ratio is undefined and the path carries nothing.
@@ -38,7 +40,10 @@ pub fn p_hat(bsdf: &Bsdf, regularized: &Bsdf, wi: Vec3, wo: Vec3) -> f32 {
             let p = hat.pdf(wi, wo) * shadowing_ratio(&c.model, alpha_hat, wi, wo);
             c_reg.model.with_compensation_pdf(wi, wo, p)
         }
-        (Bsdf::Dielectric(d), _) => hat.pdf(wi, wo) * shadowing_ratio(&d.model, alpha_hat, wi, wo),
+        (Bsdf::Dielectric(d), Bsdf::Dielectric(d_reg)) => {
+            let p = hat.pdf(wi, wo) * shadowing_ratio(&d.model, alpha_hat, wi, wo);
+            d_reg.with_compensation_pdf(wi, wo, p)
+        }
         (Bsdf::Coated(c), Bsdf::Coated(c_reg)) => {
             let Bsdf::Coated(c_hat) = hat else {
                 unreachable!("with_alpha keeps the lobe kind")

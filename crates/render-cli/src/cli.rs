@@ -133,8 +133,9 @@ pub struct Cli {
     pub progressive: bool,
 
     /// Energy-preserving regularization: a widened lobe keeps the original's directional
-    /// albedo through a compensation lobe (Kulla & Conty 2017) on conductors and coated
-    /// surfaces; off widens the lobe alone, which loses energy (images 2-6 % darker).
+    /// albedo through a compensation lobe (Kulla & Conty 2017) on conductors, coated
+    /// surfaces and dielectrics; off widens the lobe alone, which loses energy (images 2-6 %
+    /// darker).
     /// [default: the manifest's `regularize_energy`, else on]
     #[arg(long, value_name = "on|off", value_parser = parse_on_off, help_heading = "Regularization")]
     pub regularize_energy: Option<bool>,
