@@ -142,10 +142,9 @@ impl Regularization {
 }
 
 impl Default for Regularization {
-    /// Unsampleable (the issue-21 sweep's choice; SPEC §5's default rule is
-    /// selective), tau_0 = 7.5, progressive.
+    /// Selective, tau_0 = 7.5, progressive (SPEC §5 defaults).
     fn default() -> Self {
-        Self::new(Mode::Unsampleable, DEFAULT_TAU_0, true).expect("the default tau_0 is valid")
+        Self::new(Mode::Selective, DEFAULT_TAU_0, true).expect("the default tau_0 is valid")
     }
 }
 

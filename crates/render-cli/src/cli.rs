@@ -103,7 +103,7 @@ pub struct Cli {
     /// (selective on camera subpaths until an unregularized connection or merge of the
     /// integrator could sample every path through them, light subpaths stay sharp: BPT, BPM,
     /// PPM and VCM; PT treats it as selective).
-    /// [default: the manifest's, else unsampleable]
+    /// [default: the manifest's, else selective]
     #[arg(long, value_name = "MODE", value_parser = parse_regularize,
           help_heading = "Regularization")]
     pub regularize: Option<Mode>,

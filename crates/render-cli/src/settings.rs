@@ -26,10 +26,10 @@ use crate::values::{
 /// Iterations when neither a flag nor the manifest gives a count or a time.
 pub const DEFAULT_ITERATIONS: u64 = 64;
 /// Regularization mode when neither a flag nor the manifest gives one.
-/// `unsampleable`: chosen by the issue-21 sweep (README, "Regularization against the
-/// truth"): selective regularization lost against an unbiased reference on three of the
-/// four study scenes; unsampleable never lost much and keeps BPT's caustics.
-pub const DEFAULT_MODE: Mode = Mode::Unsampleable;
+/// `selective` (SPEC §5). The issue-21 sweep favoured `unsampleable`, but it ran before
+/// dielectrics were compensated, and with compensation unsampleable BPT over-counts its
+/// caustics (README, "Regularization against the truth").
+pub const DEFAULT_MODE: Mode = Mode::Selective;
 /// Seed when neither a flag nor the manifest gives one.
 pub const DEFAULT_SEED: u64 = 0;
 

@@ -105,7 +105,7 @@ fn a_bad_manifest_value_says_it_came_from_the_manifest() {
     let box_obj = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cornell-box");
     let manifest = std::fs::read_to_string(box_obj.join("scene.toml"))
         .unwrap()
-        .replace("regularize = \"unsampleable\"", "regularize = \"strict\"")
+        .replace("regularize = \"selective\"", "regularize = \"strict\"")
         .replace(
             "file = \"cornell-box.obj\"",
             &format!(
@@ -247,7 +247,7 @@ fn explain_prints_the_settings_and_renders() {
     assert!(output.status.success(), "{}", stderr(&output));
     let stdout = String::from_utf8(output.stdout).unwrap();
     for line in [
-        "regularize:       unsampleable (manifest)",
+        "regularize:       selective (manifest)",
         "iterations:       2 (flag)",
         "tau0:             7.5 (default)",
         "threads:          1",
