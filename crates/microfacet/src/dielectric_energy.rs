@@ -56,8 +56,8 @@ use std::sync::OnceLock;
 use glam::{Vec2, Vec3};
 
 use crate::energy::{
-    GRAZING_MU, MIN_DEFICIT_AVERAGE, TABLE_ALPHA, TABLE_ALPHA_MAX, TABLE_MU, alpha_node, cell,
-    gauss_legendre, lerp, mu_node, positive_part_moment,
+    GRAZING_MU, MIN_DEFICIT_AVERAGE, MODELS, TABLE_ALPHA, TABLE_ALPHA_MAX, TABLE_MU, alpha_node,
+    cell, gauss_legendre, lerp, model_index, mu_node, positive_part_moment,
 };
 use crate::frame::refract_f64;
 use crate::fresnel;
@@ -165,16 +165,9 @@ pub fn dielectric_albedo_table(
     kind: NdfKind,
     shadowing: Shadowing,
 ) -> &'static DielectricAlbedoTable {
-    static TABLES: [OnceLock<DielectricAlbedoTable>; 6] = [const { OnceLock::new() }; 6];
-    let index = match kind {
-        NdfKind::Ggx => 0,
-        NdfKind::Beckmann => 1,
-        NdfKind::BlinnPhong => 2,
-    } + match shadowing {
-        Shadowing::Smith => 0,
-        Shadowing::VCavity => 3,
-    };
-    TABLES[index].get_or_init(|| DielectricAlbedoTable::compute(kind, shadowing))
+    static TABLES: [OnceLock<DielectricAlbedoTable>; MODELS] = [const { OnceLock::new() }; MODELS];
+    TABLES[model_index(kind, shadowing)]
+        .get_or_init(|| DielectricAlbedoTable::compute(kind, shadowing))
 }
 
 /// The table's coordinate of an index ratio, in [-1, 1]:

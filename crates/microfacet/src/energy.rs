@@ -101,16 +101,24 @@ impl AlbedoTable {
 
 /// The shared table of `kind` with `shadowing`, computed at first use.
 pub fn albedo_table(kind: NdfKind, shadowing: Shadowing) -> &'static AlbedoTable {
-    static TABLES: [OnceLock<AlbedoTable>; 6] = [const { OnceLock::new() }; 6];
-    let index = match kind {
+    static TABLES: [OnceLock<AlbedoTable>; MODELS] = [const { OnceLock::new() }; MODELS];
+    TABLES[model_index(kind, shadowing)].get_or_init(|| AlbedoTable::compute(kind, shadowing))
+}
+
+/// NDF x shadowing combinations, one table each.
+pub(crate) const MODELS: usize = 6;
+
+/// The slot of `kind` with `shadowing` among the `MODELS` tables.
+pub(crate) fn model_index(kind: NdfKind, shadowing: Shadowing) -> usize {
+    let ndf = match kind {
         NdfKind::Ggx => 0,
         NdfKind::Beckmann => 1,
         NdfKind::BlinnPhong => 2,
-    } + match shadowing {
+    };
+    ndf + match shadowing {
         Shadowing::Smith => 0,
         Shadowing::VCavity => 3,
-    };
-    TABLES[index].get_or_init(|| AlbedoTable::compute(kind, shadowing))
+    }
 }
 
 /// mu of table column j, s_j^2 with s_j uniform (the first one evaluated
