@@ -92,12 +92,20 @@ pub fn wait_for(id: &str, limit: Duration) -> Result<(), String> {
 }
 
 /// Cancels job (or array task) `id` with `signal` (e.g. `TERM`, `KILL`).
+/// A job that the signal ends while scancel still signals its steps (a
+/// shard interrupted before its first iteration exits at once) makes
+/// scancel fail; that is no error once the job no longer runs.
 pub fn cancel(id: &str, signal: &str) -> Result<(), String> {
-    slurm(
+    match slurm(
         "scancel",
         &[format!("--signal={signal}"), "--full".into(), id.into()],
-    )
-    .map(|_| ())
+    ) {
+        Ok(_) => Ok(()),
+        Err(e) => match state(id)?.as_deref() {
+            Some("RUNNING" | "PENDING") => Err(e),
+            _ => Ok(()),
+        },
+    }
 }
 
 /// The state (`PENDING`, `RUNNING`, ...) of job `id` (of an array's first
