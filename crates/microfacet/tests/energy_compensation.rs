@@ -12,11 +12,11 @@
 mod common;
 
 use common::*;
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use microfacet::energy::albedo_table;
 use microfacet::{Bsdf, Coated, MicrofacetModel, NdfKind, Shadowing, TransportMode};
 use stats::chi2::sidak;
-use stats::{Pcg32, SphericalChi2, Summary};
+use stats::{Pcg32, SphericalChi2};
 
 /// Side of the jittered grid of one replica.
 const GRID: usize = 48;
@@ -29,31 +29,13 @@ const SIGMAS: f64 = 4.0;
 /// (mean, standard error) of the directional albedo of `bsdf` (red channel)
 /// for a query from `wi`.
 fn albedo(bsdf: &Bsdf, wi: Vec3, seed: u64) -> (f64, f64) {
-    let mut rng = Pcg32::new(seed, 11);
-    let mut replicas = Summary::new();
-    for _ in 0..REPLICAS {
-        let mut sum = 0.0;
-        for i in 0..GRID {
-            for j in 0..GRID {
-                let u = Vec2::new(
-                    ((i as f32 + rng.uniform_f32()) / GRID as f32).min(0.999_999_9),
-                    ((j as f32 + rng.uniform_f32()) / GRID as f32).min(0.999_999_9),
-                );
-                let uc = rng.uniform_f32();
-                let mode = TransportMode::Radiance;
-                sum += bsdf.sample(wi, uc, u, mode).map_or(0.0, |s| {
-                    let pdf = bsdf.pdf(wi, s.wo);
-                    if pdf > 0.0 {
-                        f64::from(bsdf.eval(wi, s.wo, mode).x * s.wo.z.abs() / pdf)
-                    } else {
-                        0.0
-                    }
-                });
-            }
-        }
-        replicas.push(sum / (GRID * GRID) as f64);
-    }
-    (replicas.mean(), replicas.standard_error())
+    stratified_albedo(
+        bsdf,
+        wi,
+        TransportMode::Radiance,
+        (GRID, REPLICAS),
+        (seed, 11),
+    )
 }
 
 /// Near grazing (mu < `GRAZING`) the albedo bends sharply in mu and alpha

@@ -3,8 +3,11 @@
 //! lossless lobes for energy tests.
 #![allow(dead_code)]
 
-use glam::Vec3;
-use microfacet::{Conductor, Dielectric, Fresnel, MicrofacetModel, NdfKind, Shadowing};
+use glam::{Vec2, Vec3};
+use microfacet::{
+    Bsdf, Conductor, Dielectric, Fresnel, MicrofacetModel, NdfKind, Shadowing, TransportMode,
+};
+use stats::{Pcg32, Summary};
 
 /// Every NDF.
 pub const NDFS: [NdfKind; 3] = [NdfKind::Ggx, NdfKind::Beckmann, NdfKind::BlinnPhong];
@@ -68,4 +71,41 @@ pub fn label(model: &MicrofacetModel) -> String {
         model.shadowing,
         model.alpha()
     )
+}
+
+/// (mean, standard error) of the directional albedo (red channel) of `bsdf`
+/// queried from `wi` in `mode`, estimated with its own sampler, value and
+/// pdf: `replicas` independent jittered `grid` x `grid` estimates (random
+/// stream `stream` of `seed`), whose spread gives the standard error.
+pub fn stratified_albedo(
+    bsdf: &Bsdf,
+    wi: Vec3,
+    mode: TransportMode,
+    (grid, replicas): (usize, usize),
+    (seed, stream): (u64, u64),
+) -> (f64, f64) {
+    let mut rng = Pcg32::new(seed, stream);
+    let mut estimates = Summary::new();
+    for _ in 0..replicas {
+        let mut sum = 0.0;
+        for i in 0..grid {
+            for j in 0..grid {
+                let u = Vec2::new(
+                    ((i as f32 + rng.uniform_f32()) / grid as f32).min(0.999_999_9),
+                    ((j as f32 + rng.uniform_f32()) / grid as f32).min(0.999_999_9),
+                );
+                let uc = rng.uniform_f32();
+                sum += bsdf.sample(wi, uc, u, mode).map_or(0.0, |s| {
+                    let pdf = bsdf.pdf(wi, s.wo);
+                    if pdf > 0.0 {
+                        f64::from(bsdf.eval(wi, s.wo, mode).x * s.wo.z.abs() / pdf)
+                    } else {
+                        0.0
+                    }
+                });
+            }
+        }
+        estimates.push(sum / (grid * grid) as f64);
+    }
+    (estimates.mean(), estimates.standard_error())
 }
