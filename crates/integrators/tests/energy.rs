@@ -36,68 +36,58 @@ const SCENES: [&str; 5] = [
 const FURNACES: [&str; 2] = ["furnace", "glass-furnace"];
 const SIZE: (u32, u32) = (64, 48);
 
-/// A white (F = 1) GGX sphere of alpha 0.01 filling the frame under a
-/// constant white environment: the unregularized image is 1 everywhere up
-/// to the lobe's own small loss, and a widened lobe without compensation
-/// is visibly darker, with little noise.
-const FURNACE: &str = r#"
+/// A sphere of the material whose manifest fields are `material` filling
+/// the frame under a constant white environment: a lossless lobe in a
+/// furnace, whose unregularized image is 1 everywhere up to the lobe's own
+/// small loss, with little noise.
+fn furnace(material: &str) -> String {
+    format!(
+        r#"
 resolution = [32, 32]
 [camera]
 from = [0, 0, 3]
 at = [0, 0, 0]
 fov = 30
 [[material]]
-name = "white-metal"
-type = "conductor"
-alpha = 0.01
-ndf = "ggx"
-shadowing = "smith"
-reflectance = [1, 1, 1]
+name = "sphere"
+{material}
 [[shape]]
 type = "sphere"
-material = "white-metal"
+material = "sphere"
 center = [0, 0, 0]
 radius = 1
 [[light]]
 type = "environment"
 intensity = [1, 1, 1]
-"#;
+"#
+    )
+}
 
-/// A clear glass sphere (IOR 1.5, GGX alpha 0.01) filling the frame under
-/// a constant white environment: a lossless interface in a furnace, whose
-/// unregularized image is 1 up to the lobe's own small loss. The blur of
-/// `TAU_0` widens it to alpha 1 (the transmission bound's clamp, SPEC §5),
-/// which without compensation loses a large part of the energy at every
-/// crossing.
-const GLASS_FURNACE: &str = r#"
-resolution = [32, 32]
-[camera]
-from = [0, 0, 3]
-at = [0, 0, 0]
-fov = 30
-[[material]]
-name = "glass"
-type = "dielectric"
+/// A white (F = 1) GGX conductor of alpha 0.01: widened without
+/// compensation it is visibly darker.
+const WHITE_METAL: &str = r#"type = "conductor"
 alpha = 0.01
 ndf = "ggx"
 shadowing = "smith"
-ior = 1.5
-[[shape]]
-type = "sphere"
-material = "glass"
-center = [0, 0, 0]
-radius = 1
-[[light]]
-type = "environment"
-intensity = [1, 1, 1]
-"#;
+reflectance = [1, 1, 1]"#;
 
-/// A scene by name: a bundled one, `furnace` (`FURNACE`) or `glass-furnace`
-/// (`GLASS_FURNACE`).
+/// Clear glass (IOR 1.5, GGX alpha 0.01). The blur of `TAU_0` widens it to
+/// alpha 1 (the transmission bound's clamp, SPEC §5), which without
+/// compensation loses a large part of the energy at every crossing.
+const GLASS: &str = r#"type = "dielectric"
+alpha = 0.01
+ndf = "ggx"
+shadowing = "smith"
+ior = 1.5"#;
+
+/// A scene by name: a bundled one, `furnace` (`WHITE_METAL`) or
+/// `glass-furnace` (`GLASS`).
 fn load(scene: &str) -> scene::Scene {
     match scene {
-        "furnace" => common::load_manifest("energy-furnace", FURNACE, &[], SIZE),
-        "glass-furnace" => common::load_manifest("energy-glass-furnace", GLASS_FURNACE, &[], SIZE),
+        "furnace" => common::load_manifest("energy-furnace", &furnace(WHITE_METAL), &[], SIZE),
+        "glass-furnace" => {
+            common::load_manifest("energy-glass-furnace", &furnace(GLASS), &[], SIZE)
+        }
         _ => common::load(&common::bundled(scene), SIZE.0, SIZE.1),
     }
 }
