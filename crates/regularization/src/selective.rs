@@ -217,7 +217,12 @@ impl PathRegularization {
             Bsdf::Coated(c) if c.has_diffuse() => 1.0,
             _ => bsdf.alpha().unwrap_or(1.0).min(1.0),
         };
-        let (previous_bounded, sampleable) = if self.mode == Mode::Unsampleable {
+        // Only a camera subpath of an integrator with connections or merges
+        // uses the record (`tau`): skip the bound elsewhere.
+        let tracked = self.mode == Mode::Unsampleable
+            && self.subpath == Subpath::Camera
+            && (self.techniques.connections || self.techniques.merges);
+        let (previous_bounded, sampleable) = if tracked {
             let bounded = is_bounded(bsdf, self.tau_n);
             let connectable = self.techniques.connections && self.previous_bounded;
             let guaranteed = bounded && (connectable || self.techniques.merges);
