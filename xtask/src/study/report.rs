@@ -223,9 +223,10 @@ const NOISE_DOUBLING: f64 = std::f64::consts::FRAC_1_SQRT_2;
 /// Above this RMSE ratio per doubling the error has stopped falling like
 /// noise (which gives 0.707): bias dominates it.
 const BIAS_LIMITED_DOUBLING: f64 = 0.9;
-/// Ratios within [1/1.25, 1.25] count as "no change" in the verdict, and
-/// so does a config that ends within 1 % of the level without reaching it.
+/// Ratios within [1/1.25, 1.25] count as "no change" in the verdict.
 const NO_CHANGE: f64 = 1.25;
+/// A config that ends within 1 % of the level without reaching it is "no
+/// gain" too (runs identical to the unregularized one end a rounding away).
 const SAME_FINAL_RMSE: f64 = 1.01;
 
 /// The goal of issue 21: a regularized config reaches the unregularized
