@@ -39,6 +39,9 @@ pub struct PathVertex {
     pub throughput: Vec3,
     /// Regularization state for the next vertex of the subpath.
     pub regularization: PathRegularization,
+    /// Only camera subpaths may scatter here
+    /// ([`PathRegularization::is_camera_only`], `Mode::Unsampleable`).
+    pub camera_only: bool,
     /// The bound tau this vertex was regularized with, when regularization
     /// raised its roughness; infinity otherwise (the `mis` crate's
     /// "not a virtual-merge vertex").
@@ -101,6 +104,7 @@ impl PathVertex {
             alpha_hat,
             throughput,
             regularization: regularization.after_vertex(&bsdf_original),
+            camera_only: regularization.is_camera_only(&bsdf_original),
             tau,
             medium: crate::medium::of(material),
         }
@@ -227,6 +231,19 @@ impl PathVertex {
         mis::ConnectionEnd {
             pdfs: self.connection_pdfs(wo),
             cos: f64::from(self.cos(wo)),
+        }
+    }
+
+    /// [`Self::connection_end`] of a light subpath's last vertex, rebuilt
+    /// with a camera subpath's rule: where only camera subpaths may scatter
+    /// (`camera_only`), the light's own scattering counts 0
+    /// (`mis::ConnectionEnd::without_scattering`).
+    pub fn light_end(&self, wo: Vec3) -> mis::ConnectionEnd {
+        let end = self.connection_end(wo);
+        if self.camera_only {
+            end.without_scattering()
+        } else {
+            end
         }
     }
 

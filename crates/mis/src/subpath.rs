@@ -352,6 +352,23 @@ impl SubpathState {
         )
     }
 
+    /// The same state at a vertex where the opposite sub-path may end but
+    /// not scatter (regularization's `Unsampleable` mode: this sub-path may
+    /// widen the vertex's lobe, the opposite one samples it sharp, so a
+    /// technique that scatters there estimates another integrand and is
+    /// left out). Drops the techniques whose opposite sub-path scatters
+    /// here: everything further back (d_vc) and the virtual merge sampled
+    /// here (d_virtual). The connection on the edge that ends here (d_vcm)
+    /// stays. Apply it before the vertex's techniques and its scattering.
+    #[must_use]
+    pub fn without_opposite_scattering(self) -> Self {
+        Self {
+            d_vc: 0.0,
+            d_virtual: 0.0,
+            ..self
+        }
+    }
+
     /// dVCM (tech. rep. eq. 31/34), extended by the virtual merge sampled at
     /// the previous vertex (see the type's documentation).
     pub fn d_vcm(&self) -> f64 {

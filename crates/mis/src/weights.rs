@@ -24,6 +24,26 @@ pub struct ConnectionEnd {
     pub cos: f64,
 }
 
+impl ConnectionEnd {
+    /// The same end where its own sub-path may end but not scatter
+    /// (regularization's `Unsampleable` mode: the other sub-path's rule may
+    /// widen the lobe that this sub-path samples sharp): the pdf of its own
+    /// scattering towards the other end, `fwd`, counts 0, which leaves out
+    /// the techniques that would need it (those that move the connection
+    /// towards the other sub-path's origin, and the virtual merge sampled
+    /// here).
+    #[must_use]
+    pub fn without_scattering(self) -> Self {
+        Self {
+            pdfs: VertexPdfs {
+                fwd: 0.0,
+                ..self.pdfs
+            },
+            ..self
+        }
+    }
+}
+
 /// A next-event estimation sample: an emitter point (or direction) chosen
 /// for a camera vertex.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -219,23 +219,74 @@ impl PathRegularization {
         };
         // Only a camera subpath of an integrator with connections or merges
         // uses the record (`tau`): skip the bound elsewhere.
-        let tracked = self.mode == Mode::Unsampleable
-            && self.subpath == Subpath::Camera
-            && (self.techniques.connections || self.techniques.merges);
-        let (previous_bounded, sampleable) = if tracked {
-            let bounded = is_bounded(bsdf, self.tau_n);
-            let connectable = self.techniques.connections && self.previous_bounded;
-            let guaranteed = bounded && (connectable || self.techniques.merges);
-            (bounded, self.sampleable || guaranteed)
+        let after = if self.is_tracked() {
+            self.after_bounded(self.is_bounded(bsdf))
         } else {
-            (self.previous_bounded, self.sampleable)
+            self
         };
         Self {
             rho: self.rho.max(alpha),
-            previous_bounded,
-            sampleable,
+            ..after
+        }
+    }
+
+    /// Whether `bsdf` is bounded at this iteration's tau_N (`tau::is_bounded`).
+    pub fn is_bounded(&self, bsdf: &Bsdf) -> bool {
+        is_bounded(bsdf, self.tau_n)
+    }
+
+    /// A camera subpath in `Unsampleable` mode of an integrator with
+    /// connections or merges: the only state that records its prefix.
+    fn is_tracked(&self) -> bool {
+        self.mode == Mode::Unsampleable
+            && self.subpath == Subpath::Camera
+            && (self.techniques.connections || self.techniques.merges)
+    }
+
+    /// The record after a vertex that is `bounded` (or not).
+    fn after_bounded(self, bounded: bool) -> Self {
+        let connectable = self.techniques.connections && self.previous_bounded;
+        let guaranteed = bounded && (connectable || self.techniques.merges);
+        Self {
+            previous_bounded: bounded,
+            sampleable: self.sampleable || guaranteed,
             ..self
         }
+    }
+
+    /// Whether the next vertex of this camera subpath, with BSDF `bsdf`, is
+    /// one that only camera subpaths may scatter at (`Mode::Unsampleable`):
+    /// the prefix guarantees no technique yet and the lobe is not bounded,
+    /// so the rule may widen it, while light subpaths, never regularized,
+    /// sample it sharp. A technique whose light subpath scatters there
+    /// estimates another integrand; such techniques are left out of the
+    /// path's MIS weights (this state's `mis` quantities drop them) and
+    /// are not made ([`Self::admits_light_interior`]), so the techniques
+    /// that remain agree on every vertex and their weights sum to 1.
+    pub fn is_camera_only(&self, bsdf: &Bsdf) -> bool {
+        self.is_tracked() && !self.sampleable && !self.is_bounded(bsdf)
+    }
+
+    /// Whether a technique may join this camera subpath state (after the
+    /// technique's last light vertex, rebuilt with the camera rule) to the
+    /// light subpath whose earlier vertices are `bounded`, from the one
+    /// before the last back to the light's first: none of them may be
+    /// camera-only ([`Self::is_camera_only`]) as seen by the camera rule
+    /// continuing along the light subpath. The walk ends within two
+    /// vertices: a vertex that is not bounded ends it, and two bounded ones
+    /// in a row guarantee a technique.
+    pub fn admits_light_interior(self, bounded: impl IntoIterator<Item = bool>) -> bool {
+        let mut state = self;
+        for bounded in bounded {
+            if !state.is_tracked() || state.sampleable {
+                return true;
+            }
+            if !bounded {
+                return false;
+            }
+            state = state.after_bounded(bounded);
+        }
+        true
     }
 }
 
@@ -355,6 +406,51 @@ mod tests {
                 .after_vertex(&glossy)
                 .after_vertex(&lambertian());
             assert!(after_glossy.tau().is_finite());
+        }
+    }
+
+    /// Camera-only vertices (`Unsampleable` with connections): not bounded
+    /// and before the prefix guarantees a technique. A technique is
+    /// admitted while the camera rule, walking on along the light subpath,
+    /// meets no such vertex among the light's scattering vertices.
+    #[test]
+    fn camera_only_vertices_and_admitted_light_subpaths() {
+        let connections = Techniques {
+            connections: true,
+            merges: false,
+        };
+        let start = PathRegularization::new(Mode::Unsampleable, Subpath::Camera, 10.0)
+            .with_techniques(connections);
+        assert!(start.is_camera_only(&mirror()));
+        assert!(!start.is_camera_only(&lambertian()));
+        // Camera - diffuse is a bounded edge: nothing after it is camera-only.
+        let sampleable = start.after_vertex(&lambertian());
+        assert!(!sampleable.is_camera_only(&mirror()));
+        assert!(sampleable.admits_light_interior([false, false]));
+        // After a mirror (a connection ending there, rebuilt): the light's
+        // earlier vertices must not include an unbounded one before two
+        // bounded vertices in a row make an edge.
+        let after_mirror = start.after_vertex(&mirror());
+        assert!(after_mirror.admits_light_interior([]));
+        assert!(after_mirror.admits_light_interior([true]));
+        assert!(!after_mirror.admits_light_interior([false]));
+        assert!(!after_mirror.admits_light_interior([true, false]));
+        assert!(after_mirror.admits_light_interior([true, true, false]));
+        // With merges one bounded vertex is enough.
+        let merges = PathRegularization::new(Mode::Unsampleable, Subpath::Camera, 10.0)
+            .with_techniques(Techniques {
+                connections: true,
+                merges: true,
+            })
+            .after_vertex(&mirror());
+        assert!(merges.admits_light_interior([true, false]));
+        // Other modes have no camera-only vertices and admit everything.
+        for mode in [Mode::Off, Mode::Uniform, Mode::Selective] {
+            let state = PathRegularization::new(mode, Subpath::Camera, 10.0)
+                .with_techniques(connections)
+                .after_vertex(&mirror());
+            assert!(!state.is_camera_only(&mirror()));
+            assert!(state.admits_light_interior([false, false]));
         }
     }
 

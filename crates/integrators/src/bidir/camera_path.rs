@@ -56,6 +56,13 @@ impl Iteration<'_> {
                 let w = self.mis.emitter_hit_weight(&state, &pdfs.hit());
                 radiance += walk.throughput * emission * w as f32;
             }
+            // The techniques whose light subpath would scatter here are left
+            // out from here on (`Mode::Unsampleable`; an emitter hit has none).
+            let state = if vertex.camera_only {
+                state.without_opposite_scattering()
+            } else {
+                state
+            };
             if length >= max_depth {
                 break;
             }
@@ -153,7 +160,11 @@ impl Iteration<'_> {
             return Vec3::ZERO;
         }
         let light_vertex = light.vertex(&self.ctx.scene, camera.regularization);
-        if light_vertex.is_specular() {
+        if light_vertex.is_specular()
+            || !light_vertex
+                .regularization
+                .admits_light_interior(light.earlier_bounded())
+        {
             return Vec3::ZERO;
         }
         let f = f_camera * light_vertex.eval(-dir, TransportMode::Importance);
@@ -173,7 +184,7 @@ impl Iteration<'_> {
         let Some(contribution) = self.roulette.weighted(unweighted, u_roulette, || {
             self.mis.connection_weight(
                 &light.state,
-                &light_vertex.connection_end(-dir),
+                &light_vertex.light_end(-dir),
                 camera_state,
                 &camera.connection_end(dir),
                 f64::from(distance),
@@ -199,6 +210,12 @@ impl Iteration<'_> {
         photon_map: &PhotonMap<'_>,
     ) -> Vec3 {
         photon_map.gather(camera, length, self.ctx.config.max_depth, |light| {
+            if !camera
+                .regularization
+                .admits_light_interior(light.earlier_bounded())
+            {
+                return 0.0;
+            }
             self.mis.merge_weight(
                 &light.state,
                 camera_state,

@@ -32,12 +32,21 @@ pub(super) struct LightVertex {
     /// [`PathVertex::importance_bound`]: throughput times f |cos| towards
     /// `wo` is at most `bound` |wo.n_g|.
     pub bound: f32,
+    /// Whether the subpath's earlier vertices are bounded at tau_N, the
+    /// previous one in bit 0 (`Mode::Unsampleable`; see
+    /// [`LightVertex::earlier_bounded`]).
+    earlier_bounded: u32,
 }
 
 impl LightVertex {
     /// The light vertex that `vertex`, reached with `state` after `length`
-    /// segments, leaves.
-    pub fn new(vertex: &PathVertex, state: SubpathState, length: u32) -> Self {
+    /// segments, leaves; `earlier_bounded` as in [`BoundedHistory`].
+    pub fn new(
+        vertex: &PathVertex,
+        state: SubpathState,
+        length: u32,
+        earlier_bounded: BoundedHistory,
+    ) -> Self {
         Self {
             point: vertex.point,
             wi: vertex.wi,
@@ -45,7 +54,15 @@ impl LightVertex {
             state,
             length,
             bound: vertex.throughput.max_element() * vertex.importance_bound(),
+            earlier_bounded: earlier_bounded.0,
         }
+    }
+
+    /// Whether the light subpath's vertices before this one are bounded, from
+    /// the previous one back to the first: what
+    /// [`PathRegularization::admits_light_interior`] walks (`Mode::Unsampleable`).
+    pub fn earlier_bounded(&self) -> impl Iterator<Item = bool> {
+        BoundedHistory(self.earlier_bounded).iter(self.length - 1)
     }
 
     /// The vertex rebuilt with `regularization`, the rule of the subpath
@@ -67,6 +84,24 @@ impl LightVertex {
         } else {
             self.bound * cos_out.abs()
         }
+    }
+}
+
+/// Whether the vertices of a light subpath so far are bounded at tau_N, the
+/// last one in bit 0. 32 of them are more than enough: the walk that reads
+/// them ends within two vertices ([`PathRegularization::admits_light_interior`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct BoundedHistory(u32);
+
+impl BoundedHistory {
+    /// The history after one more vertex.
+    fn push(self, bounded: bool) -> Self {
+        Self(self.0 << 1 | u32::from(bounded))
+    }
+
+    /// The last `count` (at most 32) flags, the last one first.
+    fn iter(self, count: u32) -> impl Iterator<Item = bool> {
+        (0..count.min(u32::BITS)).map(move |k| self.0 >> k & 1 == 1)
     }
 }
 
@@ -98,6 +133,8 @@ impl Iteration<'_> {
             medium: None,
         };
         let emitted = walk.throughput.max_element();
+        let unsampleable = self.mode == Mode::Unsampleable;
+        let mut history = BoundedHistory::default();
         for length in 1..=max_depth {
             let Some(hit) = ctx.intersect(walk.origin, walk.direction, f32::INFINITY) else {
                 break;
@@ -108,11 +145,14 @@ impl Iteration<'_> {
             let vertex = PathVertex::new(&ctx.scene, point, wi, walk.throughput, regularization);
             let state = ray.arrive(&self.mis, f64::from(hit.t), f64::from(vertex.cos(wi)));
             if !vertex.is_specular() || self.stores_delta_vertices() {
-                vertices.push(LightVertex::new(&vertex, state, length));
+                vertices.push(LightVertex::new(&vertex, state, length, history));
             }
             if self.mis.techniques().connections && length < max_depth {
                 let u = sampler.keyed_1d(u64::from(length));
-                self.connect_to_camera(&vertex, &state, u, splats);
+                self.connect_to_camera(&vertex, &state, history.iter(length - 1), u, splats);
+            }
+            if unsampleable {
+                history = history.push(regularization.is_bounded(&vertex.bsdf_original));
             }
             // Every further vertex makes paths of at least length + 2 segments.
             if length + 2 > max_depth {
@@ -149,10 +189,15 @@ impl Iteration<'_> {
     /// sharp in light tracing too, and a mirror that the light subpath blurred
     /// does not show a blurred highlight that no camera technique would
     /// produce (the techniques would then estimate different integrands).
+    ///
+    /// In `Unsampleable` mode the camera rule must also admit the light
+    /// subpath's earlier vertices, `earlier_bounded`
+    /// ([`PathRegularization::admits_light_interior`]).
     fn connect_to_camera(
         &self,
         light_vertex: &PathVertex,
         state: &SubpathState,
+        earlier_bounded: impl Iterator<Item = bool>,
         u_roulette: f32,
         splats: &mut Splats,
     ) {
@@ -171,7 +216,7 @@ impl Iteration<'_> {
             rebuilt = light_vertex.regularized_as(&ctx.scene, seen_from_camera);
             &rebuilt
         };
-        if vertex.is_specular() {
+        if vertex.is_specular() || !vertex.regularization.admits_light_interior(earlier_bounded) {
             return;
         }
         let to_camera = camera.position - vertex.point.p;
@@ -195,7 +240,7 @@ impl Iteration<'_> {
         let Some(contribution) = self.roulette.weighted(unweighted, u_roulette, || {
             self.mis.light_tracing_weight(
                 state,
-                &vertex.connection_end(dir),
+                &vertex.light_end(dir),
                 f64::from(camera_pdf_w),
                 f64::from(distance),
             ) as f32
