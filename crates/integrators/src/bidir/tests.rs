@@ -1,8 +1,10 @@
 //! The MIS weights of the techniques of the bidirectional core partition
 //! unity on the paths the integrator builds (SPEC §6: in `off` and `uniform`
-//! modes, with and without virtual merges; in `selective` mode the two
-//! subpaths regularize a vertex differently, so the techniques estimate
-//! different integrands and no partition is expected).
+//! modes, with and without virtual merges; in `unsampleable` mode for BPT,
+//! whose techniques that would disagree on a vertex are left out; in
+//! `selective` mode the two subpaths regularize a vertex differently, so
+//! the techniques estimate different integrands and no partition is
+//! expected).
 //!
 //! Camera subpaths are traced as `Iteration::trace_camera_path` traces them
 //! and completed the two ways the integrator completes them: by hitting an
