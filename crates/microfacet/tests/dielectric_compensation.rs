@@ -138,7 +138,7 @@ fn dielectric_tables_match_brute_force() {
             start.elapsed()
         );
         for (e, eta) in TABLE_ETAS.into_iter().enumerate() {
-            for (k, alpha) in [0.048f32, 0.2, 0.37, 0.66, 0.98].into_iter().enumerate() {
+            for (k, alpha) in [0.048f32, 0.2, 0.5, 0.98].into_iter().enumerate() {
                 for (m, mu) in [0.04f32, 0.13, 0.33, 0.51, 0.83, 0.99]
                     .into_iter()
                     .enumerate()
@@ -185,7 +185,7 @@ const COSINES: [f32; 5] = [1.0, 0.6, 0.25, 0.12, 0.04];
 /// compensation, integrated with its own sampler, value and pdf, has the
 /// energy albedo of the original within `tolerance` plus five standard
 /// errors, from both sides, at glass (1.5), diamond (2.4) and near
-/// index-matched interfaces (1.1, 1/1.1), down to grazing. The estimates
+/// index-matched interfaces (1.1), down to grazing. The estimates
 /// resolve 1e-3 only in part (the compensated mixture's standard error is
 /// up to 3e-3 at 8192 samples); the sharp test of the tables' 1e-3 is
 /// `compensated_albedo_matches_the_original_by_quadrature`. Where the wider
@@ -195,13 +195,8 @@ const COSINES: [f32; 5] = [1.0, 0.6, 0.25, 0.12, 0.04];
 #[test]
 fn compensated_dielectric_keeps_the_original_albedo() {
     let (ggx, beckmann) = (TESTED[0], TESTED[1]);
-    let cases = [
-        (ggx, 1.5),
-        (beckmann, 2.4),
-        (ggx, 1.1),
-        (ggx, 1.0 / 1.1),
-        (beckmann, 1.1),
-    ];
+    // Both sides of each: 1.1 is also 1/1.1 seen from below.
+    let cases = [(ggx, 1.5), (beckmann, 2.4), (ggx, 1.1)];
     let mut failures = Vec::new();
     let (mut worst, mut lost, mut gain): (f64, f64, f64) = (0.0, 0.0, 0.0);
     let (mut worst_case, mut worst_at_tolerance) = (String::new(), 0.0);
