@@ -58,8 +58,10 @@
 //! Accuracy (`tests/dielectric_compensation.rs`, against fine quadrature):
 //! the compensated albedo E(alpha-hat) + dE is within 1e-3 of E(alpha) from
 //! the rare side with Smith shadowing (mu >= 0.1, eta in [1.05, 2.2]);
-//! within 2.4e-3 from the dense side, 1.7e-3 (rare) and 1.5e-2 (dense) with
-//! V-cavity shadowing, 6.4e-3 below mu = 0.1 (the test's bounds say why).
+//! from the dense side within 3.8e-3 (wide lobes at mu = eta, which is no
+//! node; 2.2e-3 near grazing at eta near 1); with V-cavity shadowing 1.7e-3
+//! (rare) and 1.1e-2 (dense); 6.4e-3 below mu = 0.1 (the test's bounds say
+//! why).
 
 use std::f32::consts::FRAC_1_PI;
 use std::sync::OnceLock;
@@ -105,7 +107,7 @@ const QUADRATURE_RARE: (usize, usize) = (32, 32);
 /// 20 nodes per piece (2 to 8 pieces, 800 to 3200 evaluations) are within
 /// 1e-3 of it except near normal incidence at alpha about 0.45 (1.5e-3,
 /// eta 1/2.2): the kinks left unsplit (module docs of `SplitQuadrature`).
-const QUADRATURE_DENSE: (usize, usize) = (20, 20);
+const QUADRATURE_DENSE: (usize, usize) = (16, 16);
 /// Gauss-Legendre nodes of the smooth interface's hemispherical
 /// transmittance (`transmittance_above`), whose integrand (1 - F) mu is
 /// smooth on the rarer side.
@@ -532,19 +534,23 @@ fn flattened_rule(nodes: usize) -> Vec<(f64, f64)> {
 ///
 /// - in azimuth, on each ring theta_h, at the phi where <wi,h> equals the
 ///   cosine of total internal reflection (1 - F has an infinite slope
-///   there) and where <wi,h> = 0 (the back-facing cut, beyond which the
-///   integrand is 0); <wi,h> = sin theta_i sin theta_h cos phi +
-///   cos theta_i cos theta_h, so both phi are explicit;
-/// - in theta_h, where a ring becomes tangent to those two circles around
-///   wi (theta_h = |theta_c' -+ theta_i|, pi/2 - theta_i; theta_c' the
-///   angle of the total-internal-reflection circle), where the rings'
-///   integrals have a square-root onset.
+///   there), where the reflected direction reaches the horizon (2 <wi,h>
+///   cos theta_h = mu, where G1 of it has a kink) and where <wi,h> = 0 (the
+///   back-facing cut, beyond which the integrand is 0); <wi,h> = sin
+///   theta_i sin theta_h cos phi + cos theta_i cos theta_h, so every such
+///   phi is explicit;
+/// - in theta_h, where a ring becomes tangent to those curves
+///   (theta_h = |theta_c' -+ theta_i| for total internal reflection,
+///   theta_c' the angle of its circle around wi; pi/4 -+ theta_i/2 for the
+///   reflected horizon; pi/2 - theta_i for the back-facing circle), where the
+///   rings' integrals have a square-root onset.
 ///
 /// A product rule over the whole square (the previous tables') cut the
 /// total-internal-reflection curve and converged slowly: 64 x 64 nodes were
 /// off by up to 1.7e-3 from the dense side (GGX/Smith, alpha 0.9, normal
-/// incidence) against 256 x 256. The remaining kinks (V-cavity's min(),
-/// outgoing directions crossing the horizon) are not split.
+/// incidence) against 256 x 256; without the reflected horizon's breaks, 20
+/// x 20 split nodes by 1.4e-3. The remaining kinks (V-cavity's min(), the
+/// refracted direction's horizon) are not split.
 struct SplitQuadrature {
     model: MicrofacetModel,
     radial: Vec<(f64, f64)>,
@@ -611,8 +617,17 @@ impl SplitQuadrature {
         // <wi,h> below which the smooth interface reflects totally (from the
         // dense side), and the angle of that circle around wi.
         let tir = (eta < 1.0).then(|| (1.0 - eta * eta).sqrt());
-        let half_pi = std::f64::consts::FRAC_PI_2;
-        let mut breaks = vec![0.0, 1.0, self.radial_uniform(half_pi - theta_i)];
+        let (half_pi, quarter_pi) = (std::f64::consts::FRAC_PI_2, std::f64::consts::FRAC_PI_4);
+        // Back-facing circle, and the rings tangent to the curve where the
+        // reflected direction reaches the horizon (2 <wi,h> cos theta_h =
+        // mu, i.e. cos(2 theta_h -+ theta_i) = 0).
+        let mut breaks = vec![
+            0.0,
+            1.0,
+            self.radial_uniform(half_pi - theta_i),
+            self.radial_uniform(quarter_pi + 0.5 * theta_i),
+            self.radial_uniform(quarter_pi - 0.5 * theta_i),
+        ];
         if let Some(c) = tir {
             let theta_c = c.acos();
             for theta in [(theta_c - theta_i).abs(), theta_c + theta_i] {
@@ -664,7 +679,9 @@ impl SplitQuadrature {
             }
         };
         let back = azimuth_of(0.0);
-        let mut breaks = vec![0.0, back];
+        // The reflected direction's horizon (`albedo`), and total internal
+        // reflection.
+        let mut breaks = vec![0.0, back, azimuth_of(0.5 * cos_i / cos_h).min(back)];
         if let Some(c) = tir {
             breaks.push(azimuth_of(c).min(back));
         }

@@ -43,17 +43,20 @@ const SIGMAS: f64 = 5.0;
 const GRAZING: f32 = 0.1;
 const GRAZING_TOLERANCE: f64 = 8e-3;
 /// Seen from the dense side (Smith) the albedo has features that move with
-/// eta and that linear interpolation rounds off: near grazing the fall of
-/// shadowing (a function of mu) against the kink of total internal
-/// reflection (at mu/c = 1, the table's coordinate), and for wide lobes the
-/// cosine mu = eta where the circle of total internal reflection around wi
-/// reaches the normals' horizon. Measured up to 2.3e-3 (GGX/Smith,
-/// eta 1/1.05, 0.1 -> 0.45, mu 0.1).
-const DENSE_TOLERANCE: f64 = 3e-3;
+/// eta and that the linear table rounds off: near grazing, the fall with
+/// shadowing (a function of mu) against the table's coordinate mu/c
+/// (relative to the kink of total internal reflection, `MuGrid`), up to
+/// 2.2e-3 (GGX/Smith, eta 1/1.05, 0.03 -> 0.45, mu 0.1); for wide lobes,
+/// the cosine mu = eta where the circle of total internal reflection around
+/// wi reaches the normals' horizon, which is no node, up to 3.8e-3 (eta
+/// 1/1.5, 0.3 -> 1, mu 0.65). Most dense-side cases stay within 1e-3 (the
+/// test prints the share).
+const DENSE_TOLERANCE: f64 = 4.5e-3;
 /// V-cavity's G is a min() of three terms, whose kinks move with mu and
 /// eta: measured up to 1.7e-3 from the rare side (Beckmann, eta 2.2,
-/// 0.03 -> 1, mu 0.1) and 1.5e-2 from the dense side (eta 1/1.1, alpha
-/// 0.45, mu 0.23, table against a 256 x 256 quadrature).
+/// 0.03 -> 1, mu 0.1) and 1.1e-2 from the dense side (eta 1/1.5, 0.1 ->
+/// 0.45, mu 0.65; 1.5e-2 for the table alone at eta 1/1.1, alpha 0.45,
+/// mu 0.23, against a 256 x 256 quadrature).
 const VCAVITY_TOLERANCE: [f64; 2] = [2.5e-3, 2e-2];
 
 /// The tolerance of a table or furnace value for a query at cosine `mu`
@@ -284,12 +287,14 @@ const REFERENCE_DENSE: (usize, usize) = (48, 48);
 fn compensated_albedo_matches_the_original_by_quadrature() {
     let originals = [0.0f32, 0.03, 0.1, 0.3];
     let widened = [0.15f32, 0.45, 0.75, 1.0];
-    let cosines = [0.04f32, 0.1, 0.2, 0.35, 0.55, 0.8, 1.0];
+    let cosines = [0.04f32, 0.1, 0.2, 0.3, 0.45, 0.65, 0.85, 1.0];
     let etas = [1.05f32, 1.1, 1.5, 2.2];
     let mut failures = Vec::new();
     let (mut worst, mut worst_case) = (0.0f64, String::new());
     // Largest error per tolerance class (grazing, V-cavity rare/dense, dense).
     let mut classes: Vec<(f64, f64, String)> = Vec::new();
+    // Cases held to a bound above 1e-3: [beyond 1e-3, within it].
+    let mut within = [0, 0];
     for (kind, shadowing) in TESTED {
         for eta in etas {
             for side in [ABOVE, BELOW] {
@@ -336,6 +341,9 @@ fn compensated_albedo_matches_the_original_by_quadrature() {
                                 "{name}: original {original:.5}, widened {widened:.5}, \
                                  dE {deficit:.5}"
                             );
+                            if allowed != TOLERANCE {
+                                within[usize::from(error <= TOLERANCE)] += 1;
+                            }
                             if allowed == TOLERANCE {
                                 if error > worst {
                                     (worst, worst_case) = (error, case);
@@ -363,6 +371,11 @@ fn compensated_albedo_matches_the_original_by_quadrature() {
     for (allowed, error, case) in classes {
         println!("  held to {allowed:.1e}: {error:.2e} ({case})");
     }
+    println!(
+        "  of the cases held to these bounds, {} of {} are within 1e-3",
+        within[1],
+        within[0] + within[1]
+    );
     assert!(
         failures.is_empty(),
         "{}\n{} failures",
