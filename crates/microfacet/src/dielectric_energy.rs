@@ -398,17 +398,13 @@ fn eta_of(medium: usize, c: f32) -> f32 {
     if medium == RARE { ratio.recip() } else { ratio }
 }
 
-/// The integrand of E(mu, alpha, eta) over microfacet normals drawn from
-/// D(h)<h,n>, shared by both quadrature rules: E = int D(h) <wi,h>/<wi,n>
-/// [F G(wi, wo_r) + (1 - F) G(wi, wo_t)] dh. With wo_r = reflect(wi, h),
-/// dwo = 4 <wo,h> dh, the reflection f cos_o dwo = F D G <wi,h>/<wi,n> dh
-/// (SPEC §3); with wo_t refracted, dwo = (<wi,h> + eta <wo,h>)^2/(eta^2
-/// |<wo,h>|) dh, the Importance-mode transmission f |cos_o| dwo = (1 - F) D
-/// G <wi,h>/<wi,n> dh. Divided by the sampling density D(h)<h,n>:
-/// <wi,h>/(<wi,n><h,n>) [F G_r + (1 - F) G_t], total internal reflection
-/// giving F = 1.
-struct Integrand {
+/// Microfacet normals h_m drawn from D(h)<h,n> on a product rule (Gauss-
+/// Legendre in the radial uniform, midpoint over the half azimuth) with their
+/// weights: one set per alpha, shared by every mu and eta of the table. The
+/// rule of the rare side, whose integrand has no total internal reflection.
+struct Quadrature {
     model: MicrofacetModel,
+    normals: Vec<(Vec3, f64)>,
     /// Smith's G1 at |<w,n>| = i/(`SMITH_G1_NODES` - 1), linear between:
     /// G1 of an isotropic NDF depends on the direction's cosine only, and
     /// the exact Blinn-Phong Lambda (an incomplete beta function) made a
@@ -416,105 +412,15 @@ struct Integrand {
     smith_g1: Vec<f32>,
 }
 
-/// Nodes of `Integrand::smith_g1`, uniform in the cosine: the linear
+/// Nodes of `Quadrature::smith_g1`, uniform in the cosine: the linear
 /// interpolation error is below 1e-6 away from grazing; near grazing G1
 /// falls to 0 within a cosine of about alpha, where the integrand carries
 /// little (the table's error budget is 1e-3).
 const SMITH_G1_NODES: usize = 4097;
 
-impl Integrand {
-    fn new(kind: NdfKind, shadowing: Shadowing, alpha: f32) -> Self {
-        let model = MicrofacetModel::new(kind, alpha, shadowing);
-        let smith_g1 = match shadowing {
-            Shadowing::Smith => (0..SMITH_G1_NODES)
-                .map(|i| {
-                    let mu = i as f32 / (SMITH_G1_NODES - 1) as f32;
-                    model
-                        .ndf
-                        .g1(Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu))
-                })
-                .collect(),
-            Shadowing::VCavity => Vec::new(),
-        };
-        Self { model, smith_g1 }
-    }
-
-    /// Smith's G1 at cosine `mu` in [0, 1], from `smith_g1`.
-    fn smith_g1(&self, mu: f32) -> f32 {
-        let x = mu.clamp(0.0, 1.0) * (SMITH_G1_NODES - 1) as f32;
-        let i = (x as usize).min(SMITH_G1_NODES - 2);
-        lerp(self.smith_g1[i], self.smith_g1[i + 1], x - i as f32)
-    }
-
-    /// The query direction of cosine `mu` (in the xz-plane) and Smith's
-    /// G1 of it, which does not depend on h (given <wi,h> > 0); 0 for
-    /// V-cavity, which does not use it.
-    fn query(&self, mu: f64) -> (DVec3, f32) {
-        let mu = mu.clamp(GRAZING_MU, 1.0);
-        let wi = DVec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
-        let g1_wi = match self.model.shadowing {
-            Shadowing::Smith => self.model.ndf.g1(wi.as_vec3()),
-            Shadowing::VCavity => 0.0,
-        };
-        (wi, g1_wi)
-    }
-
-    /// <wi,h>/(<wi,n><h,n>) [F G_r + (1 - F) G_t] in f64. Smith's G needs
-    /// only the outgoing cosines, which are explicit (reflection 2 <wi,h>
-    /// h_z - mu; refraction -mu/eta + (<wi,h>/eta - cos theta_t) h_z, Snell's
-    /// law as in `frame::refract_f64`); V-cavity's needs the directions.
-    fn eval(&self, (wi, g1_wi): (DVec3, f32), h: DVec3, eta: f64) -> f64 {
-        let (wi_h, mu) = (wi.dot(h), wi.z);
-        if !(wi_h > 0.0) || !(h.z > 0.0) {
-            return 0.0;
-        }
-        let (f, t) = fresnel::dielectric_f64(wi_h, eta);
-        let reflected_z = 2.0 * wi_h * h.z - mu;
-        let mut value = 0.0;
-        match self.model.shadowing {
-            Shadowing::Smith => {
-                let g = |cos_o: f64| f64::from(g1_wi * self.smith_g1(cos_o.abs() as f32));
-                if reflected_z > 0.0 {
-                    value += f * g(reflected_z);
-                }
-                if t > 0.0 {
-                    let cos_t = ((eta - 1.0) * (eta + 1.0) + wi_h * wi_h).max(0.0).sqrt() / eta;
-                    let refracted_z = -mu / eta + (wi_h / eta - cos_t) * h.z;
-                    if refracted_z < 0.0 {
-                        value += t * g(refracted_z);
-                    }
-                }
-            }
-            Shadowing::VCavity => {
-                let (wi32, h32) = (wi.as_vec3(), h.as_vec3());
-                if reflected_z > 0.0 {
-                    let wo = (2.0 * wi_h * h - wi).as_vec3();
-                    value += f * f64::from(self.model.g(wi32, wo, h32));
-                }
-                if t > 0.0
-                    && let Some(wo) = refract_f64(wi32, h32, eta)
-                    && wo.z < 0.0
-                {
-                    value += t * f64::from(self.model.g(wi32, wo, h32));
-                }
-            }
-        }
-        value * wi_h / (mu * h.z)
-    }
-}
-
-/// Microfacet normals h_m drawn from D(h)<h,n> on a product rule (Gauss-
-/// Legendre in the radial uniform, midpoint over the half azimuth) with their
-/// weights: one set per alpha, shared by every mu and eta of the table. The
-/// rule of the rare side, whose integrand has no total internal reflection.
-struct Quadrature {
-    integrand: Integrand,
-    normals: Vec<(DVec3, f64)>,
-}
-
 impl Quadrature {
     fn new(kind: NdfKind, shadowing: Shadowing, alpha: f32, radial: usize, azimuth: usize) -> Self {
-        let integrand = Integrand::new(kind, shadowing, alpha);
+        let model = MicrofacetModel::new(kind, alpha, shadowing);
         let rule = gauss_legendre(radial);
         let mut normals = Vec::with_capacity(radial * azimuth);
         for &(v, w) in &rule {
@@ -530,25 +436,81 @@ impl Quadrature {
                 // Half azimuth [0, 1/2) of the sampler's u.y (doubled by the
                 // symmetry about the plane of incidence).
                 let u2 = (m as f64 + 0.5) / (2 * azimuth) as f64;
-                let h = integrand
-                    .model
-                    .ndf
-                    .sample_d_cos(Vec2::new(u1 as f32, u2 as f32));
+                let h = model.ndf.sample_d_cos(Vec2::new(u1 as f32, u2 as f32));
                 if h.z > 0.0 {
-                    normals.push((h.as_dvec3(), w1 / azimuth as f64));
+                    normals.push((h, w1 / azimuth as f64));
                 }
             }
         }
-        Self { integrand, normals }
+        let smith_g1 = match shadowing {
+            Shadowing::Smith => (0..SMITH_G1_NODES)
+                .map(|i| {
+                    let mu = i as f32 / (SMITH_G1_NODES - 1) as f32;
+                    model
+                        .ndf
+                        .g1(Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu))
+                })
+                .collect(),
+            Shadowing::VCavity => Vec::new(),
+        };
+        Self {
+            model,
+            normals,
+            smith_g1,
+        }
     }
 
-    /// E(mu, alpha, eta) (`Integrand`).
+    /// Smith's G1 at cosine `mu` in [0, 1], from `smith_g1`.
+    fn smith_g1(&self, mu: f32) -> f32 {
+        let x = mu.clamp(0.0, 1.0) * (SMITH_G1_NODES - 1) as f32;
+        let i = (x as usize).min(SMITH_G1_NODES - 2);
+        lerp(self.smith_g1[i], self.smith_g1[i + 1], x - i as f32)
+    }
+
+    /// E(mu, alpha, eta) = int D(h) <wi,h>/<wi,n> [F G(wi, wo_r) + (1 - F)
+    /// G(wi, wo_t)] dh: with wo_r = reflect(wi, h), dwo = 4 <wo,h> dh, the
+    /// reflection f cos_o dwo = F D G <wi,h>/<wi,n> dh (SPEC §3); with wo_t
+    /// refracted, dwo = (<wi,h> + eta <wo,h>)^2/(eta^2 |<wo,h>|) dh, the
+    /// Importance-mode transmission f |cos_o| dwo = (1 - F) D G <wi,h>/<wi,n>
+    /// dh. Divided by the sampling density D(h)<h,n>:
+    /// <wi,h>/(<wi,n><h,n>) [F G_r + (1 - F) G_t], total internal
+    /// reflection giving F = 1.
     fn albedo(&self, mu: f64, eta: f64) -> f64 {
-        let query = self.integrand.query(mu);
-        self.normals
-            .iter()
-            .map(|&(h, weight)| weight * self.integrand.eval(query, h, eta))
-            .sum()
+        let mu = mu.max(GRAZING_MU);
+        let wi = Vec3::new((1.0 - mu * mu).max(0.0).sqrt() as f32, 0.0, mu as f32);
+        let model = &self.model;
+        // Smith's G1(wi) does not depend on h (given <wi,h> > 0).
+        let g1_wi = match model.shadowing {
+            Shadowing::Smith => model.ndf.g1(wi),
+            Shadowing::VCavity => 0.0,
+        };
+        // Both directions below are valid for their side (checked), so
+        // Smith's G1(wo) is the tabulated G1 of |<wo,n>|.
+        let g = |wo: Vec3, h: Vec3| match model.shadowing {
+            Shadowing::Smith => g1_wi * self.smith_g1(wo.z.abs()),
+            Shadowing::VCavity => model.g(wi, wo, h),
+        };
+        let mut sum = 0.0;
+        for &(h, weight) in &self.normals {
+            let wi_h = wi.dot(h);
+            if !(wi_h > 0.0) {
+                continue;
+            }
+            let (f, t) = fresnel::dielectric_f64(f64::from(wi_h), eta);
+            let mut value = 0.0;
+            let wo = 2.0 * wi_h * h - wi;
+            if wo.z > 0.0 {
+                value += f * f64::from(g(wo, h));
+            }
+            if t > 0.0
+                && let Some(wo) = refract_f64(wi, h, eta)
+                && wo.z < 0.0
+            {
+                value += t * f64::from(g(wo, h));
+            }
+            sum += weight * value * f64::from(wi_h) / (mu * f64::from(h.z));
+        }
+        sum
     }
 }
 
@@ -590,20 +552,43 @@ fn flattened_rule(nodes: usize) -> Vec<(f64, f64)> {
 /// x 20 split nodes by 1.4e-3. The remaining kinks (V-cavity's min(), the
 /// refracted direction's horizon) are not split.
 struct SplitQuadrature {
-    integrand: Integrand,
+    model: MicrofacetModel,
     radial: Vec<(f64, f64)>,
     azimuth: Vec<(f64, f64)>,
+    /// Smith's G1 at |<w,n>| = i/(`SMITH_G1_NODES` - 1), linear between
+    /// (as `Quadrature::smith_g1`).
+    smith_g1: Vec<f32>,
 }
 
 impl SplitQuadrature {
-    /// The rule for the NDF at `alpha` with `nodes` = (radial, azimuthal)
-    /// Gauss-Legendre nodes per piece.
+    /// The rule for `model`'s NDF at `alpha` with `nodes` = (radial,
+    /// azimuthal) Gauss-Legendre nodes per piece.
     fn new(kind: NdfKind, shadowing: Shadowing, alpha: f32, nodes: (usize, usize)) -> Self {
+        let model = MicrofacetModel::new(kind, alpha, shadowing);
+        let smith_g1 = match shadowing {
+            Shadowing::Smith => (0..SMITH_G1_NODES)
+                .map(|i| {
+                    let mu = i as f32 / (SMITH_G1_NODES - 1) as f32;
+                    model
+                        .ndf
+                        .g1(Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu))
+                })
+                .collect(),
+            Shadowing::VCavity => Vec::new(),
+        };
         Self {
-            integrand: Integrand::new(kind, shadowing, alpha),
+            model,
             radial: flattened_rule(nodes.0),
             azimuth: flattened_rule(nodes.1),
+            smith_g1,
         }
+    }
+
+    /// Smith's G1 at cosine `mu` in [0, 1], from `smith_g1`.
+    fn smith_g1(&self, mu: f32) -> f32 {
+        let x = mu.clamp(0.0, 1.0) * (SMITH_G1_NODES - 1) as f32;
+        let i = (x as usize).min(SMITH_G1_NODES - 2);
+        lerp(self.smith_g1[i], self.smith_g1[i + 1], x - i as f32)
     }
 
     /// The radial uniform u1 whose ring has polar angle `theta` (the
@@ -614,14 +599,7 @@ impl SplitQuadrature {
         let (mut lo, mut hi) = (0.0f64, 1.0f64);
         for _ in 0..BISECTION_STEPS {
             let mid = 0.5 * (lo + hi);
-            if self
-                .integrand
-                .model
-                .ndf
-                .sample_d_cos(Vec2::new(mid as f32, 0.0))
-                .z
-                > cos
-            {
+            if self.model.ndf.sample_d_cos(Vec2::new(mid as f32, 0.0)).z > cos {
                 lo = mid;
             } else {
                 hi = mid;
@@ -630,10 +608,11 @@ impl SplitQuadrature {
         0.5 * (lo + hi)
     }
 
-    /// E(mu, alpha, eta) (`Integrand`).
+    /// E(mu, alpha, eta) (see `Quadrature::albedo` for the integrand).
     fn albedo(&self, mu: f64, eta: f64) -> f64 {
-        let query @ (wi, _) = self.integrand.query(mu);
-        let mu = wi.z;
+        let mu = mu.clamp(GRAZING_MU, 1.0);
+        let sin_i = (1.0 - mu * mu).max(0.0).sqrt();
+        let wi = DVec3::new(sin_i, 0.0, mu);
         let theta_i = mu.acos();
         // <wi,h> below which the smooth interface reflects totally (from the
         // dense side), and the angle of that circle around wi.
@@ -658,6 +637,10 @@ impl SplitQuadrature {
             }
         }
         breaks.sort_by(f64::total_cmp);
+        let g1_wi = match self.model.shadowing {
+            Shadowing::Smith => self.model.ndf.g1(wi.as_vec3()),
+            Shadowing::VCavity => 0.0,
+        };
         let mut sum = 0.0;
         for piece in breaks.windows(2) {
             let (a, b) = (piece[0], piece[1]);
@@ -666,13 +649,9 @@ impl SplitQuadrature {
             }
             for &(x, w) in &self.radial {
                 let u1 = a + (b - a) * x;
-                let ring = self
-                    .integrand
-                    .model
-                    .ndf
-                    .sample_d_cos(Vec2::new(u1 as f32, 0.0));
+                let ring = self.model.ndf.sample_d_cos(Vec2::new(u1 as f32, 0.0));
                 let (sin_h, cos_h) = (f64::from(ring.x), f64::from(ring.z));
-                sum += w * (b - a) * self.ring(query, (sin_h, cos_h), tir, eta);
+                sum += w * (b - a) * self.ring(wi, g1_wi, (sin_i, mu), (sin_h, cos_h), tir, eta);
             }
         }
         sum
@@ -682,12 +661,13 @@ impl SplitQuadrature {
     /// at the total-internal-reflection and back-facing azimuths.
     fn ring(
         &self,
-        query @ (wi, _): (DVec3, f32),
+        wi: DVec3,
+        g1_wi: f32,
+        (sin_i, cos_i): (f64, f64),
         (sin_h, cos_h): (f64, f64),
         tir: Option<f64>,
         eta: f64,
     ) -> f64 {
-        let (sin_i, cos_i) = (wi.x, wi.z);
         let pi = std::f64::consts::PI;
         // phi where <wi,h> = k (0 or pi if the ring does not reach k).
         let azimuth_of = |k: f64| {
@@ -715,10 +695,54 @@ impl SplitQuadrature {
             for &(x, w) in &self.azimuth {
                 let (sin_phi, cos_phi) = (a + (b - a) * x).sin_cos();
                 let h = DVec3::new(sin_h * cos_phi, sin_h * sin_phi, cos_h);
-                sum += w * (b - a) * self.integrand.eval(query, h, eta);
+                sum += w * (b - a) * self.integrand(wi, g1_wi, h, eta);
             }
         }
         sum / pi
+    }
+
+    /// <wi,h>/(<wi,n><h,n>) [F G_r + (1 - F) G_t] (`Quadrature::albedo`),
+    /// in f64. Smith's G needs only the outgoing cosines, which are explicit
+    /// (reflection 2 <wi,h> h_z - mu; refraction -mu/eta + (<wi,h>/eta -
+    /// cos theta_t) h_z, Snell's law as in `frame::refract_f64`); V-cavity's
+    /// needs the directions.
+    fn integrand(&self, wi: DVec3, g1_wi: f32, h: DVec3, eta: f64) -> f64 {
+        let (wi_h, mu) = (wi.dot(h), wi.z);
+        if !(wi_h > 0.0) || !(h.z > 0.0) {
+            return 0.0;
+        }
+        let (f, t) = fresnel::dielectric_f64(wi_h, eta);
+        let reflected_z = 2.0 * wi_h * h.z - mu;
+        let mut value = 0.0;
+        match self.model.shadowing {
+            Shadowing::Smith => {
+                let g = |cos_o: f64| f64::from(g1_wi * self.smith_g1(cos_o.abs() as f32));
+                if reflected_z > 0.0 {
+                    value += f * g(reflected_z);
+                }
+                if t > 0.0 {
+                    let cos_t = ((eta - 1.0) * (eta + 1.0) + wi_h * wi_h).max(0.0).sqrt() / eta;
+                    let refracted_z = -mu / eta + (wi_h / eta - cos_t) * h.z;
+                    if refracted_z < 0.0 {
+                        value += t * g(refracted_z);
+                    }
+                }
+            }
+            Shadowing::VCavity => {
+                let (wi32, h32) = (wi.as_vec3(), h.as_vec3());
+                if reflected_z > 0.0 {
+                    let wo = (2.0 * wi_h * h - wi).as_vec3();
+                    value += f * f64::from(self.model.g(wi32, wo, h32));
+                }
+                if t > 0.0
+                    && let Some(wo) = refract_f64(wi32, h32, eta)
+                    && wo.z < 0.0
+                {
+                    value += t * f64::from(self.model.g(wi32, wo, h32));
+                }
+            }
+        }
+        value * wi_h / (mu * h.z)
     }
 }
 
