@@ -103,16 +103,16 @@ pub struct Cli {
     /// (selective on camera subpaths until an unregularized connection or merge of the
     /// integrator could sample every path through them, light subpaths stay sharp: BPT, BPM,
     /// PPM and VCM; PT treats it as selective).
-    /// [default: the manifest's, else selective]
+    /// [default: the manifest's, else unsampleable]
     #[arg(long, value_name = "MODE", value_parser = parse_regularize,
           help_heading = "Regularization")]
     pub regularize: Option<Mode>,
 
     /// Initial regularization bound tau_0, in 1/sr; must exceed 1/(2 pi) = 0.159. Smaller values
-    /// blur more (tau_0 = 7.5 raises roughness to alpha = 0.103 at the first iteration).
+    /// blur more (tau_0 = 30 raises roughness to alpha = 0.052 at the first iteration, 7.5 to 0.103).
     /// tau bounds the outgoing solid-angle density of a lobe (D/4 for reflection);
     /// implementations that bound D itself use 4x this value.
-    /// [default: the manifest's, else 7.5]
+    /// [default: the manifest's, else 30]
     #[arg(long = "tau0", value_name = "TAU", value_parser = parse_tau0, allow_negative_numbers = true,
           help_heading = "Regularization")]
     pub tau0: Option<f64>,

@@ -285,7 +285,7 @@ mod tests {
         for line in [
             "integrator:       vcm (manifest)",
             "iterations:       2 (flag)",
-            "regularize:       selective (default)",
+            "regularize:       unsampleable (default)",
             "tau0:             30 (manifest)",
             "progressive:      yes (default)",
             "energy:           off (manifest)",

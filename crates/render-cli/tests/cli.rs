@@ -249,7 +249,7 @@ fn explain_prints_the_settings_and_renders() {
     for line in [
         "regularize:       selective (manifest)",
         "iterations:       2 (flag)",
-        "tau0:             7.5 (default)",
+        "tau0:             30 (default)",
         "threads:          1",
     ] {
         assert!(stdout.contains(line), "'{line}' missing from:\n{stdout}");

@@ -62,7 +62,7 @@ options:
                         S + 1000003, the unbiased reference S + 2000006, so no
                         config shares random numbers with a reference
   --tau0 X              tau_0 of the -reg configs and the regularized
-                        reference [default: the scene's, else 7.5]
+                        reference [default: the scene's, else 30]
   --out DIR             output folder [default: target/study/<scene name>]
   --rerender-reference  render the reference(s) even when cached (and update
                         the cache). The cache key holds the renderer's sources

@@ -278,11 +278,12 @@ mod tests {
     fn swept_configs_shade_their_base_colour() {
         let sum = |c: RGBColor| u32::from(c.0) + u32::from(c.1) + u32::from(c.2);
         let base = color_of("bpt-reg");
-        assert_eq!(color_of("bpt-reg@tau0=7.5"), base);
+        let default = format!("bpt-reg@tau0={}", integrators::DEFAULT_TAU_0);
+        assert_eq!(color_of(&default), base);
         let ramp: Vec<u32> = [
             "bpt-reg@tau0=2",
+            "bpt-reg@tau0=7.5",
             "bpt-reg",
-            "bpt-reg@tau0=30",
             "bpt-reg@tau0=120",
         ]
         .iter()
