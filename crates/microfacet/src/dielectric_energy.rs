@@ -405,18 +405,44 @@ fn eta_of(medium: usize, c: f32) -> f32 {
 struct Quadrature {
     model: MicrofacetModel,
     normals: Vec<(Vec3, f64)>,
-    /// Smith's G1 at |<w,n>| = i/(`SMITH_G1_NODES` - 1), linear between:
-    /// G1 of an isotropic NDF depends on the direction's cosine only, and
-    /// the exact Blinn-Phong Lambda (an incomplete beta function) made a
-    /// table cost 7 s.
-    smith_g1: Vec<f32>,
+    smith_g1: SmithG1Table,
 }
 
-/// Nodes of `Quadrature::smith_g1`, uniform in the cosine: the linear
-/// interpolation error is below 1e-6 away from grazing; near grazing G1
-/// falls to 0 within a cosine of about alpha, where the integrand carries
-/// little (the table's error budget is 1e-3).
+/// Smith's G1 at |<w,n>| = i/(`SMITH_G1_NODES` - 1), linear between (empty
+/// for V-cavity shadowing): G1 of an isotropic NDF depends on the
+/// direction's cosine only, and the exact Blinn-Phong Lambda (an incomplete
+/// beta function) made a table cost 7 s.
+struct SmithG1Table(Vec<f32>);
+
+/// Nodes of `SmithG1Table`, uniform in the cosine: the linear interpolation
+/// error is below 1e-6 away from grazing; near grazing G1 falls to 0 within
+/// a cosine of about alpha, where the integrand carries little (the table's
+/// error budget is 1e-3).
 const SMITH_G1_NODES: usize = 4097;
+
+impl SmithG1Table {
+    /// The table of `model`'s G1 (empty for V-cavity shadowing).
+    fn new(model: &MicrofacetModel, shadowing: Shadowing) -> Self {
+        Self(match shadowing {
+            Shadowing::Smith => (0..SMITH_G1_NODES)
+                .map(|i| {
+                    let mu = i as f32 / (SMITH_G1_NODES - 1) as f32;
+                    model
+                        .ndf
+                        .g1(Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu))
+                })
+                .collect(),
+            Shadowing::VCavity => Vec::new(),
+        })
+    }
+
+    /// Smith's G1 at cosine `mu` in [0, 1].
+    fn at(&self, mu: f32) -> f32 {
+        let x = mu.clamp(0.0, 1.0) * (SMITH_G1_NODES - 1) as f32;
+        let i = (x as usize).min(SMITH_G1_NODES - 2);
+        lerp(self.0[i], self.0[i + 1], x - i as f32)
+    }
+}
 
 impl Quadrature {
     fn new(kind: NdfKind, shadowing: Shadowing, alpha: f32, radial: usize, azimuth: usize) -> Self {
@@ -442,29 +468,12 @@ impl Quadrature {
                 }
             }
         }
-        let smith_g1 = match shadowing {
-            Shadowing::Smith => (0..SMITH_G1_NODES)
-                .map(|i| {
-                    let mu = i as f32 / (SMITH_G1_NODES - 1) as f32;
-                    model
-                        .ndf
-                        .g1(Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu))
-                })
-                .collect(),
-            Shadowing::VCavity => Vec::new(),
-        };
+        let smith_g1 = SmithG1Table::new(&model, shadowing);
         Self {
             model,
             normals,
             smith_g1,
         }
-    }
-
-    /// Smith's G1 at cosine `mu` in [0, 1], from `smith_g1`.
-    fn smith_g1(&self, mu: f32) -> f32 {
-        let x = mu.clamp(0.0, 1.0) * (SMITH_G1_NODES - 1) as f32;
-        let i = (x as usize).min(SMITH_G1_NODES - 2);
-        lerp(self.smith_g1[i], self.smith_g1[i + 1], x - i as f32)
     }
 
     /// E(mu, alpha, eta) = int D(h) <wi,h>/<wi,n> [F G(wi, wo_r) + (1 - F)
@@ -487,7 +496,7 @@ impl Quadrature {
         // Both directions below are valid for their side (checked), so
         // Smith's G1(wo) is the tabulated G1 of |<wo,n>|.
         let g = |wo: Vec3, h: Vec3| match model.shadowing {
-            Shadowing::Smith => g1_wi * self.smith_g1(wo.z.abs()),
+            Shadowing::Smith => g1_wi * self.smith_g1.at(wo.z.abs()),
             Shadowing::VCavity => model.g(wi, wo, h),
         };
         let mut sum = 0.0;
@@ -555,9 +564,7 @@ struct SplitQuadrature {
     model: MicrofacetModel,
     radial: Vec<(f64, f64)>,
     azimuth: Vec<(f64, f64)>,
-    /// Smith's G1 at |<w,n>| = i/(`SMITH_G1_NODES` - 1), linear between
-    /// (as `Quadrature::smith_g1`).
-    smith_g1: Vec<f32>,
+    smith_g1: SmithG1Table,
 }
 
 impl SplitQuadrature {
@@ -565,30 +572,13 @@ impl SplitQuadrature {
     /// azimuthal) Gauss-Legendre nodes per piece.
     fn new(kind: NdfKind, shadowing: Shadowing, alpha: f32, nodes: (usize, usize)) -> Self {
         let model = MicrofacetModel::new(kind, alpha, shadowing);
-        let smith_g1 = match shadowing {
-            Shadowing::Smith => (0..SMITH_G1_NODES)
-                .map(|i| {
-                    let mu = i as f32 / (SMITH_G1_NODES - 1) as f32;
-                    model
-                        .ndf
-                        .g1(Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu))
-                })
-                .collect(),
-            Shadowing::VCavity => Vec::new(),
-        };
+        let smith_g1 = SmithG1Table::new(&model, shadowing);
         Self {
             model,
             radial: flattened_rule(nodes.0),
             azimuth: flattened_rule(nodes.1),
             smith_g1,
         }
-    }
-
-    /// Smith's G1 at cosine `mu` in [0, 1], from `smith_g1`.
-    fn smith_g1(&self, mu: f32) -> f32 {
-        let x = mu.clamp(0.0, 1.0) * (SMITH_G1_NODES - 1) as f32;
-        let i = (x as usize).min(SMITH_G1_NODES - 2);
-        lerp(self.smith_g1[i], self.smith_g1[i + 1], x - i as f32)
     }
 
     /// The radial uniform u1 whose ring has polar angle `theta` (the
@@ -716,7 +706,7 @@ impl SplitQuadrature {
         let mut value = 0.0;
         match self.model.shadowing {
             Shadowing::Smith => {
-                let g = |cos_o: f64| f64::from(g1_wi * self.smith_g1(cos_o.abs() as f32));
+                let g = |cos_o: f64| f64::from(g1_wi * self.smith_g1.at(cos_o.abs() as f32));
                 if reflected_z > 0.0 {
                     value += f * g(reflected_z);
                 }
