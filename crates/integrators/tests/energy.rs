@@ -9,16 +9,16 @@
 //! The blur is strong (tau_0 = 1: alpha_tau = 0.28 at N = 1), so that the
 //! energy a widened lobe loses is far above the noise. The furnaces use
 //! `uniform` mode, so the sphere the camera sees is widened too; their
-//! standard errors are 0.2-0.5 %. The bundled scenes use the default
-//! `selective` rule (SPEC §5), for a reason measured here: `uniform` blurs
-//! what the camera sees directly, and where that is a glass sphere acting
-//! as a lens (caustic-through-glass, caustic-glass) the blur spreads the
-//! camera's view from the bright image it focuses to the darker
-//! surroundings. The image mean then changes for a reason other than
-//! energy (0.48 and 0.83 of the unregularized mean at N = 1 with
-//! compensation, 0.99 and 1.01 with the selective rule). Their standard
-//! errors are 1-13 % (stiff's 1 mm, 1e7-radiance light seen in a near
-//! mirror is the noisiest), so they catch gross errors only.
+//! standard errors are 0.2-0.5 %. The bundled scenes use the `selective`
+//! rule (SPEC §5; it widens more than the default `unsampleable`), for a
+//! reason measured here: `uniform` blurs what the camera sees directly, and
+//! where that is a glass sphere acting as a lens (caustic-through-glass,
+//! caustic-glass) the blur spreads the camera's view from the bright image
+//! it focuses to the darker surroundings. The image mean then changes for
+//! a reason other than energy (0.48 and 0.83 of the unregularized mean at
+//! N = 1 with compensation, 0.99 and 1.01 with the selective rule). Their
+//! standard errors are 1-13 % (stiff's 1 mm, 1e7-radiance light seen in a
+//! near mirror is the noisiest), so they catch gross errors only.
 //!
 //! Each scene is rendered by an estimator that samples all of its paths
 //! without regularization (the study's unbiased reference, SPEC §7): VCM
@@ -228,7 +228,7 @@ fn sum_covariance_bound(variance: DVec3) -> f64 {
     sd.element_sum().powi(2) - variance.element_sum()
 }
 
-/// `uniform` in the furnaces, the default `selective` rule in the bundled
+/// `uniform` in the furnaces, the `selective` rule in the bundled
 /// scenes (module docs).
 fn mode(scene: &str) -> Mode {
     if FURNACES.contains(&scene) {

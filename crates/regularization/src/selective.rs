@@ -33,11 +33,12 @@ pub enum Mode {
     Off,
     /// tau_k = tau_N at every vertex, including the first camera vertex.
     Uniform,
-    /// The path-diffusion rule above (the default).
+    /// The path-diffusion rule above (SPEC §5).
     Selective,
     /// The selective rule, on subpaths whose prefix does not yet make every
     /// path through it sampleable by an unregularized technique
     /// ([`Techniques`]); `Selective` for integrators without such techniques.
+    /// The default of the renderer (issue-21 sweep, README).
     Unsampleable,
 }
 
