@@ -8,8 +8,8 @@ mod common;
 use common::*;
 use glam::Vec3;
 use microfacet::{Bsdf, Lambertian, MicrofacetModel, TransportMode};
+use stats::Pcg32;
 use stats::chi2::sidak;
-use stats::{Pcg32, SphericalChi2};
 
 /// Number of chi-square tests in this file (for the Sidak correction):
 /// microfacet normals, conductor, dielectric at two etas, for every model and
@@ -23,19 +23,6 @@ fn significance() -> f64 {
     sidak(0.01, family_size())
 }
 
-/// The harness, with a quadrature fine enough for lobes of width `alpha`.
-///
-/// The adaptive rule must start with a spacing below the narrowest feature
-/// of the pdf, or it can miss a lobe inside a cell. A lobe refracted into
-/// glass is about alpha/3 radians wide; a cell side is pi/20 radians.
-fn harness(alpha: f32) -> SphericalChi2 {
-    let mut test = SphericalChi2::default();
-    let cell = std::f64::consts::PI / test.theta_res as f64;
-    let lobe = f64::from(alpha) / 3.0;
-    test.integration_depth.min = (cell / lobe).log2().ceil().max(1.0) as u32;
-    test
-}
-
 /// Runs one test and returns a failure description, if any.
 fn check(
     name: &str,
@@ -44,7 +31,7 @@ fn check(
     sample: impl FnMut(&mut Pcg32) -> Option<Vec3>,
     pdf: impl Fn(Vec3) -> f64,
 ) -> Option<String> {
-    let outcome = harness(alpha).run(&mut Pcg32::new(seed, 0x5eed), sample, pdf);
+    let outcome = chi2_harness(alpha).run(&mut Pcg32::new(seed, 0x5eed), sample, pdf);
     (!outcome.passes(significance())).then(|| format!("{name}: {outcome:?}"))
 }
 

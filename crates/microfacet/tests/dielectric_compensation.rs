@@ -17,8 +17,8 @@ use microfacet::dielectric_energy::{
     ABOVE, BELOW, dielectric_albedo_quadrature, dielectric_albedo_table,
 };
 use microfacet::{Bsdf, MicrofacetModel, NdfKind, Shadowing, TransportMode};
+use stats::Pcg32;
 use stats::chi2::sidak;
-use stats::{Pcg32, SphericalChi2};
 
 /// Side of the jittered grid of one replica.
 const GRID: usize = 16;
@@ -448,16 +448,6 @@ fn compensation_lobe_carries_the_tabulated_deficit() {
     println!("largest |compensation energy - dE|: {worst:.1e}");
 }
 
-/// The chi-square harness with a quadrature fine enough for a refracted
-/// lobe of width `alpha` (as `chi2.rs`).
-fn harness(alpha: f32) -> SphericalChi2 {
-    let mut test = SphericalChi2::default();
-    let cell = std::f64::consts::PI / test.theta_res as f64;
-    let lobe = f64::from(alpha) / 3.0;
-    test.integration_depth.min = (cell / lobe).log2().ceil().max(1.0) as u32;
-    test
-}
-
 /// The compensated interfaces' samplers against their mixture pdf (pbrt-v4's
 /// chi-square test, significance 0.01 with a Sidak correction), queried from
 /// both sides; the smallest p-value is printed.
@@ -488,16 +478,7 @@ fn compensated_dielectric_sampling_matches_its_pdf() {
         };
         assert!(d.compensation.is_some(), "{name}: not compensated");
         for (k, &wi) in directions.iter().enumerate() {
-            let mode = TransportMode::Radiance;
-            let outcome = harness(alpha_hat).run(
-                &mut Pcg32::new((n * 10 + k) as u64, 0x5eed),
-                |rng| {
-                    let uc = rng.uniform_f32();
-                    let u = rng.uniform_vec2();
-                    bsdf.sample(wi, uc, u, mode).map(|s| s.wo)
-                },
-                |wo| f64::from(bsdf.pdf(wi, wo)),
-            );
+            let outcome = chi2_of_sampling(&chi2_harness(alpha_hat), bsdf, wi, (n * 10 + k) as u64);
             smallest_p = smallest_p.min(outcome.p_value);
             if !outcome.passes(significance) {
                 failures.push(format!("{name} wi {wi}: {outcome:?}"));

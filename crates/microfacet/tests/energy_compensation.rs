@@ -224,16 +224,8 @@ fn compensated_sampling_matches_its_pdf() {
     let mut failures = Vec::new();
     for (n, (name, bsdf)) in lobes.iter().enumerate() {
         for (k, wi) in incident_directions().into_iter().enumerate() {
-            let mode = TransportMode::Radiance;
-            let outcome = SphericalChi2::default().run(
-                &mut Pcg32::new((n * 10 + k) as u64, 0x5eed),
-                |rng| {
-                    let uc = rng.uniform_f32();
-                    let u = rng.uniform_vec2();
-                    bsdf.sample(wi, uc, u, mode).map(|s| s.wo)
-                },
-                |wo| f64::from(bsdf.pdf(wi, wo)),
-            );
+            let harness = SphericalChi2::default();
+            let outcome = chi2_of_sampling(&harness, bsdf, wi, (n * 10 + k) as u64);
             if !outcome.passes(significance) {
                 failures.push(format!("{name} wi {wi}: {outcome:?}"));
             }

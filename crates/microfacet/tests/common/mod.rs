@@ -7,7 +7,7 @@ use glam::{Vec2, Vec3};
 use microfacet::{
     Bsdf, Conductor, Dielectric, Fresnel, MicrofacetModel, NdfKind, Shadowing, TransportMode,
 };
-use stats::{Pcg32, Summary};
+use stats::{Chi2Outcome, Pcg32, SphericalChi2, Summary};
 
 /// Every NDF.
 pub const NDFS: [NdfKind; 3] = [NdfKind::Ggx, NdfKind::Beckmann, NdfKind::BlinnPhong];
@@ -108,4 +108,33 @@ pub fn stratified_albedo(
         estimates.push(sum / (grid * grid) as f64);
     }
     (estimates.mean(), estimates.standard_error())
+}
+
+/// The chi-square harness with a quadrature fine enough for lobes of width
+/// `alpha`.
+///
+/// The adaptive rule must start with a spacing below the narrowest feature
+/// of the pdf, or it can miss a lobe inside a cell. A lobe refracted into
+/// glass is about alpha/3 radians wide; a cell side is pi/20 radians.
+pub fn chi2_harness(alpha: f32) -> SphericalChi2 {
+    let mut test = SphericalChi2::default();
+    let cell = std::f64::consts::PI / test.theta_res as f64;
+    let lobe = f64::from(alpha) / 3.0;
+    test.integration_depth.min = (cell / lobe).log2().ceil().max(1.0) as u32;
+    test
+}
+
+/// `harness` run on `bsdf`'s Radiance-mode sampling from `wi` against its
+/// pdf, with random stream `seed`.
+pub fn chi2_of_sampling(harness: &SphericalChi2, bsdf: &Bsdf, wi: Vec3, seed: u64) -> Chi2Outcome {
+    let mode = TransportMode::Radiance;
+    harness.run(
+        &mut Pcg32::new(seed, 0x5eed),
+        |rng| {
+            let uc = rng.uniform_f32();
+            let u = rng.uniform_vec2();
+            bsdf.sample(wi, uc, u, mode).map(|s| s.wo)
+        },
+        |wo| f64::from(bsdf.pdf(wi, wo)),
+    )
 }
