@@ -462,6 +462,7 @@ fn run_config(
     let render_config = config.render_config(options.seed, settings.max_depth, settings.tau0)?;
     let t = Instant::now();
     let renderer = Renderer::new(scene.clone(), render_config);
+    renderer.prepare_energy_tables();
     let setup_seconds = t.elapsed().as_secs_f64();
     let marks = metrics::checkpoints(options.iterations);
     let mut points = Vec::new();
@@ -625,6 +626,7 @@ fn render_reference(
         None => {
             let t = Instant::now();
             let renderer = Renderer::new(context.scene.clone(), render_config);
+            renderer.prepare_energy_tables();
             let setup_seconds = t.elapsed().as_secs_f64();
             let label = format!("{role} {config}");
             let rendered = render(&renderer, spec.iterations, &[], progress, &label, |_| {});
