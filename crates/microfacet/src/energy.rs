@@ -23,7 +23,32 @@
 //! difference of two rows of the table interpolated linearly in s = sqrt(mu),
 //! so it is piecewise linear in s, and dE_avg is integrated in closed form on
 //! that same function: the furnace identity holds exactly for the
-//! interpolated dE.
+//! interpolated dE. 40 x 40 nodes uniform in sqrt(mu) and sqrt(alpha);
+//! Gauss-Legendre x midpoint quadrature over D(h)<h,n>-sampled normals
+//! (0.15-0.9 s per table; Smith Blinn-Phong's exact Lambda 2.5 s). Table
+//! against brute force: within 1e-3 for mu >= 0.1, up to 4.4e-3 near
+//! grazing at small alpha (`tests/energy_compensation.rs`).
+//!
+//! **Colour.** f_c is scaled by the lobe's Fresnel average
+//! F_avg = 2 int F mu dmu (Kulla & Conty's choice; `Fresnel::average`,
+//! `Coated::specular_fresnel_average`), so for F = 1 the lobe reflects
+//! exactly what the original did. A coated lobe compensates its coat
+//! (specular) lobe inside the specular branch of its coin.
+//!
+//! **Sampling.** The compensation lobe is chosen with probability
+//! P_c = dE(mu_i) / (E_alpha-hat(mu_i) + dE(mu_i)) and sampled by cosine;
+//! `pdf` is the mixture, and so is p-hat at a regularized vertex
+//! ((1 - P_c) p-hat_lobe + P_c mu_o/pi): the paper's eq. 13 ratio is
+//! undefined for a lobe the original lacks, and SPEC §6 only needs every
+//! technique to use the same pdf.
+//!
+//! **Cost** per regularized vertex: 2 x 40 table lookups and a Fresnel
+//! average (8 Fresnel evaluations for complex-index conductors); 4 bilinear
+//! lookups per evaluation.
+//!
+//! **Limits.** Where the wider lobe reflects more than the original
+//! (V-cavity, and Beckmann/Blinn-Phong near grazing: up to +0.044) a
+//! non-negative lobe cannot remove the gain, and nothing is added.
 
 use std::f32::consts::FRAC_1_PI;
 use std::sync::OnceLock;
