@@ -199,7 +199,7 @@ impl HashGrid {
             let hi = (c + r) * self.inv_cell_size;
             let pad_lo = 1e-6 + lo.abs() * 1e-15;
             let pad_hi = 1e-6 + hi.abs() * 1e-15;
-            ((lo - pad_lo).floor() as i64, (hi + pad_hi).floor() as i64)
+            (floor_to_i64(lo - pad_lo), floor_to_i64(hi + pad_hi))
         };
         let (x0, x1) = range(q.x);
         let (y0, y1) = range(q.y);
@@ -236,9 +236,12 @@ impl HashGrid {
             }
             for &b in &buckets[..n] {
                 let (start, end) = self.bucket_range(b);
-                for j in start..end {
-                    if within(self.positions[j]) {
-                        f(self.keys[j] as u32 as usize);
+                for (p, key) in self.positions[start..end]
+                    .iter()
+                    .zip(&self.keys[start..end])
+                {
+                    if within(*p) {
+                        f(*key as u32 as usize);
                     }
                 }
             }
@@ -272,7 +275,7 @@ impl HashGrid {
     /// Integer cell of a position (saturating for far or non-finite points).
     #[inline]
     fn cell_of(&self, p: Vec3) -> [i64; 3] {
-        let c = |x: f32| (f64::from(x) * self.inv_cell_size).floor() as i64;
+        let c = |x: f32| floor_to_i64(f64::from(x) * self.inv_cell_size);
         [c(p.x), c(p.y), c(p.z)]
     }
 
@@ -290,6 +293,16 @@ impl HashGrid {
     }
 }
 
+/// `x.floor() as i64` (saturating; NaN gives 0) without the call to the
+/// floor routine that the baseline x86-64 target makes (it has no SSE4.1
+/// rounding instruction): 1.5 % of a BPM iteration, six calls per query.
+/// Truncation rounds toward zero, so one is taken off where that rounded up.
+#[inline]
+fn floor_to_i64(x: f64) -> i64 {
+    let t = x as i64;
+    if t as f64 > x { t.saturating_sub(1) } else { t }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -301,6 +314,39 @@ mod tests {
                 Vec3::new((f * 0.37).fract(), (f * 0.61).fract(), (f * 0.113).fract())
             })
             .collect()
+    }
+
+    #[test]
+    fn floor_to_i64_is_floor() {
+        let mut values = vec![
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            -1.0,
+            1.0 - f64::EPSILON,
+            -1.0 - f64::EPSILON,
+            2f64.powi(52) + 0.5,
+            -(2f64.powi(52) + 0.5),
+            2f64.powi(63),
+            -(2f64.powi(63)),
+            -(2f64.powi(63)) - 4096.0,
+            1e300,
+            -1e300,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+        ];
+        let mut z = 0x9e37_79b9_7f4a_7c15u64;
+        for _ in 0..100_000 {
+            z = z.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            values.push(((z >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 1e4);
+        }
+        for x in values {
+            assert_eq!(floor_to_i64(x), x.floor() as i64, "{x}");
+        }
     }
 
     #[test]

@@ -116,13 +116,27 @@ const LENTZ_TINY: f64 = 1e-300;
 /// Continued fraction of DLMF 8.17.22, evaluated by the modified Lentz method,
 /// on whichever of x and 1 - x makes it converge fast (DLMF 8.17.4 symmetry).
 pub fn beta_inc(a: f64, b: f64, x: f64) -> f64 {
+    beta_inc_with(a, b, ln_inv_beta(a, b), x)
+}
+
+/// ln(1 / B(a, b)) = ln Gamma(a + b) - ln Gamma(a) - ln Gamma(b): the part of
+/// [`beta_inc`]'s front factor that does not depend on x, for callers that
+/// evaluate I_x(a, b) at many x ([`beta_inc_with`]).
+pub fn ln_inv_beta(a: f64, b: f64) -> f64 {
+    ln_gamma(a + b) - ln_gamma(a) - ln_gamma(b)
+}
+
+/// [`beta_inc`] with its x-independent part `ln_inv_beta` =
+/// [`ln_inv_beta`]`(a, b)` given: the same value bit for bit, without the
+/// three ln Gamma evaluations.
+pub fn beta_inc_with(a: f64, b: f64, ln_inv_beta: f64, x: f64) -> f64 {
     if x <= 0.0 {
         return 0.0;
     }
     if x >= 1.0 {
         return 1.0;
     }
-    let ln_front = ln_gamma(a + b) - ln_gamma(a) - ln_gamma(b) + a * x.ln() + b * (-x).ln_1p();
+    let ln_front = ln_inv_beta + a * x.ln() + b * (-x).ln_1p();
     let front = ln_front.exp();
     if x < (a + 1.0) / (a + b + 2.0) {
         front * beta_continued_fraction(a, b, x) / a
