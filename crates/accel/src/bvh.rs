@@ -6,15 +6,16 @@ use std::ops::ControlFlow;
 
 use glam::{Vec3, Vec3A};
 use obvhs::{
-    Boundable, BvhBuildParams,
+    BvhBuildParams,
     aabb::Aabb,
-    bvh2::{Bvh2, leaf_collapser::collapse, reinsertion::ReinsertionOptimizer},
-    cwbvh::{CwBvh, bvh2_to_cwbvh::bvh2_to_cwbvh},
-    ploc::PlocBuilder,
+    bvh2::{Bvh2, leaf_collapser::collapse, node::Bvh2Node, reinsertion::ReinsertionOptimizer},
+    cwbvh::CwBvh,
+    ploc::{PlocBuilder, PlocSearchDistance},
     splits::split_aabbs_preset,
     triangle::Triangle,
 };
 
+use crate::convert::bvh2_to_cwbvh;
 use crate::sphere::Sphere;
 use crate::traverse::{NodeRay, traverse_binary, traverse_wide};
 use crate::triangle::{RayTransform, is_degenerate};
@@ -272,26 +273,29 @@ impl Bvh {
                 v2: v2.into(),
             }
         };
-        // The builder's input is dropped before the tree is converted, the
-        // build's memory peak (obvhs' CWBVH converter reserves about 190
-        // bytes per primitive): 48 bytes per triangle less at the peak.
-        let bvh2 = if valid_spheres.is_empty() {
-            let prims: Vec<Triangle> = valid_ids.iter().map(|&id| triangle(id)).collect();
-            build_bvh2(&prims, Some(&prims), options)
-        } else {
-            // Triangles' boxes first, then the spheres': a primitive index
-            // below valid_ids.len() is a triangle.
-            let boxes: Vec<Aabb> = valid_ids
+        // Triangles' boxes first, then the spheres': a primitive index
+        // below valid_ids.len() is a triangle. The boxes go straight into
+        // the builder's leaves, with no copy of the primitives.
+        let boxes =
+            valid_ids
                 .iter()
                 .map(|&id| triangle(id).aabb())
                 .chain(valid_spheres.iter().map(|&j| {
                     let (lo, hi) = spheres[j as usize].bounds();
                     Aabb::new(lo.into(), hi.into())
-                }))
-                .collect();
-            build_bvh2(&boxes, None, options)
+                }));
+        let bvh2 = if valid_spheres.is_empty() && options.quality.params().pre_split {
+            let prims: Vec<Triangle> = valid_ids.iter().map(|&id| triangle(id)).collect();
+            build_bvh2_split(&prims, options)
+        } else {
+            build_bvh2(boxes, valid_ids.len() + valid_spheres.len(), options)
         };
-        let (tree, slots) = finish_tree(bvh2, options);
+        let tree = finish_tree(bvh2, options);
+        let slots = match &tree {
+            Tree::Wide(wide) => &wide.primitive_indices,
+            Tree::Binary(bvh2, _) => &bvh2.primitive_indices,
+            Tree::Empty => unreachable!("a tree over at least one primitive"),
+        };
         bvh.triangles = slots
             .iter()
             .map(|&s| {
@@ -673,75 +677,102 @@ impl Bvh {
     }
 }
 
-/// Builds the obvhs tree (the steps of obvhs' `build_*_from_tris` helpers,
-/// without their debug-build validation pass) and returns it with the slot ->
-/// input index map.
-/// The optimised binary tree of `prims`. `splittable`: the triangles of
-/// `prims` when they may be pre-split (all of `prims` are triangles);
-/// `None` turns the presets' pre-splits off.
-fn build_bvh2<T: Boundable>(
-    prims: &[T],
-    splittable: Option<&[Triangle]>,
-    options: BuildOptions,
-) -> Bvh2 {
-    let mut config = options.quality.params();
-    config.pre_split &= splittable.is_some();
-    let indices: Vec<u32> = (0..prims.len() as u32).collect();
-    let mut bvh2 = if config.pre_split {
-        let mut largest_half_area = 0.0f32;
-        let mut total_half_area = 0.0f64;
-        let triangles = splittable.unwrap_or_default();
-        let mut aabbs: Vec<Aabb> = triangles
-            .iter()
-            .map(|t| {
-                let aabb = t.aabb();
-                let half_area = aabb.half_area();
-                largest_half_area = largest_half_area.max(half_area);
-                total_half_area += f64::from(half_area);
-                aabb
-            })
-            .collect();
-        let mut indices = indices;
-        let avg_half_area = (total_half_area / triangles.len() as f64) as f32;
-        split_aabbs_preset(
-            &mut aabbs,
-            &mut indices,
-            triangles,
-            avg_half_area,
-            largest_half_area,
-        );
-        PlocBuilder::with_capacity(aabbs.len()).build(
-            config.ploc_search_distance,
-            &aabbs,
-            indices,
-            config.sort_precision,
-            config.search_depth_threshold,
-        )
-    } else {
-        PlocBuilder::with_capacity(prims.len()).build(
-            config.ploc_search_distance,
-            prims,
-            indices,
-            config.sort_precision,
-            config.search_depth_threshold,
-        )
-    };
-    bvh2.uses_spatial_splits = config.pre_split;
+/// The optimised binary tree over the primitives whose boxes `boxes`
+/// yields (`count` of them), without pre-splits: obvhs' `PlocBuilder::build`
+/// and reinsertion (the steps of its `build_*_from_tris` helpers, without
+/// their debug-build validation pass), with the leaves written from the
+/// boxes as they come (obvhs' `build_ploc` takes a slice of primitives:
+/// for triangles a 48-byte copy each, held through the build). The tree is
+/// the same: `build_ploc` makes exactly these leaves and this total box
+/// (min and max do not depend on the order).
+fn build_bvh2(boxes: impl Iterator<Item = Aabb>, count: usize, options: BuildOptions) -> Bvh2 {
+    let config = options.quality.params();
+    let mut builder = PlocBuilder::with_capacity(count);
+    let mut total = Aabb::empty();
+    builder.current_nodes.clear();
+    builder
+        .current_nodes
+        .extend(boxes.enumerate().map(|(i, aabb)| {
+            total.extend(aabb.min);
+            total.extend(aabb.max);
+            Bvh2Node::new(aabb, 1, i as u32)
+        }));
+    assert_eq!(builder.current_nodes.len(), count, "one box per primitive");
+    let mut bvh2 = Bvh2::zeroed(count);
+    bvh2.reset_for_reuse(count, Some((0..count as u32).collect()));
+    let (precision, threshold) = (config.sort_precision, config.search_depth_threshold);
+    match config.ploc_search_distance {
+        PlocSearchDistance::Minimum => {
+            builder.build_ploc_from_leaves::<1, false>(&mut bvh2, total, precision, threshold);
+        }
+        PlocSearchDistance::VeryLow => {
+            builder.build_ploc_from_leaves::<2, false>(&mut bvh2, total, precision, threshold);
+        }
+        PlocSearchDistance::Low => {
+            builder.build_ploc_from_leaves::<6, false>(&mut bvh2, total, precision, threshold);
+        }
+        PlocSearchDistance::Medium => {
+            builder.build_ploc_from_leaves::<14, false>(&mut bvh2, total, precision, threshold);
+        }
+        PlocSearchDistance::High => {
+            builder.build_ploc_from_leaves::<24, false>(&mut bvh2, total, precision, threshold);
+        }
+        PlocSearchDistance::VeryHigh => {
+            builder.build_ploc_from_leaves::<32, false>(&mut bvh2, total, precision, threshold);
+        }
+    }
+    drop(builder);
     ReinsertionOptimizer::default().run(&mut bvh2, config.reinsertion_batch_ratio, None);
     bvh2
 }
 
-/// The tree of `options.layout` from `bvh2`, and its primitive slots.
-fn finish_tree(mut bvh2: Bvh2, options: BuildOptions) -> (Tree, Vec<u32>) {
+/// The optimised binary tree of `triangles` with the presets' pre-splits
+/// of large triangles (`Slow`, `VerySlow`).
+fn build_bvh2_split(triangles: &[Triangle], options: BuildOptions) -> Bvh2 {
+    let config = options.quality.params();
+    let mut largest_half_area = 0.0f32;
+    let mut total_half_area = 0.0f64;
+    let mut aabbs: Vec<Aabb> = triangles
+        .iter()
+        .map(|t| {
+            let aabb = t.aabb();
+            let half_area = aabb.half_area();
+            largest_half_area = largest_half_area.max(half_area);
+            total_half_area += f64::from(half_area);
+            aabb
+        })
+        .collect();
+    let mut indices: Vec<u32> = (0..triangles.len() as u32).collect();
+    let avg_half_area = (total_half_area / triangles.len() as f64) as f32;
+    split_aabbs_preset(
+        &mut aabbs,
+        &mut indices,
+        triangles,
+        avg_half_area,
+        largest_half_area,
+    );
+    let mut bvh2 = PlocBuilder::with_capacity(aabbs.len()).build(
+        config.ploc_search_distance,
+        &aabbs,
+        indices,
+        config.sort_precision,
+        config.search_depth_threshold,
+    );
+    bvh2.uses_spatial_splits = true;
+    ReinsertionOptimizer::default().run(&mut bvh2, config.reinsertion_batch_ratio, None);
+    bvh2
+}
+
+/// The tree of `options.layout` from `bvh2`.
+fn finish_tree(mut bvh2: Bvh2, options: BuildOptions) -> Tree {
     let config = options.quality.params();
     if options.layout == Layout::Wide {
-        let mut wide = bvh2_to_cwbvh(&bvh2, config.max_prims_per_leaf.clamp(1, 3), true, false);
+        // The binary tree's bookkeeping of the reinsertion is not needed.
+        bvh2.parents = Vec::new();
+        bvh2.primitives_to_nodes = Vec::new();
+        let wide = bvh2_to_cwbvh(&bvh2, config.max_prims_per_leaf.clamp(1, 3));
         if wide_depth(&wide) <= MAX_WIDE_DEPTH {
-            // The converter reserves a node per primitive; a tree uses
-            // about a quarter of them.
-            wide.nodes.shrink_to_fit();
-            let slots = wide.primitive_indices.clone();
-            return (Tree::Wide(wide), slots);
+            return Tree::Wide(wide);
         }
     }
     let mut reinsertion = ReinsertionOptimizer::default();
@@ -756,8 +787,7 @@ fn finish_tree(mut bvh2: Bvh2, options: BuildOptions) -> (Tree, Vec<u32>) {
         None,
     );
     let depth = binary_depth(&bvh2);
-    let slots = bvh2.primitive_indices.clone();
-    (Tree::Binary(bvh2, depth), slots)
+    Tree::Binary(bvh2, depth)
 }
 
 /// Number of node levels of a CWBVH (0 when empty).
@@ -817,6 +847,74 @@ fn pow2(e: i32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The leaves written from boxes give obvhs' own tree (`PlocBuilder::build`
+    /// over a slice of triangles, then reinsertion), node for node; a
+    /// different search distance gives another (the comparison can fail).
+    #[test]
+    fn leaves_from_boxes_give_obvhs_tree() {
+        let g = 30;
+        let h = |i: usize, j: usize| {
+            let (x, z) = (i as f32 / g as f32, j as f32 / g as f32);
+            Vec3A::new(x, 0.1 * (7.0 * x).sin() * (5.0 * z).cos(), z)
+        };
+        let mut tris = Vec::new();
+        for i in 0..g {
+            for j in 0..g {
+                let (a, b, c, d) = (h(i, j), h(i + 1, j), h(i + 1, j + 1), h(i, j + 1));
+                tris.push(Triangle {
+                    v0: a,
+                    v1: d,
+                    v2: c,
+                });
+                tris.push(Triangle {
+                    v0: a,
+                    v1: c,
+                    v2: b,
+                });
+            }
+        }
+        let theirs = |quality: BuildQuality| {
+            let config = quality.params();
+            let mut bvh2 = PlocBuilder::with_capacity(tris.len()).build(
+                config.ploc_search_distance,
+                &tris,
+                (0..tris.len() as u32).collect(),
+                config.sort_precision,
+                config.search_depth_threshold,
+            );
+            ReinsertionOptimizer::default().run(&mut bvh2, config.reinsertion_batch_ratio, None);
+            bvh2
+        };
+        for quality in [
+            BuildQuality::Fastest,
+            BuildQuality::Fast,
+            BuildQuality::Medium,
+        ] {
+            let options = BuildOptions {
+                quality,
+                ..BuildOptions::default()
+            };
+            let ours = build_bvh2(tris.iter().map(Triangle::aabb), tris.len(), options);
+            let reference = theirs(quality);
+            // (Bvh2Node has no PartialEq; Debug prints every f32 exactly.)
+            assert_eq!(
+                format!("{:?}", ours.nodes),
+                format!("{:?}", reference.nodes),
+                "{quality:?}"
+            );
+            assert_eq!(ours.primitive_indices, reference.primitive_indices);
+        }
+        let fastest = build_bvh2(
+            tris.iter().map(Triangle::aabb),
+            tris.len(),
+            BuildOptions::default(),
+        );
+        assert_ne!(
+            format!("{:?}", fastest.nodes),
+            format!("{:?}", theirs(BuildQuality::Fastest).nodes)
+        );
+    }
 
     #[test]
     fn exponent_and_pow2() {
