@@ -175,11 +175,14 @@ struct PreparedRay {
 
 impl Bvh {
     /// Peak memory of [`Bvh::build`] per triangle, in bytes, for checking
-    /// that a scene fits before it is built. Measured: a 1,002,528-triangle
-    /// OBJ height field loaded, built and rendered at 8x8 peaked at 401 MiB
-    /// resident (about 420 bytes per triangle), of which the loaded scene
-    /// holds about 100 (positions, normals, uvs, material ids).
-    pub const BUILD_BYTES_PER_TRIANGLE: u64 = 320;
+    /// that a scene fits before it is built. Measured: a 999,698-triangle
+    /// OBJ height field (`cargo xtask bench --scaling`) peaked at 272 MB
+    /// resident while building, against 10 MiB for 968 triangles; the
+    /// scene held 22 bytes per triangle. Of the rest, obvhs' PLOC builder
+    /// holds 212 bytes per primitive at its peak (its two 48-byte node
+    /// buffers, the BVH2's two 48-byte nodes and index, 16 bytes of Morton
+    /// codes).
+    pub const BUILD_BYTES_PER_TRIANGLE: u64 = 250;
 
     /// Builds a BVH over `triangles` with the default [`BuildOptions`], in
     /// parallel on the current rayon pool.
@@ -215,14 +218,47 @@ impl Bvh {
         spheres: &[Sphere],
         options: BuildOptions,
     ) -> Self {
+        Self::build_from(triangles.len(), |i| triangles[i], spheres, options)
+    }
+
+    /// [`Bvh::build_with_spheres`] over an indexed mesh: triangle `i` has
+    /// the corners `positions[triangles[i][k]]`. The tree and every query's
+    /// result are those of the same triangles given corner by corner.
+    ///
+    /// # Panics
+    /// If a vertex index is out of range, or there are more than
+    /// `u32::MAX` primitives.
+    #[must_use]
+    pub fn build_indexed(
+        positions: &[Vec3],
+        triangles: &[[u32; 3]],
+        spheres: &[Sphere],
+        options: BuildOptions,
+    ) -> Self {
+        Self::build_from(
+            triangles.len(),
+            |i| triangles[i].map(|v| positions[v as usize]),
+            spheres,
+            options,
+        )
+    }
+
+    /// The build over `count` triangles, triangle `i` being `corners(i)`.
+    fn build_from(
+        count: usize,
+        corners: impl Fn(usize) -> [Vec3; 3],
+        spheres: &[Sphere],
+        options: BuildOptions,
+    ) -> Self {
         assert!(
-            u32::try_from(triangles.len() + spheres.len()).is_ok(),
+            u32::try_from(count + spheres.len()).is_ok(),
             "accel::Bvh supports at most u32::MAX primitives"
         );
         let mut min = Vec3::INFINITY;
         let mut max = Vec3::NEG_INFINITY;
-        let mut valid_ids = Vec::with_capacity(triangles.len());
-        for (id, tri) in triangles.iter().enumerate() {
+        let mut valid_ids = Vec::with_capacity(count);
+        for id in 0..count {
+            let tri = &corners(id);
             if !tri
                 .iter()
                 .all(|v| v.is_finite() && v.abs().max_element() <= MAX_COORDINATE)
@@ -257,7 +293,7 @@ impl Bvh {
             tree: Tree::Empty,
             triangles: Vec::new(),
             ids: Vec::new(),
-            triangle_count: triangles.len(),
+            triangle_count: count,
             spheres: spheres.to_vec(),
             bounds,
             scene_exponent: 0,
@@ -266,7 +302,7 @@ impl Bvh {
             return bvh;
         }
         let triangle = |id: u32| {
-            let [v0, v1, v2] = triangles[id as usize];
+            let [v0, v1, v2] = corners(id as usize);
             Triangle {
                 v0: v0.into(),
                 v1: v1.into(),
@@ -300,11 +336,11 @@ impl Bvh {
             .iter()
             .map(|&s| {
                 valid_ids.get(s as usize).map_or([Vec3A::ZERO; 3], |&id| {
-                    triangles[id as usize].map(Vec3A::from)
+                    corners(id as usize).map(Vec3A::from)
                 })
             })
             .collect();
-        let first_sphere = triangles.len() as u32;
+        let first_sphere = count as u32;
         bvh.ids = slots
             .iter()
             .map(|&s| match valid_ids.get(s as usize) {
