@@ -304,6 +304,8 @@ impl Converter<'_> {
 
     /// Puts each child in the slot of the ray octant that visits it first
     /// (Ylitie et al. §3.2; greedy, as obvhs' `order_children`).
+    // `s` is both the octant's sign bits and the cost table's column.
+    #[allow(clippy::needless_range_loop)]
     fn order_children(&self, index: usize, children: &mut [u32; BRANCHING], count: usize) {
         let p = self.bvh2.nodes[index].aabb().center();
         let mut cost = [[f32::MAX; DIRECTIONS]; BRANCHING];
@@ -313,8 +315,8 @@ impl Converter<'_> {
                 if s & 0b010 != 0 { -1.0 } else { 1.0 },
                 if s & 0b001 != 0 { -1.0 } else { 1.0 },
             );
-            for c in 0..count {
-                let v = self.bvh2.nodes[children[c] as usize].aabb().center() - p;
+            for (c, &child) in children.iter().enumerate().take(count) {
+                let v = self.bvh2.nodes[child as usize].aabb().center() - p;
                 cost[c][s] = d.dot(v);
             }
         }

@@ -441,11 +441,11 @@ impl SceneBuilder {
             if !(self.tangents.is_empty() && other.tangents.is_empty()) {
                 self.tangents.resize(self.positions.len(), Vec4::ZERO);
                 other.tangents.resize(other.positions.len(), Vec4::ZERO);
-                self.tangents.extend(other.tangents.drain(..));
+                self.tangents.append(&mut other.tangents);
             }
-            self.positions.extend(other.positions.drain(..));
-            self.normals.extend(other.normals.drain(..));
-            self.uvs.extend(other.uvs.drain(..));
+            self.positions.append(&mut other.positions);
+            self.normals.append(&mut other.normals);
+            self.uvs.append(&mut other.uvs);
             self.triangles.extend(
                 other
                     .triangles
