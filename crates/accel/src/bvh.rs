@@ -6,15 +6,16 @@ use std::ops::ControlFlow;
 
 use glam::{Vec3, Vec3A};
 use obvhs::{
-    Boundable, BvhBuildParams,
+    BvhBuildParams,
     aabb::Aabb,
-    bvh2::{Bvh2, leaf_collapser::collapse, reinsertion::ReinsertionOptimizer},
-    cwbvh::{CwBvh, bvh2_to_cwbvh::bvh2_to_cwbvh},
-    ploc::PlocBuilder,
+    bvh2::{Bvh2, leaf_collapser::collapse, node::Bvh2Node, reinsertion::ReinsertionOptimizer},
+    cwbvh::CwBvh,
+    ploc::{PlocBuilder, PlocSearchDistance},
     splits::split_aabbs_preset,
     triangle::Triangle,
 };
 
+use crate::convert::bvh2_to_cwbvh;
 use crate::sphere::Sphere;
 use crate::traverse::{NodeRay, traverse_binary, traverse_wide};
 use crate::triangle::{RayTransform, is_degenerate};
@@ -174,11 +175,14 @@ struct PreparedRay {
 
 impl Bvh {
     /// Peak memory of [`Bvh::build`] per triangle, in bytes, for checking
-    /// that a scene fits before it is built. Measured: a 1,002,528-triangle
-    /// OBJ height field loaded, built and rendered at 8x8 peaked at 401 MiB
-    /// resident (about 420 bytes per triangle), of which the loaded scene
-    /// holds about 100 (positions, normals, uvs, material ids).
-    pub const BUILD_BYTES_PER_TRIANGLE: u64 = 320;
+    /// that a scene fits before it is built. Measured: a 999,698-triangle
+    /// OBJ height field (`cargo xtask bench --scaling`) peaked at 272 MB
+    /// resident while building, against 10 MiB for 968 triangles; the
+    /// scene held 22 bytes per triangle. Of the rest, obvhs' PLOC builder
+    /// holds 212 bytes per primitive at its peak (its two 48-byte node
+    /// buffers, the BVH2's two 48-byte nodes and index, 16 bytes of Morton
+    /// codes).
+    pub const BUILD_BYTES_PER_TRIANGLE: u64 = 250;
 
     /// Builds a BVH over `triangles` with the default [`BuildOptions`], in
     /// parallel on the current rayon pool.
@@ -214,14 +218,47 @@ impl Bvh {
         spheres: &[Sphere],
         options: BuildOptions,
     ) -> Self {
+        Self::build_from(triangles.len(), |i| triangles[i], spheres, options)
+    }
+
+    /// [`Bvh::build_with_spheres`] over an indexed mesh: triangle `i` has
+    /// the corners `positions[triangles[i][k]]`. The tree and every query's
+    /// result are those of the same triangles given corner by corner.
+    ///
+    /// # Panics
+    /// If a vertex index is out of range, or there are more than
+    /// `u32::MAX` primitives.
+    #[must_use]
+    pub fn build_indexed(
+        positions: &[Vec3],
+        triangles: &[[u32; 3]],
+        spheres: &[Sphere],
+        options: BuildOptions,
+    ) -> Self {
+        Self::build_from(
+            triangles.len(),
+            |i| triangles[i].map(|v| positions[v as usize]),
+            spheres,
+            options,
+        )
+    }
+
+    /// The build over `count` triangles, triangle `i` being `corners(i)`.
+    fn build_from(
+        count: usize,
+        corners: impl Fn(usize) -> [Vec3; 3],
+        spheres: &[Sphere],
+        options: BuildOptions,
+    ) -> Self {
         assert!(
-            u32::try_from(triangles.len() + spheres.len()).is_ok(),
+            u32::try_from(count + spheres.len()).is_ok(),
             "accel::Bvh supports at most u32::MAX primitives"
         );
         let mut min = Vec3::INFINITY;
         let mut max = Vec3::NEG_INFINITY;
-        let mut valid_ids = Vec::with_capacity(triangles.len());
-        for (id, tri) in triangles.iter().enumerate() {
+        let mut valid_ids = Vec::with_capacity(count);
+        for id in 0..count {
+            let tri = &corners(id);
             if !tri
                 .iter()
                 .all(|v| v.is_finite() && v.abs().max_element() <= MAX_COORDINATE)
@@ -256,7 +293,7 @@ impl Bvh {
             tree: Tree::Empty,
             triangles: Vec::new(),
             ids: Vec::new(),
-            triangle_count: triangles.len(),
+            triangle_count: count,
             spheres: spheres.to_vec(),
             bounds,
             scene_exponent: 0,
@@ -265,42 +302,45 @@ impl Bvh {
             return bvh;
         }
         let triangle = |id: u32| {
-            let [v0, v1, v2] = triangles[id as usize];
+            let [v0, v1, v2] = corners(id as usize);
             Triangle {
                 v0: v0.into(),
                 v1: v1.into(),
                 v2: v2.into(),
             }
         };
-        // The builder's input is dropped before the tree is converted, the
-        // build's memory peak (obvhs' CWBVH converter reserves about 190
-        // bytes per primitive): 48 bytes per triangle less at the peak.
-        let bvh2 = if valid_spheres.is_empty() {
-            let prims: Vec<Triangle> = valid_ids.iter().map(|&id| triangle(id)).collect();
-            build_bvh2(&prims, Some(&prims), options)
-        } else {
-            // Triangles' boxes first, then the spheres': a primitive index
-            // below valid_ids.len() is a triangle.
-            let boxes: Vec<Aabb> = valid_ids
+        // Triangles' boxes first, then the spheres': a primitive index
+        // below valid_ids.len() is a triangle. The boxes go straight into
+        // the builder's leaves, with no copy of the primitives.
+        let boxes =
+            valid_ids
                 .iter()
                 .map(|&id| triangle(id).aabb())
                 .chain(valid_spheres.iter().map(|&j| {
                     let (lo, hi) = spheres[j as usize].bounds();
                     Aabb::new(lo.into(), hi.into())
-                }))
-                .collect();
-            build_bvh2(&boxes, None, options)
+                }));
+        let bvh2 = if valid_spheres.is_empty() && options.quality.params().pre_split {
+            let prims: Vec<Triangle> = valid_ids.iter().map(|&id| triangle(id)).collect();
+            build_bvh2_split(&prims, options)
+        } else {
+            build_bvh2(boxes, valid_ids.len() + valid_spheres.len(), options)
         };
-        let (tree, slots) = finish_tree(bvh2, options);
+        let tree = finish_tree(bvh2, options);
+        let slots = match &tree {
+            Tree::Wide(wide) => &wide.primitive_indices,
+            Tree::Binary(bvh2, _) => &bvh2.primitive_indices,
+            Tree::Empty => unreachable!("a tree over at least one primitive"),
+        };
         bvh.triangles = slots
             .iter()
             .map(|&s| {
                 valid_ids.get(s as usize).map_or([Vec3A::ZERO; 3], |&id| {
-                    triangles[id as usize].map(Vec3A::from)
+                    corners(id as usize).map(Vec3A::from)
                 })
             })
             .collect();
-        let first_sphere = triangles.len() as u32;
+        let first_sphere = count as u32;
         bvh.ids = slots
             .iter()
             .map(|&s| match valid_ids.get(s as usize) {
@@ -673,75 +713,102 @@ impl Bvh {
     }
 }
 
-/// Builds the obvhs tree (the steps of obvhs' `build_*_from_tris` helpers,
-/// without their debug-build validation pass) and returns it with the slot ->
-/// input index map.
-/// The optimised binary tree of `prims`. `splittable`: the triangles of
-/// `prims` when they may be pre-split (all of `prims` are triangles);
-/// `None` turns the presets' pre-splits off.
-fn build_bvh2<T: Boundable>(
-    prims: &[T],
-    splittable: Option<&[Triangle]>,
-    options: BuildOptions,
-) -> Bvh2 {
-    let mut config = options.quality.params();
-    config.pre_split &= splittable.is_some();
-    let indices: Vec<u32> = (0..prims.len() as u32).collect();
-    let mut bvh2 = if config.pre_split {
-        let mut largest_half_area = 0.0f32;
-        let mut total_half_area = 0.0f64;
-        let triangles = splittable.unwrap_or_default();
-        let mut aabbs: Vec<Aabb> = triangles
-            .iter()
-            .map(|t| {
-                let aabb = t.aabb();
-                let half_area = aabb.half_area();
-                largest_half_area = largest_half_area.max(half_area);
-                total_half_area += f64::from(half_area);
-                aabb
-            })
-            .collect();
-        let mut indices = indices;
-        let avg_half_area = (total_half_area / triangles.len() as f64) as f32;
-        split_aabbs_preset(
-            &mut aabbs,
-            &mut indices,
-            triangles,
-            avg_half_area,
-            largest_half_area,
-        );
-        PlocBuilder::with_capacity(aabbs.len()).build(
-            config.ploc_search_distance,
-            &aabbs,
-            indices,
-            config.sort_precision,
-            config.search_depth_threshold,
-        )
-    } else {
-        PlocBuilder::with_capacity(prims.len()).build(
-            config.ploc_search_distance,
-            prims,
-            indices,
-            config.sort_precision,
-            config.search_depth_threshold,
-        )
-    };
-    bvh2.uses_spatial_splits = config.pre_split;
+/// The optimised binary tree over the primitives whose boxes `boxes`
+/// yields (`count` of them), without pre-splits: obvhs' `PlocBuilder::build`
+/// and reinsertion (the steps of its `build_*_from_tris` helpers, without
+/// their debug-build validation pass), with the leaves written from the
+/// boxes as they come (obvhs' `build_ploc` takes a slice of primitives:
+/// for triangles a 48-byte copy each, held through the build). The tree is
+/// the same: `build_ploc` makes exactly these leaves and this total box
+/// (min and max do not depend on the order).
+fn build_bvh2(boxes: impl Iterator<Item = Aabb>, count: usize, options: BuildOptions) -> Bvh2 {
+    let config = options.quality.params();
+    let mut builder = PlocBuilder::with_capacity(count);
+    let mut total = Aabb::empty();
+    builder.current_nodes.clear();
+    builder
+        .current_nodes
+        .extend(boxes.enumerate().map(|(i, aabb)| {
+            total.extend(aabb.min);
+            total.extend(aabb.max);
+            Bvh2Node::new(aabb, 1, i as u32)
+        }));
+    assert_eq!(builder.current_nodes.len(), count, "one box per primitive");
+    let mut bvh2 = Bvh2::zeroed(count);
+    bvh2.reset_for_reuse(count, Some((0..count as u32).collect()));
+    let (precision, threshold) = (config.sort_precision, config.search_depth_threshold);
+    match config.ploc_search_distance {
+        PlocSearchDistance::Minimum => {
+            builder.build_ploc_from_leaves::<1, false>(&mut bvh2, total, precision, threshold);
+        }
+        PlocSearchDistance::VeryLow => {
+            builder.build_ploc_from_leaves::<2, false>(&mut bvh2, total, precision, threshold);
+        }
+        PlocSearchDistance::Low => {
+            builder.build_ploc_from_leaves::<6, false>(&mut bvh2, total, precision, threshold);
+        }
+        PlocSearchDistance::Medium => {
+            builder.build_ploc_from_leaves::<14, false>(&mut bvh2, total, precision, threshold);
+        }
+        PlocSearchDistance::High => {
+            builder.build_ploc_from_leaves::<24, false>(&mut bvh2, total, precision, threshold);
+        }
+        PlocSearchDistance::VeryHigh => {
+            builder.build_ploc_from_leaves::<32, false>(&mut bvh2, total, precision, threshold);
+        }
+    }
+    drop(builder);
     ReinsertionOptimizer::default().run(&mut bvh2, config.reinsertion_batch_ratio, None);
     bvh2
 }
 
-/// The tree of `options.layout` from `bvh2`, and its primitive slots.
-fn finish_tree(mut bvh2: Bvh2, options: BuildOptions) -> (Tree, Vec<u32>) {
+/// The optimised binary tree of `triangles` with the presets' pre-splits
+/// of large triangles (`Slow`, `VerySlow`).
+fn build_bvh2_split(triangles: &[Triangle], options: BuildOptions) -> Bvh2 {
+    let config = options.quality.params();
+    let mut largest_half_area = 0.0f32;
+    let mut total_half_area = 0.0f64;
+    let mut aabbs: Vec<Aabb> = triangles
+        .iter()
+        .map(|t| {
+            let aabb = t.aabb();
+            let half_area = aabb.half_area();
+            largest_half_area = largest_half_area.max(half_area);
+            total_half_area += f64::from(half_area);
+            aabb
+        })
+        .collect();
+    let mut indices: Vec<u32> = (0..triangles.len() as u32).collect();
+    let avg_half_area = (total_half_area / triangles.len() as f64) as f32;
+    split_aabbs_preset(
+        &mut aabbs,
+        &mut indices,
+        triangles,
+        avg_half_area,
+        largest_half_area,
+    );
+    let mut bvh2 = PlocBuilder::with_capacity(aabbs.len()).build(
+        config.ploc_search_distance,
+        &aabbs,
+        indices,
+        config.sort_precision,
+        config.search_depth_threshold,
+    );
+    bvh2.uses_spatial_splits = true;
+    ReinsertionOptimizer::default().run(&mut bvh2, config.reinsertion_batch_ratio, None);
+    bvh2
+}
+
+/// The tree of `options.layout` from `bvh2`.
+fn finish_tree(mut bvh2: Bvh2, options: BuildOptions) -> Tree {
     let config = options.quality.params();
     if options.layout == Layout::Wide {
-        let mut wide = bvh2_to_cwbvh(&bvh2, config.max_prims_per_leaf.clamp(1, 3), true, false);
+        // The binary tree's bookkeeping of the reinsertion is not needed.
+        bvh2.parents = Vec::new();
+        bvh2.primitives_to_nodes = Vec::new();
+        let wide = bvh2_to_cwbvh(&bvh2, config.max_prims_per_leaf.clamp(1, 3));
         if wide_depth(&wide) <= MAX_WIDE_DEPTH {
-            // The converter reserves a node per primitive; a tree uses
-            // about a quarter of them.
-            wide.nodes.shrink_to_fit();
-            let slots = wide.primitive_indices.clone();
-            return (Tree::Wide(wide), slots);
+            return Tree::Wide(wide);
         }
     }
     let mut reinsertion = ReinsertionOptimizer::default();
@@ -756,8 +823,7 @@ fn finish_tree(mut bvh2: Bvh2, options: BuildOptions) -> (Tree, Vec<u32>) {
         None,
     );
     let depth = binary_depth(&bvh2);
-    let slots = bvh2.primitive_indices.clone();
-    (Tree::Binary(bvh2, depth), slots)
+    Tree::Binary(bvh2, depth)
 }
 
 /// Number of node levels of a CWBVH (0 when empty).
@@ -817,6 +883,74 @@ fn pow2(e: i32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The leaves written from boxes give obvhs' own tree (`PlocBuilder::build`
+    /// over a slice of triangles, then reinsertion), node for node; a
+    /// different search distance gives another (the comparison can fail).
+    #[test]
+    fn leaves_from_boxes_give_obvhs_tree() {
+        let g = 30;
+        let h = |i: usize, j: usize| {
+            let (x, z) = (i as f32 / g as f32, j as f32 / g as f32);
+            Vec3A::new(x, 0.1 * (7.0 * x).sin() * (5.0 * z).cos(), z)
+        };
+        let mut tris = Vec::new();
+        for i in 0..g {
+            for j in 0..g {
+                let (a, b, c, d) = (h(i, j), h(i + 1, j), h(i + 1, j + 1), h(i, j + 1));
+                tris.push(Triangle {
+                    v0: a,
+                    v1: d,
+                    v2: c,
+                });
+                tris.push(Triangle {
+                    v0: a,
+                    v1: c,
+                    v2: b,
+                });
+            }
+        }
+        let theirs = |quality: BuildQuality| {
+            let config = quality.params();
+            let mut bvh2 = PlocBuilder::with_capacity(tris.len()).build(
+                config.ploc_search_distance,
+                &tris,
+                (0..tris.len() as u32).collect(),
+                config.sort_precision,
+                config.search_depth_threshold,
+            );
+            ReinsertionOptimizer::default().run(&mut bvh2, config.reinsertion_batch_ratio, None);
+            bvh2
+        };
+        for quality in [
+            BuildQuality::Fastest,
+            BuildQuality::Fast,
+            BuildQuality::Medium,
+        ] {
+            let options = BuildOptions {
+                quality,
+                ..BuildOptions::default()
+            };
+            let ours = build_bvh2(tris.iter().map(Triangle::aabb), tris.len(), options);
+            let reference = theirs(quality);
+            // (Bvh2Node has no PartialEq; Debug prints every f32 exactly.)
+            assert_eq!(
+                format!("{:?}", ours.nodes),
+                format!("{:?}", reference.nodes),
+                "{quality:?}"
+            );
+            assert_eq!(ours.primitive_indices, reference.primitive_indices);
+        }
+        let fastest = build_bvh2(
+            tris.iter().map(Triangle::aabb),
+            tris.len(),
+            BuildOptions::default(),
+        );
+        assert_ne!(
+            format!("{:?}", fastest.nodes),
+            format!("{:?}", theirs(BuildQuality::Fastest).nodes)
+        );
+    }
 
     #[test]
     fn exponent_and_pow2() {

@@ -32,6 +32,7 @@
 //! [obvhs]: https://crates.io/crates/obvhs
 
 mod bvh;
+mod convert;
 mod grid;
 mod offset;
 mod sphere;

@@ -73,7 +73,12 @@ impl SceneContext {
                 radius: s.radius,
             })
             .collect();
-        let bvh = Bvh::build_with_spheres(&scene.triangles, &spheres, BuildOptions::default());
+        let bvh = Bvh::build_indexed(
+            &scene.positions,
+            &scene.triangles,
+            &spheres,
+            BuildOptions::default(),
+        );
         let bounds = BoundingSphere::of(&scene);
         let lights = Lights::new(&scene, bounds);
         let camera = CameraRays::new(scene.camera);
@@ -83,7 +88,9 @@ impl SceneContext {
             pixel_footprint(&bvh, &camera),
             config.radius_alpha,
         );
-        let vertex_scales = scene.triangles.iter().map(vertex_scale).collect();
+        let vertex_scales = (0..scene.triangles.len())
+            .map(|i| vertex_scale(&scene.triangle(i)))
+            .collect();
         let geometric_normals = (0..scene.triangles.len())
             .map(|i| scene.geometric_normal(i))
             .collect();
@@ -203,7 +210,7 @@ impl SceneContext {
         if !self.alpha_tested[i] {
             return true;
         }
-        let uvs = self.scene.uvs[i];
+        let uvs = self.scene.triangle_uvs(i);
         let uv = uvs[0] * (1.0 - b1 - b2) + uvs[1] * b1 + uvs[2] * b2;
         let material = &self.scene.materials[self.scene.triangle_materials[i] as usize];
         let coverage = material.maps.alpha.coverage(uv, &self.scene.textures);

@@ -144,7 +144,7 @@ impl SurfacePoint {
         let i = hit.primitive as usize;
         let b = Vec3::new(1.0 - hit.b1 - hit.b2, hit.b1, hit.b2);
         let interpolate = |v: [Vec3; 3]| v[0] * b.x + v[1] * b.y + v[2] * b.z;
-        let ns = interpolate(scene.normals[i])
+        let ns = interpolate(scene.shading_normals(i, n_winding))
             .try_normalize()
             .unwrap_or(n_winding);
         let ng = if ns.dot(n_winding) < 0.0 {
@@ -152,9 +152,9 @@ impl SurfacePoint {
         } else {
             n_winding
         };
-        let uv = scene.uvs[i];
+        let uv = scene.triangle_uvs(i);
         Self {
-            p: interpolate(scene.triangles[i]),
+            p: interpolate(scene.triangle(i)),
             n_winding,
             ng,
             frame: Frame::from_normal(ns),

@@ -273,7 +273,7 @@ impl Lights {
             .lights
             .iter()
             .map(|light| {
-                area_triangle(light).map_or(f32::INFINITY, |t| vertex_scale(&scene.triangles[t]))
+                area_triangle(light).map_or(f32::INFINITY, |t| vertex_scale(&scene.triangle(t)))
             })
             .collect();
         Self {
@@ -439,7 +439,7 @@ impl Lights {
                 }
             }
             Light::Area { triangle } => {
-                let q = uniform_triangle(scene.triangles[triangle as usize], u);
+                let q = uniform_triangle(scene.triangle(triangle as usize), u);
                 let n = self.area_normal[index];
                 let d = q - p;
                 let wi = d.try_normalize()?;
@@ -641,7 +641,7 @@ impl Lights {
                 }
             }
             Light::Area { triangle } => {
-                let p = uniform_triangle(scene.triangles[triangle as usize], u_position);
+                let p = uniform_triangle(scene.triangle(triangle as usize), u_position);
                 let n = self.area_normal[index];
                 let local = cosine_hemisphere(u_direction);
                 if local.z <= 0.0 {
@@ -716,7 +716,7 @@ fn area_radiance(scene: &Scene, triangle: u32, u: Vec2) -> Vec3 {
 #[inline(never)]
 fn mapped_area_radiance(scene: &Scene, material: &scene::Material, i: usize, u: Vec2) -> Vec3 {
     let (b1, b2) = uniform_triangle_barycentrics(u);
-    let [t0, t1, t2] = scene.uvs[i];
+    let [t0, t1, t2] = scene.triangle_uvs(i);
     let uv = t0 * (1.0 - b1 - b2) + t1 * b1 + t2 * b2;
     material.emission_at(uv, &scene.textures) * material.maps.alpha.coverage(uv, &scene.textures)
 }

@@ -127,7 +127,7 @@ fn bitangent_sign(n: Vec3, dpdu: Vec3, dpdv: Vec3) -> f32 {
 /// The tangent at barycentrics (b1, b2) of triangle `i` and the sign of its
 /// bitangent: the file's when it has one, else from the uv derivatives.
 fn tangent_frame(scene: &Scene, i: usize, n: Vec3, b1: f32, b2: f32) -> (Vec3, f32) {
-    if let Some(t) = scene.tangents.get(i).filter(|t| t[0] != Vec4::ZERO) {
+    if let Some(t) = Some(scene.corner_tangents(i)).filter(|t| t[0] != Vec4::ZERO) {
         let xyz = t[0].truncate() * (1.0 - b1 - b2) + t[1].truncate() * b1 + t[2].truncate() * b2;
         return (xyz, if t[0].w < 0.0 { -1.0 } else { 1.0 });
     }
@@ -138,8 +138,8 @@ fn tangent_frame(scene: &Scene, i: usize, n: Vec3, b1: f32, b2: f32) -> (Vec3, f
 /// dp/du and dp/dv of triangle `i` (pbrt-v3 §3.6.2: solve the 2x2 system
 /// of its edges against their uv differences); zero for degenerate uvs.
 pub fn uv_derivatives(scene: &Scene, i: usize) -> (Vec3, Vec3) {
-    let [p0, p1, p2] = scene.triangles[i];
-    let [t0, t1, t2] = scene.uvs[i];
+    let [p0, p1, p2] = scene.triangle(i);
+    let [t0, t1, t2] = scene.triangle_uvs(i);
     let (e1, e2) = (p1 - p0, p2 - p0);
     let (d1, d2) = (t1 - t0, t2 - t0);
     let det = d1.x * d2.y - d1.y * d2.x;

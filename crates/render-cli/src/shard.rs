@@ -62,22 +62,38 @@ pub fn scene_hash(scene: &Scene) -> u64 {
             h.write_u32(v.to_bits());
         }
     };
+    // Corner by corner, as the scene stored them before its vertices were
+    // shared: the hash of a scene is what it was.
+    let triangles = 0..scene.triangles.len();
     floats(
         &mut h,
-        &mut scene.triangles.iter().flatten().flat_map(|v| v.to_array()),
+        &mut triangles
+            .clone()
+            .flat_map(|i| scene.triangle(i))
+            .flat_map(|v| v.to_array()),
     );
     floats(
         &mut h,
-        &mut scene.normals.iter().flatten().flat_map(|v| v.to_array()),
+        &mut triangles
+            .clone()
+            .flat_map(|i| scene.shading_normals(i, scene.geometric_normal(i)))
+            .flat_map(|v| v.to_array()),
     );
     floats(
         &mut h,
-        &mut scene.uvs.iter().flatten().flat_map(|v| v.to_array()),
+        &mut triangles
+            .clone()
+            .flat_map(|i| scene.triangle_uvs(i))
+            .flat_map(|v| v.to_array()),
     );
-    floats(
-        &mut h,
-        &mut scene.tangents.iter().flatten().flat_map(|v| v.to_array()),
-    );
+    if !scene.tangents.is_empty() {
+        floats(
+            &mut h,
+            &mut triangles
+                .flat_map(|i| scene.corner_tangents(i))
+                .flat_map(|v| v.to_array()),
+        );
+    }
     for &m in &scene.triangle_materials {
         h.write_u32(m);
     }

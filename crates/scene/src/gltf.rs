@@ -541,6 +541,7 @@ impl Loader<'_> {
                 // builder replaces those with the geometric normal.
                 self.check_finite(label, raw, raw, &indices)?;
             }
+            self.builder.begin_shared_vertices(positions.len());
             for (t, tri) in indices.chunks_exact(3).enumerate() {
                 let mut ids = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
                 if flips {
@@ -550,12 +551,17 @@ impl Loader<'_> {
                 let p = ids.map(|i| positions[i]);
                 let n = normals.as_ref().map(|ns| ids.map(|i| ns[i]));
                 let uv = uvs.as_ref().map(|us| ids.map(|i| us[i]));
-                let before = self.builder.triangles.len();
-                self.builder
-                    .add_triangle(self.path, &element, p, n, uv, material)?;
-                if let Some(ts) = &tangents {
-                    self.builder.set_last_tangents(before, ids.map(|i| ts[i]));
-                }
+                let t = tangents.as_ref().map(|ts| ids.map(|i| ts[i]));
+                self.builder.add_indexed_triangle(
+                    self.path,
+                    &element,
+                    ids.map(|i| i as u32),
+                    p,
+                    n,
+                    uv,
+                    t,
+                    material,
+                )?;
             }
         }
         Ok(())

@@ -29,7 +29,7 @@ const MTL_COAT_F0: f32 = {
 };
 
 /// Material of faces without `usemtl`.
-fn default_material() -> Material {
+pub(crate) fn default_material() -> Material {
     Material {
         name: "default".into(),
         surface: Surface::Diffuse {
@@ -159,6 +159,9 @@ pub fn load(
                 .get(i..i + 2)
                 .map(|t| Vec2::new(t[0], 1.0 - t[1]))
         };
+        // tobj's `single_index`: one index per corner for every attribute,
+        // so the file's vertices are shared as they are.
+        builder.begin_shared_vertices(mesh.positions.len() / 3);
         for (f, face) in mesh.indices.chunks_exact(3).enumerate() {
             let element = || format!("object {}, triangle {f}", quoted(&model.name));
             let get = |g: &dyn Fn(u32) -> Option<Vec3>| -> Option<[Vec3; 3]> {
@@ -177,7 +180,16 @@ pub fn load(
             } else {
                 (|| Some([uv(face[0])?, uv(face[1])?, uv(face[2])?]))()
             };
-            builder.add_triangle(path, &element, positions, normals, uvs, material)?;
+            builder.add_indexed_triangle(
+                path,
+                &element,
+                [face[0], face[1], face[2]],
+                positions,
+                normals,
+                uvs,
+                None,
+                material,
+            )?;
         }
     }
     Ok(builder)

@@ -56,18 +56,29 @@ pub struct LoadReport {
 }
 
 /// A scene of triangles and analytic spheres in world space.
+///
+/// Triangles index shared vertices (a mesh as the file indexes it: OBJ's
+/// `v/vt/vn` triples, glTF's vertices), so a vertex's position, normal and
+/// uv are stored once, not once per corner. Every vertex belongs to a
+/// triangle.
 #[derive(Clone, Debug)]
 pub struct Scene {
-    /// Triangle vertices, counter-clockwise seen from the front.
-    pub triangles: Vec<[Vec3; 3]>,
-    /// Shading normals per triangle vertex (unit; the geometric normal where the file has none).
-    pub normals: Vec<[Vec3; 3]>,
-    /// Texture coordinates per triangle vertex (zero where the file has none).
-    pub uvs: Vec<[Vec2; 3]>,
-    /// Tangents per triangle vertex from the file (glTF TANGENT: xyz, w the
+    /// Vertex positions.
+    pub positions: Vec<Vec3>,
+    /// Shading normal per vertex (unit), or zero where the triangles
+    /// meeting there use their geometric normal (the file gives none, or
+    /// one of zero length). Empty when every vertex is such a one
+    /// ([`Scene::shading_normals`]).
+    pub normals: Vec<Vec3>,
+    /// Texture coordinates per vertex. Empty when every one is zero (the
+    /// file has none) ([`Scene::triangle_uvs`]).
+    pub uvs: Vec<Vec2>,
+    /// Tangents per vertex from the file (glTF TANGENT: xyz, w the
     /// bitangent's sign), for normal maps. Empty when no file gives any;
-    /// zero for triangles without (their tangent is derived from the uvs).
-    pub tangents: Vec<[Vec4; 3]>,
+    /// zero for vertices without (their tangent is derived from the uvs).
+    pub tangents: Vec<Vec4>,
+    /// The vertices of each triangle, counter-clockwise seen from the front.
+    pub triangles: Vec<[u32; 3]>,
     /// Material index per triangle.
     pub triangle_materials: Vec<u32>,
     /// Analytic spheres (beside the triangles: ray queries number them
@@ -94,18 +105,55 @@ impl Scene {
     /// Axis-aligned bounds of all triangles and spheres ((0, 0) for an
     /// empty scene).
     pub fn bounds(&self) -> (Vec3, Vec3) {
-        bounds_with_spheres(&self.triangles, &self.spheres)
+        bounds_with_spheres(&self.positions, &self.spheres)
+    }
+
+    /// The corners of triangle `i`.
+    #[inline]
+    pub fn triangle(&self, i: usize) -> [Vec3; 3] {
+        self.triangles[i].map(|v| self.positions[v as usize])
     }
 
     /// Area of triangle `i`.
     pub fn triangle_area(&self, i: usize) -> f32 {
-        (0.5 * triangle_cross(&self.triangles[i]).length()) as f32
+        (0.5 * triangle_cross(&self.triangle(i)).length()) as f32
     }
 
     /// Geometric normal of triangle `i` (unit, from the winding; zero for a
     /// degenerate triangle).
     pub fn geometric_normal(&self, i: usize) -> Vec3 {
-        triangle_normal(&self.triangles[i]).unwrap_or(Vec3::ZERO)
+        triangle_normal(&self.triangle(i)).unwrap_or(Vec3::ZERO)
+    }
+
+    /// The shading normals at the corners of triangle `i`, whose geometric
+    /// normal is `geometric` ([`Scene::geometric_normal`]; callers keep it).
+    #[inline]
+    pub fn shading_normals(&self, i: usize, geometric: Vec3) -> [Vec3; 3] {
+        if self.normals.is_empty() {
+            return [geometric; 3];
+        }
+        self.triangles[i].map(|v| {
+            let n = self.normals[v as usize];
+            if n == Vec3::ZERO { geometric } else { n }
+        })
+    }
+
+    /// The texture coordinates at the corners of triangle `i`.
+    #[inline]
+    pub fn triangle_uvs(&self, i: usize) -> [Vec2; 3] {
+        if self.uvs.is_empty() {
+            return [Vec2::ZERO; 3];
+        }
+        self.triangles[i].map(|v| self.uvs[v as usize])
+    }
+
+    /// The file's tangents at the corners of triangle `i` (zero where it
+    /// gives none).
+    pub fn corner_tangents(&self, i: usize) -> [Vec4; 3] {
+        if self.tangents.is_empty() {
+            return [Vec4::ZERO; 3];
+        }
+        self.triangles[i].map(|v| self.tangents[v as usize])
     }
 }
 
@@ -132,10 +180,10 @@ impl Scene {
     }
 }
 
-/// [`bounds_of`] the triangles, grown by the spheres' boxes.
-pub(crate) fn bounds_with_spheres(triangles: &[[Vec3; 3]], spheres: &[Sphere]) -> (Vec3, Vec3) {
-    let (mut min, mut max) = bounds_of(triangles);
-    if triangles.is_empty() && !spheres.is_empty() {
+/// [`bounds_of`] the vertices, grown by the spheres' boxes.
+pub(crate) fn bounds_with_spheres(positions: &[Vec3], spheres: &[Sphere]) -> (Vec3, Vec3) {
+    let (mut min, mut max) = bounds_of(positions);
+    if positions.is_empty() && !spheres.is_empty() {
         (min, max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
     }
     for s in spheres {
@@ -145,27 +193,38 @@ pub(crate) fn bounds_with_spheres(triangles: &[[Vec3; 3]], spheres: &[Sphere]) -
     (min, max)
 }
 
-pub(crate) fn bounds_of(triangles: &[[Vec3; 3]]) -> (Vec3, Vec3) {
+pub(crate) fn bounds_of(positions: &[Vec3]) -> (Vec3, Vec3) {
     let mut min = Vec3::splat(f32::INFINITY);
     let mut max = Vec3::splat(f32::NEG_INFINITY);
-    for v in triangles.iter().flatten() {
+    for v in positions {
         min = min.min(*v);
         max = max.max(*v);
     }
-    if triangles.is_empty() {
+    if positions.is_empty() {
         (Vec3::ZERO, Vec3::ZERO)
     } else {
         (min, max)
     }
 }
 
+/// No scene vertex yet for a file's vertex ([`SceneBuilder::begin_shared_vertices`]).
+const UNSHARED: u32 = u32::MAX;
+
+/// Whether two vectors are the same bit for bit (`==` equates 0 and -0).
+fn same<const N: usize>(a: [f32; N], b: [f32; N]) -> bool {
+    a.map(f32::to_bits) == b.map(f32::to_bits)
+}
+
 /// Geometry and materials as loaders produce them, before lights and camera.
+/// Vertex arrays are parallel (`tangents` only from the first vertex with
+/// one on; zero = none, for normals and tangents).
 #[derive(Clone, Debug, Default)]
 pub struct SceneBuilder {
-    pub(crate) triangles: Vec<[Vec3; 3]>,
-    pub(crate) normals: Vec<[Vec3; 3]>,
-    pub(crate) uvs: Vec<[Vec2; 3]>,
-    pub(crate) tangents: Vec<[Vec4; 3]>,
+    pub(crate) positions: Vec<Vec3>,
+    pub(crate) normals: Vec<Vec3>,
+    pub(crate) uvs: Vec<Vec2>,
+    pub(crate) tangents: Vec<Vec4>,
+    pub(crate) triangles: Vec<[u32; 3]>,
     pub(crate) triangle_materials: Vec<u32>,
     pub(crate) spheres: Vec<Sphere>,
     pub(crate) materials: Vec<Material>,
@@ -173,6 +232,19 @@ pub struct SceneBuilder {
     pub(crate) lights: Vec<Light>,
     pub(crate) environment_maps: Vec<EnvironmentMap>,
     pub(crate) report: LoadReport,
+    /// The scene vertex of each of the file's vertices in the current mesh
+    /// ([`UNSHARED`] before its first use).
+    shared: Vec<u32>,
+}
+
+/// One corner of a triangle as a loader gives it.
+#[derive(Clone, Copy)]
+struct Corner {
+    position: Vec3,
+    /// Unit, or zero for the geometric normal.
+    normal: Vec3,
+    uv: Vec2,
+    tangent: Vec4,
 }
 
 impl SceneBuilder {
@@ -188,9 +260,10 @@ impl SceneBuilder {
         self.textures.len() - 1
     }
 
-    /// Adds one triangle. Non-finite positions, normals or uvs are an error
-    /// naming `element`; zero-area triangles are skipped and counted; missing
-    /// or zero shading normals fall back to the geometric normal.
+    /// Adds one triangle with vertices of its own. Non-finite positions,
+    /// normals or uvs are an error naming `element`; zero-area triangles are
+    /// skipped and counted; missing or zero shading normals fall back to the
+    /// geometric normal.
     pub(crate) fn add_triangle(
         &mut self,
         path: &Path,
@@ -198,6 +271,58 @@ impl SceneBuilder {
         positions: [Vec3; 3],
         normals: Option<[Vec3; 3]>,
         uvs: Option<[Vec2; 3]>,
+        material: u32,
+    ) -> Result<(), SceneError> {
+        self.add_corners(path, element, None, positions, normals, uvs, None, material)
+    }
+
+    /// Starts a mesh whose file indexes `count` vertices: the triangles of
+    /// [`SceneBuilder::add_indexed_triangle`] until the next call share
+    /// them.
+    pub(crate) fn begin_shared_vertices(&mut self, count: usize) {
+        self.shared.clear();
+        self.shared.resize(count, UNSHARED);
+    }
+
+    /// [`SceneBuilder::add_triangle`] for the triangle of the current mesh
+    /// (see [`SceneBuilder::begin_shared_vertices`]) whose corners are the
+    /// file's vertices `keys`: a corner equal to the one first added for its
+    /// key (bit for bit) reuses that vertex. `tangents`: the file's, for
+    /// normal maps.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn add_indexed_triangle(
+        &mut self,
+        path: &Path,
+        element: &dyn Fn() -> String,
+        keys: [u32; 3],
+        positions: [Vec3; 3],
+        normals: Option<[Vec3; 3]>,
+        uvs: Option<[Vec2; 3]>,
+        tangents: Option<[Vec4; 3]>,
+        material: u32,
+    ) -> Result<(), SceneError> {
+        self.add_corners(
+            path,
+            element,
+            Some(keys),
+            positions,
+            normals,
+            uvs,
+            tangents,
+            material,
+        )
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn add_corners(
+        &mut self,
+        path: &Path,
+        element: &dyn Fn() -> String,
+        keys: Option<[u32; 3]>,
+        positions: [Vec3; 3],
+        normals: Option<[Vec3; 3]>,
+        uvs: Option<[Vec2; 3]>,
+        tangents: Option<[Vec4; 3]>,
         material: u32,
     ) -> Result<(), SceneError> {
         if !positions.iter().all(|p| p.is_finite()) {
@@ -209,10 +334,10 @@ impl SceneBuilder {
         }
         // A degenerate triangle is skipped whatever its shading data (a node
         // scaled to zero makes both degenerate positions and NaN normals).
-        let Some(geometric) = triangle_normal(&positions) else {
+        if triangle_normal(&positions).is_none() {
             self.report.degenerate_triangles += 1;
             return Ok(());
-        };
+        }
         if normals.is_some_and(|ns| !ns.iter().all(|n| n.is_finite())) {
             return Err(SceneError::invalid(
                 path,
@@ -227,15 +352,59 @@ impl SceneBuilder {
                 "texture coordinate is NaN or infinite",
             ));
         }
-        let normals = normals.map_or([geometric; 3], |ns| {
-            ns.map(|n| n.try_normalize().unwrap_or(geometric))
-        });
-        let uvs = uvs.unwrap_or([Vec2::ZERO; 3]);
-        self.triangles.push(positions);
-        self.normals.push(normals);
-        self.uvs.push(uvs);
+        let mut triangle = [0; 3];
+        for k in 0..3 {
+            let corner = Corner {
+                position: positions[k],
+                // Zero stands for the triangle's geometric normal
+                // (`Scene::shading_normals`).
+                normal: normals
+                    .map_or(Vec3::ZERO, |ns| ns[k].try_normalize().unwrap_or(Vec3::ZERO)),
+                uv: uvs.map_or(Vec2::ZERO, |t| t[k]),
+                tangent: tangents.map_or(Vec4::ZERO, |t| t[k]),
+            };
+            let key = keys.and_then(|keys| self.shared.get(keys[k] as usize).map(|_| keys[k]));
+            triangle[k] = match key.map(|key| self.shared[key as usize]) {
+                Some(v) if v != UNSHARED && self.vertex_is(v, &corner) => v,
+                shared => {
+                    let v = self.push_vertex(&corner);
+                    if shared == Some(UNSHARED) {
+                        self.shared[key.unwrap_or_default() as usize] = v;
+                    }
+                    v
+                }
+            };
+        }
+        self.triangles.push(triangle);
         self.triangle_materials.push(material);
         Ok(())
+    }
+
+    /// Whether vertex `v` holds `corner`.
+    fn vertex_is(&self, v: u32, corner: &Corner) -> bool {
+        let v = v as usize;
+        let tangent = self.tangents.get(v).copied().unwrap_or(Vec4::ZERO);
+        same(self.positions[v].to_array(), corner.position.to_array())
+            && same(self.normals[v].to_array(), corner.normal.to_array())
+            && same(self.uvs[v].to_array(), corner.uv.to_array())
+            && same(tangent.to_array(), corner.tangent.to_array())
+    }
+
+    /// Appends `corner` as a new vertex and returns its index.
+    fn push_vertex(&mut self, corner: &Corner) -> u32 {
+        let v = self.positions.len();
+        assert!(
+            u32::try_from(v).is_ok_and(|v| v < UNSHARED),
+            "a scene holds fewer than u32::MAX vertices"
+        );
+        self.positions.push(corner.position);
+        self.normals.push(corner.normal);
+        self.uvs.push(corner.uv);
+        if corner.tangent != Vec4::ZERO || !self.tangents.is_empty() {
+            self.tangents.resize(v, Vec4::ZERO);
+            self.tangents.push(corner.tangent);
+        }
+        v as u32
     }
 
     /// Adds an analytic sphere. A non-finite centre or axis, or a radius
@@ -252,31 +421,38 @@ impl SceneBuilder {
         Ok(())
     }
 
-    /// Sets the file's tangents of the triangle just added, if
-    /// [`SceneBuilder::add_triangle`] kept it (it had `before` triangles).
-    pub(crate) fn set_last_tangents(&mut self, before: usize, tangents: [Vec4; 3]) {
-        if self.triangles.len() > before {
-            self.tangents.resize(before, [Vec4::ZERO; 3]);
-            self.tangents.push(tangents);
-        }
-    }
-
-    /// Appends everything of `other`, re-indexing its materials and textures.
+    /// Appends everything of `other`, re-indexing its vertices, materials
+    /// and textures.
     pub(crate) fn append(&mut self, mut other: SceneBuilder) {
         let material_offset = self.materials.len() as u32;
         let texture_offset = self.textures.len();
         let triangle_offset = self.triangles.len() as u32;
         let map_offset = self.environment_maps.len() as u32;
-        if !(self.tangents.is_empty() && other.tangents.is_empty()) {
-            self.tangents.resize(self.triangles.len(), [Vec4::ZERO; 3]);
-            other
-                .tangents
-                .resize(other.triangles.len(), [Vec4::ZERO; 3]);
-            self.tangents.extend(other.tangents);
+        if self.positions.is_empty() {
+            // The first model: its arrays move (a large mesh is not copied).
+            self.positions = std::mem::take(&mut other.positions);
+            self.normals = std::mem::take(&mut other.normals);
+            self.uvs = std::mem::take(&mut other.uvs);
+            self.tangents = std::mem::take(&mut other.tangents);
+            let triangles = std::mem::take(&mut other.triangles);
+            self.triangles.extend(triangles);
+        } else {
+            let vertex_offset = self.positions.len() as u32;
+            if !(self.tangents.is_empty() && other.tangents.is_empty()) {
+                self.tangents.resize(self.positions.len(), Vec4::ZERO);
+                other.tangents.resize(other.positions.len(), Vec4::ZERO);
+                self.tangents.append(&mut other.tangents);
+            }
+            self.positions.append(&mut other.positions);
+            self.normals.append(&mut other.normals);
+            self.uvs.append(&mut other.uvs);
+            self.triangles.extend(
+                other
+                    .triangles
+                    .drain(..)
+                    .map(|t| t.map(|v| v + vertex_offset)),
+            );
         }
-        self.triangles.extend(other.triangles);
-        self.normals.extend(other.normals);
-        self.uvs.extend(other.uvs);
         self.triangle_materials
             .extend(other.triangle_materials.iter().map(|m| m + material_offset));
         let sphere_offset = self.spheres.len() as u32;
@@ -339,18 +515,27 @@ impl SceneBuilder {
                 self.lights.push(Light::Sphere { sphere: i as u32 });
             }
         }
-        self.report.non_manifold_edges = count_non_manifold_edges(&self.triangles);
+        self.report.non_manifold_edges = count_non_manifold_edges(&self.positions, &self.triangles);
+        // Attributes no vertex has are not stored (a mesh without normals
+        // or uvs is positions and indices only).
+        if self.normals.iter().all(|&n| n == Vec3::ZERO) {
+            self.normals = Vec::new();
+        }
+        if self.uvs.iter().all(|uv| same(uv.to_array(), [0.0; 2])) {
+            self.uvs = Vec::new();
+        }
         if !self.tangents.is_empty() {
-            self.tangents.resize(self.triangles.len(), [Vec4::ZERO; 3]);
+            self.tangents.resize(self.positions.len(), Vec4::ZERO);
         }
         // An empty scene is refused or warned about by `validate`.
-        let (min, max) = bounds_with_spheres(&self.triangles, &self.spheres);
+        let (min, max) = bounds_with_spheres(&self.positions, &self.spheres);
         let camera = camera.unwrap_or_else(|| Camera::framing(min, max, resolution));
         Scene {
-            triangles: self.triangles,
+            positions: self.positions,
             normals: self.normals,
             uvs: self.uvs,
             tangents: self.tangents,
+            triangles: self.triangles,
             triangle_materials: self.triangle_materials,
             spheres: self.spheres,
             materials: self.materials,
@@ -365,12 +550,13 @@ impl SceneBuilder {
 }
 
 /// Edges (by exact vertex positions) used by more than two triangles.
-fn count_non_manifold_edges(triangles: &[[Vec3; 3]]) -> usize {
+fn count_non_manifold_edges(positions: &[Vec3], triangles: &[[u32; 3]]) -> usize {
     use std::collections::HashMap;
     let key = |v: Vec3| v.to_array().map(f32::to_bits);
     let mut uses: HashMap<([u32; 3], [u32; 3]), u32> =
         HashMap::with_capacity(triangles.len() * 3 / 2);
     for t in triangles {
+        let t = t.map(|v| positions[v as usize]);
         for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
             let (ka, kb) = (key(a), key(b));
             *uses
@@ -397,5 +583,44 @@ mod tests {
         assert_eq!(triangle_normal(&t), Some(Vec3::Y));
         assert!((triangle_cross(&t).length() * 0.5 - 1.25e19).abs() < 1e6);
         assert_eq!(triangle_normal(&[Vec3::ONE; 3]), None);
+    }
+
+    /// Corners with the same key and the same data share a vertex; a
+    /// corner whose data differ gets its own; a zero normal stands for the
+    /// geometric one; attributes no vertex has are not stored.
+    #[test]
+    fn indexed_triangles_share_vertices() {
+        let path = Path::new("t.obj");
+        let element = || String::from("t");
+        let p = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ONE];
+        let mut b = SceneBuilder::default();
+        b.begin_shared_vertices(4);
+        for keys in [[0u32, 1, 2], [1, 3, 2]] {
+            let positions = keys.map(|k| p[k as usize]);
+            b.add_indexed_triangle(path, &element, keys, positions, None, None, None, 0)
+                .unwrap();
+        }
+        // Same key, different normal: a vertex of its own.
+        let normals = Some([Vec3::Z, Vec3::ZERO, Vec3::Z]);
+        b.add_indexed_triangle(
+            path,
+            &element,
+            [0, 1, 2],
+            [p[0], p[1], p[2]],
+            normals,
+            None,
+            None,
+            0,
+        )
+        .unwrap();
+        b.materials.push(crate::obj::default_material());
+        let scene = b.finish(None, glam::UVec2::new(4, 4), RenderSettings::default());
+        assert_eq!(scene.triangles[..2], [[0, 1, 2], [1, 3, 2]]);
+        assert_eq!(scene.positions.len(), 6);
+        assert_eq!(scene.triangles[2], [4, 1, 5]);
+        let g = scene.geometric_normal(2);
+        assert_eq!(scene.shading_normals(2, g), [Vec3::Z, g, Vec3::Z]);
+        assert!(scene.uvs.is_empty() && scene.tangents.is_empty());
+        assert_eq!(scene.triangle_uvs(1), [Vec2::ZERO; 3]);
     }
 }

@@ -20,7 +20,7 @@
 
 use std::path::Path;
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use microfacet::{Fresnel, MicrofacetModel};
 
 use crate::error::SceneError;
@@ -52,25 +52,45 @@ pub struct Allow {
 pub fn validate(scene: &mut Scene, path: &Path, allow: Allow) -> Result<(), SceneError> {
     let invalid = |element: String, message: String| SceneError::invalid(path, element, message);
     for (i, t) in scene.triangles.iter().enumerate() {
-        if !t.iter().all(|p| p.is_finite()) {
+        if t.iter().any(|&v| v as usize >= scene.positions.len()) {
             return Err(invalid(
                 format!("triangle {i}"),
+                "vertex index out of range".into(),
+            ));
+        }
+    }
+    for (i, p) in scene.positions.iter().enumerate() {
+        if !p.is_finite() {
+            return Err(invalid(
+                format!("vertex {i}"),
                 "position is NaN or infinite".into(),
             ));
         }
     }
-    for (i, n) in scene.normals.iter().enumerate() {
-        if !n.iter().all(|p| p.is_finite()) {
+    for (name, len) in [
+        ("normals", scene.normals.len()),
+        ("uvs", scene.uvs.len()),
+        ("tangents", scene.tangents.len()),
+    ] {
+        if len != 0 && len != scene.positions.len() {
             return Err(invalid(
-                format!("triangle {i}"),
+                "vertices".into(),
+                format!("{len} {name} for {} vertices", scene.positions.len()),
+            ));
+        }
+    }
+    for (i, n) in scene.normals.iter().enumerate() {
+        if !n.is_finite() {
+            return Err(invalid(
+                format!("vertex {i}"),
                 "normal is NaN or infinite".into(),
             ));
         }
     }
     for (i, uv) in scene.uvs.iter().enumerate() {
-        if !uv.iter().all(|p: &Vec2| p.is_finite()) {
+        if !uv.is_finite() {
             return Err(invalid(
-                format!("triangle {i}"),
+                format!("vertex {i}"),
                 "texture coordinate is NaN or infinite".into(),
             ));
         }
@@ -237,15 +257,17 @@ fn check_light(scene: &Scene, light: &Light) -> Result<(), String> {
         }
         Light::Area { triangle } => {
             let i = triangle as usize;
-            let (Some(t), Some(&m)) = (scene.triangles.get(i), scene.triangle_materials.get(i))
-            else {
+            let (Some(t), Some(&m)) = (
+                scene.triangles.get(i).map(|_| scene.triangle(i)),
+                scene.triangle_materials.get(i),
+            ) else {
                 return Err(format!("triangle {i} does not exist"));
             };
             let Some(material) = scene.materials.get(m as usize) else {
                 return Err(format!("material {m} does not exist"));
             };
             light_value("emission", material.emission)?;
-            let area = 0.5 * crate::scene::triangle_cross(t).length();
+            let area = 0.5 * crate::scene::triangle_cross(&t).length();
             light_power(std::f64::consts::PI * f64::from(material.emission.max_element()) * area)
         }
         Light::Sphere { sphere } => {

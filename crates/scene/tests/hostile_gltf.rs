@@ -301,7 +301,7 @@ fn sparse_triangle(index: u8, value: [f32; 3]) -> (Value, Vec<u8>) {
 fn sparse_index_past_the_vertex_count_is_refused() {
     let (g, bin) = sparse_triangle(1, [2.0, 0.0, 0.0]);
     let s = load_gltf(&g, &bin).unwrap();
-    assert!(s.triangles[0].contains(&glam::Vec3::new(2.0, 0.0, 0.0)));
+    assert!(s.triangle(0).contains(&glam::Vec3::new(2.0, 0.0, 0.0)));
     let (g, bin) = sparse_triangle(7, [2.0, 0.0, 0.0]);
     assert_error(
         load_gltf(&g, &bin),
@@ -928,9 +928,13 @@ fn apply(edits: &[Edit], json: &mut Vec<u8>, bin: &mut Vec<u8>) {
 
 /// A loaded scene holds only finite positions and normals.
 fn assert_finite(scene: &Scene) {
-    for (t, (p, n)) in scene.triangles.iter().zip(&scene.normals).enumerate() {
+    for t in 0..scene.triangles.len() {
+        let (p, n) = (
+            scene.triangle(t),
+            scene.shading_normals(t, scene.geometric_normal(t)),
+        );
         assert!(
-            p.iter().chain(n).all(|v| v.is_finite()),
+            p.iter().chain(&n).all(|v| v.is_finite()),
             "triangle {t} is not finite: {p:?} {n:?}"
         );
     }

@@ -136,7 +136,10 @@ fn write_mesh<'a>(
     let file = format!("meshes/{m:03}-{}.ply", sanitize(&material.name));
     let smooth = triangles.iter().any(|&t| {
         let n = scene.geometric_normal(t);
-        scene.normals[t].iter().any(|s| s.dot(n) < FLAT_COSINE)
+        scene
+            .shading_normals(t, n)
+            .iter()
+            .any(|s| s.dot(n) < FLAT_COSINE)
     });
     let path = dir.join(&file);
     crate::write_file(&path, ply(scene, triangles, smooth))?;
@@ -401,9 +404,9 @@ fn ply(scene: &Scene, triangles: &[usize], normals: bool) -> Vec<u8> {
     let mut bytes = header.into_bytes();
     for &t in triangles {
         for k in 0..3 {
-            let mut values = scene.triangles[t][k].to_array().to_vec();
+            let mut values = scene.triangle(t)[k].to_array().to_vec();
             if normals {
-                values.extend(scene.normals[t][k].to_array());
+                values.extend(scene.shading_normals(t, scene.geometric_normal(t))[k].to_array());
             }
             for v in values {
                 bytes.extend(v.to_le_bytes());

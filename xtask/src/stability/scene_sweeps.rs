@@ -609,9 +609,17 @@ fn in_memory_degenerate(mut scene: Scene) -> Scene {
         ([p, p + Vec3::X, p + 2.0 * Vec3::X], lamp),
         ([Vec3::ZERO, Vec3::X, Vec3::X], white),
     ] {
-        scene.triangles.push(triangle);
-        scene.normals.push([Vec3::Y; 3]);
-        scene.uvs.push([glam::Vec2::ZERO; 3]);
+        let first = scene.positions.len() as u32;
+        scene.positions.extend(triangle);
+        scene.triangles.push([first, first + 1, first + 2]);
+        scene.normals.resize(first as usize, Vec3::ZERO);
+        scene.normals.extend([Vec3::Y; 3]);
+        if !scene.uvs.is_empty() {
+            scene.uvs.extend([glam::Vec2::ZERO; 3]);
+        }
+        if !scene.tangents.is_empty() {
+            scene.tangents.extend([glam::Vec4::ZERO; 3]);
+        }
         scene.triangle_materials.push(material);
         if material == lamp {
             scene.lights.push(scene::Light::Area {
