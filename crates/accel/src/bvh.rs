@@ -889,27 +889,7 @@ mod tests {
     /// different search distance gives another (the comparison can fail).
     #[test]
     fn leaves_from_boxes_give_obvhs_tree() {
-        let g = 30;
-        let h = |i: usize, j: usize| {
-            let (x, z) = (i as f32 / g as f32, j as f32 / g as f32);
-            Vec3A::new(x, 0.1 * (7.0 * x).sin() * (5.0 * z).cos(), z)
-        };
-        let mut tris = Vec::new();
-        for i in 0..g {
-            for j in 0..g {
-                let (a, b, c, d) = (h(i, j), h(i + 1, j), h(i + 1, j + 1), h(i, j + 1));
-                tris.push(Triangle {
-                    v0: a,
-                    v1: d,
-                    v2: c,
-                });
-                tris.push(Triangle {
-                    v0: a,
-                    v1: c,
-                    v2: b,
-                });
-            }
-        }
+        let tris = crate::convert::tests::height_field(30);
         let theirs = |quality: BuildQuality| {
             let config = quality.params();
             let mut bvh2 = PlocBuilder::with_capacity(tris.len()).build(

@@ -354,7 +354,7 @@ impl Converter<'_> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use obvhs::{
         BvhBuildParams, bvh2::reinsertion::ReinsertionOptimizer, ploc::PlocBuilder,
@@ -375,10 +375,9 @@ mod tests {
         bvh2
     }
 
-    /// A height field of `g x g` cells (two triangles each) and a few
-    /// large triangles across it, so that leaves of 1 to 3 primitives and
-    /// every distribution occur.
-    fn triangles(g: usize) -> Vec<Triangle> {
+    /// A height field of `g x g` cells over the unit square, two triangles
+    /// per cell (also the BVH build's test scene).
+    pub(crate) fn height_field(g: usize) -> Vec<Triangle> {
         let h = |i: usize, j: usize| {
             let (x, z) = (i as f32 / g as f32, j as f32 / g as f32);
             Vec3A::new(x, 0.1 * (7.0 * x).sin() * (5.0 * z).cos(), z)
@@ -399,6 +398,13 @@ mod tests {
                 });
             }
         }
+        tris
+    }
+
+    /// `height_field(g)` and a few large triangles across it, so that
+    /// leaves of 1 to 3 primitives and every distribution occur.
+    fn triangles(g: usize) -> Vec<Triangle> {
+        let mut tris = height_field(g);
         for k in 0..5 {
             let y = 0.05 * k as f32;
             tris.push(Triangle {
