@@ -127,7 +127,8 @@ fn bitangent_sign(n: Vec3, dpdu: Vec3, dpdv: Vec3) -> f32 {
 /// The tangent at barycentrics (b1, b2) of triangle `i` and the sign of its
 /// bitangent: the file's when it has one, else from the uv derivatives.
 fn tangent_frame(scene: &Scene, i: usize, n: Vec3, b1: f32, b2: f32) -> (Vec3, f32) {
-    if let Some(t) = Some(scene.corner_tangents(i)).filter(|t| t[0] != Vec4::ZERO) {
+    let t = scene.corner_tangents(i);
+    if t[0] != Vec4::ZERO {
         let xyz = t[0].truncate() * (1.0 - b1 - b2) + t[1].truncate() * b1 + t[2].truncate() * b2;
         return (xyz, if t[0].w < 0.0 { -1.0 } else { 1.0 });
     }

@@ -363,13 +363,19 @@ impl SceneBuilder {
                 uv: uvs.map_or(Vec2::ZERO, |t| t[k]),
                 tangent: tangents.map_or(Vec4::ZERO, |t| t[k]),
             };
-            let key = keys.and_then(|keys| self.shared.get(keys[k] as usize).map(|_| keys[k]));
-            triangle[k] = match key.map(|key| self.shared[key as usize]) {
-                Some(v) if v != UNSHARED && self.vertex_is(v, &corner) => v,
-                shared => {
+            // The file's vertex, if the current mesh indexes it.
+            let slot = keys
+                .map(|keys| keys[k] as usize)
+                .filter(|&slot| slot < self.shared.len());
+            let reused = slot
+                .map(|slot| self.shared[slot])
+                .filter(|&v| v != UNSHARED && self.vertex_is(v, &corner));
+            triangle[k] = match reused {
+                Some(v) => v,
+                None => {
                     let v = self.push_vertex(&corner);
-                    if shared == Some(UNSHARED) {
-                        self.shared[key.unwrap_or_default() as usize] = v;
+                    if let Some(slot) = slot.filter(|&slot| self.shared[slot] == UNSHARED) {
+                        self.shared[slot] = v;
                     }
                     v
                 }
