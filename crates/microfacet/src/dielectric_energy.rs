@@ -86,16 +86,17 @@
 use std::f32::consts::FRAC_1_PI;
 use std::sync::OnceLock;
 
-use glam::{DVec3, Vec2, Vec3};
+use glam::{Vec2, Vec3};
 
 use crate::energy::{
-    GRAZING_MU, MIN_DEFICIT_AVERAGE, MODELS, TABLE_ALPHA, TABLE_ALPHA_MAX, alpha_node, cell,
-    gauss_legendre, lerp, model_index,
+    GRAZING_MU, MIN_DEFICIT_AVERAGE, MODELS, TABLE_ALPHA, TABLE_ALPHA_MAX, alpha_node, cell, lerp,
+    model_index,
 };
 use crate::frame::refract_f64;
 use crate::fresnel;
 use crate::model::MicrofacetModel;
 use crate::ndf::NdfKind;
+use crate::quadrature::{SmithG1Table, SplitQuadrature, gauss_legendre};
 use crate::sample::TransportMode;
 use crate::shadowing::Shadowing;
 
@@ -359,7 +360,7 @@ impl DielectricAlbedoTable {
                                 if medium == RARE {
                                     rare.albedo(mu, eta)
                                 } else {
-                                    dense.albedo(mu, eta)
+                                    dense.albedo(mu, Some(eta))
                                 }
                             }) as f32;
                     }
@@ -426,42 +427,6 @@ struct Quadrature {
     model: MicrofacetModel,
     normals: Vec<(Vec3, f64)>,
     smith_g1: SmithG1Table,
-}
-
-/// Smith's G1 at |<w,n>| = i/(`SMITH_G1_NODES` - 1), linear between (empty
-/// for V-cavity shadowing): G1 of an isotropic NDF depends on the
-/// direction's cosine only, and the exact Blinn-Phong Lambda (an incomplete
-/// beta function) made a table cost 7 s.
-struct SmithG1Table(Vec<f32>);
-
-/// Nodes of `SmithG1Table`, uniform in the cosine: the linear interpolation
-/// error is below 1e-6 away from grazing; near grazing G1 falls to 0 within
-/// a cosine of about alpha, where the integrand carries little (the table's
-/// error budget is 1e-3).
-const SMITH_G1_NODES: usize = 4097;
-
-impl SmithG1Table {
-    /// The table of `model`'s G1 (empty for V-cavity shadowing).
-    fn new(model: &MicrofacetModel, shadowing: Shadowing) -> Self {
-        Self(match shadowing {
-            Shadowing::Smith => (0..SMITH_G1_NODES)
-                .map(|i| {
-                    let mu = i as f32 / (SMITH_G1_NODES - 1) as f32;
-                    model
-                        .ndf
-                        .g1(Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu))
-                })
-                .collect(),
-            Shadowing::VCavity => Vec::new(),
-        })
-    }
-
-    /// Smith's G1 at cosine `mu` in [0, 1].
-    fn at(&self, mu: f32) -> f32 {
-        let x = mu.clamp(0.0, 1.0) * (SMITH_G1_NODES - 1) as f32;
-        let i = (x as usize).min(SMITH_G1_NODES - 2);
-        lerp(self.0[i], self.0[i + 1], x - i as f32)
-    }
 }
 
 impl Quadrature {
@@ -543,223 +508,6 @@ impl Quadrature {
     }
 }
 
-/// A Gauss-Legendre rule on [0, 1] after the substitution x = v^2 (3 - 2v)
-/// (dx = 6 v (1 - v) dv), which flattens both endpoints: an integrand that
-/// starts like sqrt(x - a) at an endpoint (the smooth interface's
-/// transmittance at its critical angle, the extent of a ring's region
-/// beyond a tangency) or with an integrable 1/sqrt singularity becomes smooth
-/// in v, and the rule converges fast again.
-fn flattened_rule(nodes: usize) -> Vec<(f64, f64)> {
-    gauss_legendre(nodes)
-        .into_iter()
-        .map(|(v, w)| (v * v * (3.0 - 2.0 * v), w * 6.0 * v * (1.0 - v)))
-        .collect()
-}
-
-/// E(mu, alpha, eta) by quadrature over microfacet normals in the
-/// coordinates of the NDF's D(h)<h,n> sampler (u1 -> theta_h, phi = 2 pi u2),
-/// split where the integrand is not smooth, so that each piece is smooth
-/// and a Gauss-Legendre rule (`flattened_rule`) converges fast:
-///
-/// - in azimuth, on each ring theta_h, at the phi where <wi,h> equals the
-///   cosine of total internal reflection (1 - F has an infinite slope
-///   there), where the reflected direction reaches the horizon (2 <wi,h>
-///   cos theta_h = mu, where G1 of it has a kink) and where <wi,h> = 0 (the
-///   back-facing cut, beyond which the integrand is 0); <wi,h> = sin
-///   theta_i sin theta_h cos phi + cos theta_i cos theta_h, so every such
-///   phi is explicit;
-/// - in theta_h, where a ring becomes tangent to those curves
-///   (theta_h = |theta_c' -+ theta_i| for total internal reflection,
-///   theta_c' the angle of its circle around wi; pi/4 -+ theta_i/2 for the
-///   reflected horizon; pi/2 - theta_i for the back-facing circle), where the
-///   rings' integrals have a square-root onset.
-///
-/// A product rule over the whole square (the previous tables') cut the
-/// total-internal-reflection curve and converged slowly: 64 x 64 nodes were
-/// off by up to 1.7e-3 from the dense side (GGX/Smith, alpha 0.9, normal
-/// incidence) against 256 x 256; without the reflected horizon's breaks, 20
-/// x 20 split nodes by 1.4e-3. The remaining kinks (V-cavity's min(), the
-/// refracted direction's horizon) are not split.
-struct SplitQuadrature {
-    model: MicrofacetModel,
-    radial: Vec<(f64, f64)>,
-    azimuth: Vec<(f64, f64)>,
-    smith_g1: SmithG1Table,
-}
-
-impl SplitQuadrature {
-    /// The rule for `model`'s NDF at `alpha` with `nodes` = (radial,
-    /// azimuthal) Gauss-Legendre nodes per piece.
-    fn new(kind: NdfKind, shadowing: Shadowing, alpha: f32, nodes: (usize, usize)) -> Self {
-        let model = MicrofacetModel::new(kind, alpha, shadowing);
-        let smith_g1 = SmithG1Table::new(&model, shadowing);
-        Self {
-            model,
-            radial: flattened_rule(nodes.0),
-            azimuth: flattened_rule(nodes.1),
-            smith_g1,
-        }
-    }
-
-    /// The radial uniform u1 whose ring has polar angle `theta` (the
-    /// sampler's theta_h grows with u1): bisection on `sample_d_cos`, which
-    /// every NDF has.
-    fn radial_uniform(&self, theta: f64) -> f64 {
-        let cos = theta.cos() as f32;
-        let (mut lo, mut hi) = (0.0f64, 1.0f64);
-        for _ in 0..BISECTION_STEPS {
-            let mid = 0.5 * (lo + hi);
-            if self.model.ndf.sample_d_cos(Vec2::new(mid as f32, 0.0)).z > cos {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        0.5 * (lo + hi)
-    }
-
-    /// E(mu, alpha, eta) (see `Quadrature::albedo` for the integrand).
-    fn albedo(&self, mu: f64, eta: f64) -> f64 {
-        let mu = mu.clamp(GRAZING_MU, 1.0);
-        let sin_i = (1.0 - mu * mu).max(0.0).sqrt();
-        let wi = DVec3::new(sin_i, 0.0, mu);
-        let theta_i = mu.acos();
-        // <wi,h> below which the smooth interface reflects totally (from the
-        // dense side), and the angle of that circle around wi.
-        let tir = (eta < 1.0).then(|| (1.0 - eta * eta).sqrt());
-        let (half_pi, quarter_pi) = (std::f64::consts::FRAC_PI_2, std::f64::consts::FRAC_PI_4);
-        // Back-facing circle, and the rings tangent to the curve where the
-        // reflected direction reaches the horizon (2 <wi,h> cos theta_h =
-        // mu, i.e. cos(2 theta_h -+ theta_i) = 0).
-        let mut breaks = vec![
-            0.0,
-            1.0,
-            self.radial_uniform(half_pi - theta_i),
-            self.radial_uniform(quarter_pi + 0.5 * theta_i),
-            self.radial_uniform(quarter_pi - 0.5 * theta_i),
-        ];
-        if let Some(c) = tir {
-            let theta_c = c.acos();
-            for theta in [(theta_c - theta_i).abs(), theta_c + theta_i] {
-                if theta < half_pi {
-                    breaks.push(self.radial_uniform(theta));
-                }
-            }
-        }
-        breaks.sort_by(f64::total_cmp);
-        let g1_wi = match self.model.shadowing {
-            Shadowing::Smith => self.model.ndf.g1(wi.as_vec3()),
-            Shadowing::VCavity => 0.0,
-        };
-        let mut sum = 0.0;
-        for piece in breaks.windows(2) {
-            let (a, b) = (piece[0], piece[1]);
-            if b - a <= 0.0 {
-                continue;
-            }
-            for &(x, w) in &self.radial {
-                let u1 = a + (b - a) * x;
-                let ring = self.model.ndf.sample_d_cos(Vec2::new(u1 as f32, 0.0));
-                let (sin_h, cos_h) = (f64::from(ring.x), f64::from(ring.z));
-                sum += w * (b - a) * self.ring(wi, g1_wi, (sin_i, mu), (sin_h, cos_h), tir, eta);
-            }
-        }
-        sum
-    }
-
-    /// (1/pi) int_0^pi of the integrand over the ring (sin_h, cos_h), split
-    /// at the total-internal-reflection and back-facing azimuths.
-    fn ring(
-        &self,
-        wi: DVec3,
-        g1_wi: f32,
-        (sin_i, cos_i): (f64, f64),
-        (sin_h, cos_h): (f64, f64),
-        tir: Option<f64>,
-        eta: f64,
-    ) -> f64 {
-        let pi = std::f64::consts::PI;
-        // phi where <wi,h> = k (0 or pi if the ring does not reach k).
-        let azimuth_of = |k: f64| {
-            let s = sin_i * sin_h;
-            if s <= 0.0 {
-                if cos_i * cos_h > k { pi } else { 0.0 }
-            } else {
-                ((k - cos_i * cos_h) / s).clamp(-1.0, 1.0).acos()
-            }
-        };
-        let back = azimuth_of(0.0);
-        // The reflected direction's horizon (`albedo`), and total internal
-        // reflection.
-        let mut breaks = vec![0.0, back, azimuth_of(0.5 * cos_i / cos_h).min(back)];
-        if let Some(c) = tir {
-            breaks.push(azimuth_of(c).min(back));
-        }
-        breaks.sort_by(f64::total_cmp);
-        let mut sum = 0.0;
-        for piece in breaks.windows(2) {
-            let (a, b) = (piece[0], piece[1]);
-            if b - a <= 0.0 {
-                continue;
-            }
-            for &(x, w) in &self.azimuth {
-                let (sin_phi, cos_phi) = (a + (b - a) * x).sin_cos();
-                let h = DVec3::new(sin_h * cos_phi, sin_h * sin_phi, cos_h);
-                sum += w * (b - a) * self.integrand(wi, g1_wi, h, eta);
-            }
-        }
-        sum / pi
-    }
-
-    /// <wi,h>/(<wi,n><h,n>) [F G_r + (1 - F) G_t] (`Quadrature::albedo`),
-    /// in f64. Smith's G needs only the outgoing cosines, which are explicit
-    /// (reflection 2 <wi,h> h_z - mu; refraction -mu/eta + (<wi,h>/eta -
-    /// cos theta_t) h_z, Snell's law as in `frame::refract_f64`); V-cavity's
-    /// needs the directions.
-    fn integrand(&self, wi: DVec3, g1_wi: f32, h: DVec3, eta: f64) -> f64 {
-        let (wi_h, mu) = (wi.dot(h), wi.z);
-        if !(wi_h > 0.0) || !(h.z > 0.0) {
-            return 0.0;
-        }
-        let (f, t) = fresnel::dielectric_f64(wi_h, eta);
-        let reflected_z = 2.0 * wi_h * h.z - mu;
-        let mut value = 0.0;
-        match self.model.shadowing {
-            Shadowing::Smith => {
-                let g = |cos_o: f64| f64::from(g1_wi * self.smith_g1.at(cos_o.abs() as f32));
-                if reflected_z > 0.0 {
-                    value += f * g(reflected_z);
-                }
-                if t > 0.0 {
-                    let cos_t = ((eta - 1.0) * (eta + 1.0) + wi_h * wi_h).max(0.0).sqrt() / eta;
-                    let refracted_z = -mu / eta + (wi_h / eta - cos_t) * h.z;
-                    if refracted_z < 0.0 {
-                        value += t * g(refracted_z);
-                    }
-                }
-            }
-            Shadowing::VCavity => {
-                let (wi32, h32) = (wi.as_vec3(), h.as_vec3());
-                if reflected_z > 0.0 {
-                    let wo = (2.0 * wi_h * h - wi).as_vec3();
-                    value += f * f64::from(self.model.g(wi32, wo, h32));
-                }
-                if t > 0.0
-                    && let Some(wo) = refract_f64(wi32, h32, eta)
-                    && wo.z < 0.0
-                {
-                    value += t * f64::from(self.model.g(wi32, wo, h32));
-                }
-            }
-        }
-        value * wi_h / (mu * h.z)
-    }
-}
-
-/// Bisection steps of `SplitQuadrature::radial_uniform` (2^-40: far below
-/// the f32 sampler's resolution).
-const BISECTION_STEPS: usize = 40;
-
 /// E(mu, alpha, eta) of one configuration by the tables' quadrature rules
 /// with `nodes`: from the rare side (eta >= 1) the product rule
 /// (`Quadrature`, (radial, half-azimuth) nodes; the tables use
@@ -780,7 +528,7 @@ pub fn dielectric_albedo_quadrature(
     if eta >= 1.0 {
         Quadrature::new(kind, shadowing, alpha, nodes.0, nodes.1).albedo(mu, eta)
     } else {
-        SplitQuadrature::new(kind, shadowing, alpha, nodes).albedo(mu, eta)
+        SplitQuadrature::new(kind, shadowing, alpha, nodes).albedo(mu, Some(eta))
     }
 }
 

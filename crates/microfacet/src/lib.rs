@@ -43,6 +43,7 @@ pub mod fresnel;
 pub mod lambertian;
 pub mod model;
 pub mod ndf;
+mod quadrature;
 pub mod sample;
 pub mod shadowing;
 pub mod special;

@@ -274,9 +274,22 @@ impl Ndf {
     /// Computed in f64 through cos^2 and sin^2 directly, so u.x = 0 or 1 and
     /// tiny alpha give finite unit vectors.
     pub fn sample_d_cos(&self, u: Vec2) -> Vec3 {
+        let (cos2, sin2) = self.d_cos_polar(f64::from(u.x));
+        let phi = 2.0 * PI64 * f64::from(u.y);
+        let sin_theta = sin2.max(0.0).sqrt();
+        Vec3::new(
+            (sin_theta * phi.cos()) as f32,
+            (sin_theta * phi.sin()) as f32,
+            cos2.max(0.0).sqrt() as f32,
+        )
+    }
+
+    /// (cos^2, sin^2) of the polar angle that `sample_d_cos` gives the
+    /// radial uniform `u1`, in f64 (the albedo quadrature needs u1 closer to
+    /// 1 than f32 resolves: GGX's normals near the horizon).
+    pub(crate) fn d_cos_polar(&self, u1: f64) -> (f64, f64) {
         let a2 = f64::from(self.alpha).powi(2);
-        let u1 = f64::from(u.x);
-        let (cos2, sin2) = match self.kind {
+        match self.kind {
             NdfKind::Ggx => {
                 let denominator = (1.0 - u1) + a2 * u1;
                 ((1.0 - u1) / denominator, a2 * u1 / denominator)
@@ -293,14 +306,7 @@ impl Ndf {
                 let ln_cos2 = a2 * u1.ln();
                 (ln_cos2.exp(), -ln_cos2.exp_m1())
             }
-        };
-        let phi = 2.0 * PI64 * f64::from(u.y);
-        let sin_theta = sin2.max(0.0).sqrt();
-        Vec3::new(
-            (sin_theta * phi.cos()) as f32,
-            (sin_theta * phi.sin()) as f32,
-            cos2.max(0.0).sqrt() as f32,
-        )
+        }
     }
 
     /// Density of `sample_d_cos`: D(h)<h,n>.
