@@ -20,8 +20,8 @@
 //!
 //! E_a(mu) is tabulated per NDF and shadowing model (`AlbedoTable`), computed
 //! serially at first use by quadrature over microfacet normals
-//! (`SplitQuadrature`, split where the integrand bends: within 1e-5 of 256 x
-//! 256 nodes). 64 nodes uniform in s = sqrt(mu) by 40 uniform in sqrt(alpha)
+//! (`SplitQuadrature`, split where the integrand bends: within 5e-5 of 64 x
+//! 64 nodes). 64 nodes uniform in s = sqrt(mu) by 40 uniform in sqrt(alpha)
 //! (0.05-1.1 s per table). Rows are a Catmull-Rom cubic in sqrt(alpha),
 //! linear in s between nodes: dE(mu) is piecewise linear in s, and dE_avg
 //! is integrated in closed form on that same function, so the furnace
@@ -49,7 +49,7 @@
 //! conductors); 4 cubic lookups per evaluation.
 //!
 //! **Limits.** Where the wider lobe reflects more than the original
-//! (V-cavity, and Beckmann/Blinn-Phong near grazing: up to +0.044) a
+//! (V-cavity, and Beckmann/Blinn-Phong near grazing: up to +0.049) a
 //! non-negative lobe cannot remove the gain, and nothing is added.
 
 use std::f32::consts::FRAC_1_PI;
@@ -79,7 +79,7 @@ pub const TABLE_ALPHA_MAX: f32 = 1.0;
 /// directions have no reflection to integrate (every lobe returns 0 there).
 pub(crate) const GRAZING_MU: f64 = 1e-3;
 /// (radial, azimuthal) Gauss-Legendre nodes per piece of the tables'
-/// quadrature (`SplitQuadrature`): within 1e-5 of 256 x 256 for every NDF
+/// quadrature (`SplitQuadrature`): within 5e-5 of 64 x 64 for every NDF
 /// and shadowing model (`tests/energy_compensation.rs`, `REFERENCE`).
 const QUADRATURE: (usize, usize) = (16, 16);
 /// Below this dE_avg the compensation carries nothing a renderer could see
