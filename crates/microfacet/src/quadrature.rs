@@ -21,6 +21,13 @@ pub(crate) fn gauss_legendre_8() -> &'static [(f64, f64)] {
     NODES.get_or_init(|| gauss_legendre(8))
 }
 
+/// The 4-point Gauss-Legendre rule on [0, 1] (exact for polynomials of
+/// degree 7), for the moments of the interpolated energy deficit.
+pub(crate) fn gauss_legendre_4() -> &'static [(f64, f64)] {
+    static NODES: OnceLock<Vec<(f64, f64)>> = OnceLock::new();
+    NODES.get_or_init(|| gauss_legendre(4))
+}
+
 /// n-point Gauss-Legendre rule on [0, 1]: roots of P_n by Newton's method
 /// from Tricomi's initial guess cos(pi (i - 1/4)/(n + 1/2)) (Abramowitz &
 /// Stegun 25.4.29; Numerical Recipes §4.6), mapped from [-1, 1].
