@@ -98,7 +98,8 @@ use glam::{Vec2, Vec3};
 
 use crate::energy::{
     GRAZING_MU, MIN_DEFICIT_AVERAGE, MODELS, TABLE_ALPHA, TABLE_ALPHA_MAX, alpha_node,
-    catmull_rom_cubic, catmull_rom_weights, cell, cubic_at, model_index, positive_part_integral,
+    catmull_rom_cubic, catmull_rom_weights, cell, cubic_at, model_index, spline_moment_weights,
+    spline_positive_moment,
 };
 use crate::frame::refract_f64;
 use crate::fresnel;
@@ -308,17 +309,47 @@ impl MuGrid {
 
     /// 2 int_0^1 max(0, y) mu dmu for y the cubic spline of each segment
     /// through the node values `nodes` (as `DielectricAlbedoTable::albedo`
-    /// interpolates), integrated exactly per cell (`positive_part_integral`;
-    /// the measure is a cubic in the cell's fraction). So dE_avg is the
-    /// moment of the very dE that `DielectricCompensation::deficit`
-    /// interpolates, and the furnace identity holds for the interpolated dE.
+    /// interpolates), exact (`crate::energy::spline_positive_moment`; the
+    /// measure is a cubic in each cell's fraction). So dE_avg is the moment
+    /// of the very dE that `DielectricCompensation::deficit` interpolates,
+    /// and the furnace identity holds for the interpolated dE.
     fn positive_part_moment(self, nodes: &[f32; TABLE_MU_DIELECTRIC]) -> f64 {
-        (0..TABLE_MU_DIELECTRIC - 1)
-            .map(|j| {
-                let cubic = catmull_rom_cubic(|i| f64::from(nodes[i]), j, self.segment(j));
-                positive_part_integral(cubic, |tau| self.measure(j, tau))
+        let weights = self.moment_weights();
+        spline_positive_moment(
+            nodes,
+            &weights,
+            |j| self.segment(j),
+            |j, t| self.measure(j, t),
+        )
+    }
+
+    /// The moment weights of the grid's nodes (`spline_moment_weights`). The
+    /// dense side's measure is c^2 times that of c = 1 below the kink and
+    /// 1 - c^2 times that of c = 0 above it, so its weights are the same
+    /// blend of two fixed sets.
+    fn moment_weights(self) -> [f64; TABLE_MU_DIELECTRIC] {
+        static FIXED: OnceLock<[Vec<f64>; 3]> = OnceLock::new();
+        let [rare, lower, upper] = FIXED.get_or_init(|| {
+            [
+                Self::Rare,
+                Self::Dense { critical: 1.0 },
+                Self::Dense { critical: 0.0 },
+            ]
+            .map(|g| {
+                spline_moment_weights(
+                    TABLE_MU_DIELECTRIC,
+                    |j| g.segment(j),
+                    |j, t| g.measure(j, t),
+                )
             })
-            .sum()
+        });
+        match self {
+            Self::Rare => std::array::from_fn(|i| rare[i]),
+            Self::Dense { critical } => {
+                let c2 = f64::from(critical).powi(2);
+                std::array::from_fn(|i| c2 * lower[i] + (1.0 - c2) * upper[i])
+            }
+        }
     }
 }
 
@@ -405,8 +436,23 @@ impl DielectricAlbedoTable {
     /// E(mu, alpha_hat, eta), interpolated as `albedo` does.
     fn deficit_average(&self, alpha: f32, alpha_hat: f32, eta: f32) -> f64 {
         let (medium, c) = critical_cosine(eta);
-        let (original, regularized) = (self.row(medium, alpha, c), self.row(medium, alpha_hat, c));
-        let nodes = std::array::from_fn(|j| original(j) - regularized(j));
+        // Whole rows weighted and summed (contiguous: vectorized), as `row`
+        // weights them node by node.
+        let (i, r) = critical_cell(c);
+        let in_c = catmull_rom_weights(i, r, TABLE_CRITICAL);
+        let mut nodes = [0.0; TABLE_MU_DIELECTRIC];
+        for (alpha, sign) in [(alpha, 1.0), (alpha_hat, -1.0)] {
+            let (k, s) = cell(alpha, TABLE_ALPHA, TABLE_ALPHA_MAX);
+            for (k, wa) in catmull_rom_weights(k, s, TABLE_ALPHA) {
+                for (i, wc) in in_c {
+                    let start = (i * TABLE_ALPHA + k) * TABLE_MU_DIELECTRIC;
+                    let row = &self.e[medium][start..start + TABLE_MU_DIELECTRIC];
+                    for (node, e) in nodes.iter_mut().zip(row) {
+                        *node += sign * wc * wa * e;
+                    }
+                }
+            }
+        }
         MuGrid::of(medium, c).positive_part_moment(&nodes)
     }
 }

@@ -140,10 +140,21 @@ impl AlbedoTable {
     }
 
     /// The node values of dE(mu) = max(0, E(mu, alpha) - E(mu, alpha_hat))
-    /// before clamping, at every mu node.
+    /// before clamping, at every mu node: whole rows of the table weighted
+    /// and summed (contiguous, so the compiler vectorizes it), as `row`
+    /// weights them node by node.
     fn deficit_nodes(&self, alpha: f32, alpha_hat: f32) -> [f32; TABLE_MU] {
-        let (original, regularized) = (self.row(alpha), self.row(alpha_hat));
-        std::array::from_fn(|j| original(j) - regularized(j))
+        let mut nodes = [0.0; TABLE_MU];
+        for (alpha, sign) in [(alpha, 1.0), (alpha_hat, -1.0)] {
+            let (k, s) = cell(alpha, TABLE_ALPHA, TABLE_ALPHA_MAX);
+            for (r, w) in catmull_rom_weights(k, s, TABLE_ALPHA) {
+                let row = &self.e[r * TABLE_MU..(r + 1) * TABLE_MU];
+                for (node, e) in nodes.iter_mut().zip(row) {
+                    *node += sign * w * e;
+                }
+            }
+        }
+        nodes
     }
 }
 
@@ -312,15 +323,76 @@ impl Compensation {
 /// 2 int_0^1 max(0, y) mu dmu for y the Catmull-Rom cubic in s = sqrt(mu)
 /// through the values `nodes` at s = 0, 1/(n-1), ..., 1 (as `albedo`
 /// interpolates): with mu = s^2 the measure 2 mu dmu is 4 s^3 ds, a cubic
-/// in each cell's fraction, integrated exactly (`positive_part_integral`).
+/// in each cell's fraction (`spline_positive_moment`).
 pub(crate) fn positive_part_moment(nodes: &[f32; TABLE_MU]) -> f64 {
+    static WEIGHTS: OnceLock<Vec<f64>> = OnceLock::new();
+    let segment = |_| (0, TABLE_MU - 1);
     let h = 1.0 / (TABLE_MU - 1) as f64;
-    (0..TABLE_MU - 1)
+    let measure = |j: usize, t: f64| 4.0 * ((j as f64 + t) * h).powi(3) * h;
+    let weights = WEIGHTS.get_or_init(|| spline_moment_weights(TABLE_MU, segment, measure));
+    spline_positive_moment(nodes, weights, segment, measure)
+}
+
+/// int max(0, y) over a grid of cells of the spline y through `nodes`
+/// (`catmull_rom_cubic`, cells grouped into `segment`s), cell j weighted by
+/// the polynomial `measure(j, t)` (degree <= 3) of its fraction t. The
+/// integral of y itself is linear in the nodes (`weights`, from
+/// `spline_moment_weights`); only cells where y may dip below 0 (a Bernstein
+/// coefficient of the cubic below 0, which bounds it) are integrated exactly
+/// (`positive_part_integral`) to add back what falls below 0. So dE_avg is
+/// the exact moment of the very dE the tables interpolate (the furnace
+/// identity), at the cost of a dot product where dE stays positive.
+pub(crate) fn spline_positive_moment(
+    nodes: &[f32],
+    weights: &[f64],
+    segment: impl Fn(usize) -> (usize, usize),
+    measure: impl Fn(usize, f64) -> f64,
+) -> f64 {
+    let y = |i: usize| f64::from(nodes[i]);
+    let whole: f64 = (0..nodes.len()).map(|i| y(i) * weights[i]).sum();
+    let below: f64 = (0..nodes.len() - 1)
         .map(|j| {
-            let cubic = catmull_rom_cubic(|i| f64::from(nodes[i]), j, (0, TABLE_MU - 1));
-            positive_part_integral(cubic, |t| 4.0 * ((j as f64 + t) * h).powi(3) * h)
+            let points = catmull_rom_points(y, j, segment(j));
+            if bernstein_nonnegative(points) {
+                0.0
+            } else {
+                let cubic = catmull_rom_cubic(y, j, segment(j));
+                positive_part_integral(cubic.map(|c| -c), |t| measure(j, t))
+            }
         })
-        .sum()
+        .sum();
+    whole + below
+}
+
+/// The moment int y measure of each node's spline basis function (its
+/// value 1, every other node 0), summed over the cells, exact by 4-point
+/// Gauss-Legendre: the linear part of `spline_positive_moment`.
+pub(crate) fn spline_moment_weights(
+    n: usize,
+    segment: impl Fn(usize) -> (usize, usize),
+    measure: impl Fn(usize, f64) -> f64,
+) -> Vec<f64> {
+    (0..n)
+        .map(|i| {
+            (0..n - 1)
+                .map(|j| {
+                    let basis = catmull_rom_cubic(|k| f64::from(u8::from(k == i)), j, segment(j));
+                    gauss_legendre_4()
+                        .iter()
+                        .map(|&(t, w)| w * cubic_at(basis, t) * measure(j, t))
+                        .sum::<f64>()
+                })
+                .sum()
+        })
+        .collect()
+}
+
+/// True when the Catmull-Rom cubic through the four `points` is >= 0 on its
+/// cell for certain: its Bernstein coefficients (p1, p1 + (p2 - p0)/6,
+/// p2 - (p3 - p1)/6, p2: the control points of the same curve) are all >=
+/// 0, and the curve lies in their convex hull.
+fn bernstein_nonnegative([p0, p1, p2, p3]: [f64; 4]) -> bool {
+    p1 >= 0.0 && p2 >= 0.0 && 6.0 * p1 + p2 - p0 >= 0.0 && 6.0 * p2 + p1 - p3 >= 0.0
 }
 
 /// The Catmull-Rom cubic of cell `j` (nodes j and j + 1) through the node
@@ -329,6 +401,22 @@ pub(crate) fn positive_part_moment(nodes: &[f32; TABLE_MU]) -> f64 {
 /// `catmull_rom_weights`, with the same quadratic extrapolation beyond the
 /// segment's ends (a segment ends where the tabulated function has a kink).
 pub(crate) fn catmull_rom_cubic(
+    y: impl Fn(usize) -> f64,
+    j: usize,
+    segment: (usize, usize),
+) -> [f64; 4] {
+    let [p0, p1, p2, p3] = catmull_rom_points(y, j, segment);
+    [
+        p1,
+        0.5 * (p2 - p0),
+        p0 - 2.5 * p1 + 2.0 * p2 - 0.5 * p3,
+        0.5 * (p3 - p0) + 1.5 * (p1 - p2),
+    ]
+}
+
+/// The four values y_(j-1) ..= y_(j+2) of cell j's spline, the outer ones
+/// extrapolated quadratically beyond the segment `first..=last`.
+fn catmull_rom_points(
     y: impl Fn(usize) -> f64,
     j: usize,
     (first, last): (usize, usize),
@@ -344,12 +432,7 @@ pub(crate) fn catmull_rom_cubic(
     } else {
         y(j + 2)
     };
-    [
-        p1,
-        0.5 * (p2 - p0),
-        p0 - 2.5 * p1 + 2.0 * p2 - 0.5 * p3,
-        0.5 * (p3 - p0) + 1.5 * (p1 - p2),
-    ]
+    [p0, p1, p2, p3]
 }
 
 /// c0 + c1 t + c2 t^2 + c3 t^3.
@@ -364,40 +447,51 @@ pub(crate) fn cubic_at(c: [f64; 4], t: f64) -> f64 {
 /// (degree 6). So dE_avg is the moment of the very dE the tables
 /// interpolate, and the furnace identity holds for it.
 pub(crate) fn positive_part_integral(y: [f64; 4], m: impl Fn(f64) -> f64) -> f64 {
-    let mut cuts = vec![0.0, 1.0];
-    // y' = c1 + 2 c2 t + 3 c3 t^2.
+    // Turning points: y' = c1 + 2 c2 t + 3 c3 t^2 = 0 inside (0, 1).
     let (a, b, c) = (3.0 * y[3], 2.0 * y[2], y[1]);
-    if a.abs() > 0.0 {
+    let mut turns = [f64::NAN; 2];
+    if a != 0.0 {
         let discriminant = b * b - 4.0 * a * c;
         if discriminant > 0.0 {
             let root = discriminant.sqrt();
-            cuts.extend([(-b - root) / (2.0 * a), (-b + root) / (2.0 * a)]);
+            let (t0, t1) = ((-b - root) / (2.0 * a), (-b + root) / (2.0 * a));
+            turns = [t0.min(t1), t0.max(t1)];
         }
-    } else if b.abs() > 0.0 {
-        cuts.push(-c / b);
+    } else if b != 0.0 {
+        turns[0] = -c / b;
     }
-    cuts.retain(|t| (0.0..=1.0).contains(t));
-    cuts.sort_by(f64::total_cmp);
-    let mut zeros = Vec::new();
-    for piece in cuts.windows(2) {
+    // Monotone pieces [0, turns.., 1], each cut once more where y = 0:
+    // at most 7 points, in order.
+    let mut ends = [0.0; 4];
+    let mut count = 1;
+    for t in turns.into_iter().filter(|t| *t > 0.0 && *t < 1.0) {
+        ends[count] = t;
+        count += 1;
+    }
+    ends[count] = 1.0;
+    let mut points = [0.0; 7];
+    let mut n = 0;
+    for piece in ends[..=count].windows(2) {
+        points[n] = piece[0];
+        n += 1;
         let (mut lo, mut hi) = (piece[0], piece[1]);
         let below = cubic_at(y, lo) <= 0.0;
-        if below == (cubic_at(y, hi) <= 0.0) {
-            continue;
-        }
-        for _ in 0..ROOT_BISECTIONS {
-            let mid = 0.5 * (lo + hi);
-            if (cubic_at(y, mid) <= 0.0) == below {
-                lo = mid;
-            } else {
-                hi = mid;
+        if below != (cubic_at(y, hi) <= 0.0) {
+            for _ in 0..ROOT_BISECTIONS {
+                let mid = 0.5 * (lo + hi);
+                if (cubic_at(y, mid) <= 0.0) == below {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
             }
+            points[n] = 0.5 * (lo + hi);
+            n += 1;
         }
-        zeros.push(0.5 * (lo + hi));
     }
-    cuts.extend(zeros);
-    cuts.sort_by(f64::total_cmp);
-    cuts.windows(2)
+    points[n] = 1.0;
+    points[..=n]
+        .windows(2)
         .filter(|piece| cubic_at(y, 0.5 * (piece[0] + piece[1])) > 0.0)
         .map(|piece| {
             let (lo, width) = (piece[0], piece[1] - piece[0]);
