@@ -31,6 +31,7 @@
 //!
 //! [obvhs]: https://crates.io/crates/obvhs
 
+mod binned;
 mod bvh;
 mod convert;
 mod grid;
