@@ -26,13 +26,20 @@ use obvhs::{
 /// reports no gain in tree quality beyond 32).
 const BINS: usize = 32;
 
+/// Nodes of at most this many primitives take the exact SAH split
+/// (sorted centroids, every boundary) instead of the binned one: better
+/// splits, and cheaper than clearing and sweeping `3 * BINS` bins for a
+/// handful of primitives.
+const EXACT_MAX: usize = 16;
+
 /// Subtrees with at least this many primitives build their two halves
 /// in parallel (below it rayon's task overhead dominates).
 const PARALLEL_MIN: usize = 4096;
 
 /// Below this depth every split is the SAH's; from it on, every split is
-/// the object median, so that the tree, and the recursion, stays
-/// shallower than `MEDIAN_DEPTH + log2(n) + 1` levels on any input (SAH
+/// the object median (down to [`EXACT_MAX`] primitives), so that the
+/// tree, and the recursion, stays shallower than `MEDIAN_DEPTH + log2(n) +
+/// EXACT_MAX` levels on any input (SAH
 /// trees of real scenes of a million triangles are about 40 deep; a
 /// geometric progression of boxes makes the SAH peel one box per level).
 const MEDIAN_DEPTH: usize = 64;
@@ -221,6 +228,9 @@ fn split(prims: &mut [PrimRef], extent: Extent, depth: usize) -> (usize, Extent,
         // Every centroid is the same point: any split is as good.
         return finish_split(prims, n / 2);
     }
+    if n <= EXACT_MAX {
+        return exact_split(prims);
+    }
     if depth < MEDIAN_DEPTH
         && let Some((axis, plane)) = best_bin_split(prims, c.min, size)
     {
@@ -236,6 +246,39 @@ fn split(prims: &mut [PrimRef], extent: Extent, depth: usize) -> (usize, Extent,
         a.centroid2()[widest].total_cmp(&b.centroid2()[widest])
     });
     finish_split(prims, mid)
+}
+
+/// The SAH-best split of a few primitives (at most [`EXACT_MAX`]): sorted
+/// by centroid on each axis, every boundary between two of them tried.
+fn exact_split(prims: &mut [PrimRef]) -> (usize, Extent, Extent) {
+    let n = prims.len();
+    debug_assert!((2..=EXACT_MAX).contains(&n));
+    let sort = |prims: &mut [PrimRef], axis: usize| {
+        prims.sort_unstable_by(|a, b| a.centroid2()[axis].total_cmp(&b.centroid2()[axis]));
+    };
+    let mut best = (f32::INFINITY, 0, n / 2);
+    for axis in 0..3 {
+        sort(prims, axis);
+        // right[i]: A N of prims[i..].
+        let mut right = [0.0f32; EXACT_MAX];
+        let mut bounds = Bounds::EMPTY;
+        for i in (1..n).rev() {
+            bounds.grow(prims[i].min.into(), prims[i].max.into());
+            right[i] = bounds.half_area() * (n - i) as f32;
+        }
+        let mut bounds = Bounds::EMPTY;
+        for i in 1..n {
+            bounds.grow(prims[i - 1].min.into(), prims[i - 1].max.into());
+            let cost = bounds.half_area() * i as f32 + right[i];
+            if cost < best.0 {
+                best = (cost, axis, i);
+            }
+        }
+    }
+    if best.1 != 2 {
+        sort(prims, best.1);
+    }
+    finish_split(prims, best.2)
 }
 
 /// The extents of `prims[..mid]` and `prims[mid..]`.
@@ -307,10 +350,7 @@ fn best_bin_split(prims: &[PrimRef], min: Vec3A, size: Vec3A) -> Option<(usize, 
 /// Moves the primitives for which `left` holds to the front (Hoare's
 /// scheme: each primitive is tested once) and returns their number and
 /// the extents of both sides.
-fn partition(
-    prims: &mut [PrimRef],
-    left: impl Fn(&PrimRef) -> bool,
-) -> (usize, Extent, Extent) {
+fn partition(prims: &mut [PrimRef], left: impl Fn(&PrimRef) -> bool) -> (usize, Extent, Extent) {
     let empty = Extent {
         bounds: Bounds::EMPTY,
         centroids: Bounds::EMPTY,

@@ -1,6 +1,8 @@
-//! BVH over triangles and spheres: obvhs builds and traverses the tree;
-//! this module owns the primitives, the ray/triangle test (the ray/sphere
-//! test is `sphere.rs`'s) and the mapping back to caller ids.
+//! BVH over triangles and spheres: `binned.rs` (by default) or obvhs'
+//! PLOC builds the binary tree, `convert.rs` makes it 8-wide, obvhs'
+//! node types hold it and `traverse.rs` walks it; this module owns the
+//! primitives, the ray/triangle test (the ray/sphere test is
+//! `sphere.rs`'s) and the mapping back to caller ids.
 
 use std::ops::ControlFlow;
 
@@ -52,10 +54,11 @@ pub struct Hit {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Layout {
     /// 8-wide compressed BVH (Ylitie et al. 2017, 80 bytes per node), built by
-    /// converting the PLOC BVH2; SIMD node tests. Fastest traversal.
+    /// converting the binary tree; SIMD node tests. Fastest traversal.
     #[default]
     Wide,
-    /// Binary BVH (PLOC, reinsertion, leaf collapse). Faster to build.
+    /// Binary BVH (the builder's tree, reinsertion, leaf collapse). Faster
+    /// to build.
     Binary,
 }
 
@@ -64,9 +67,13 @@ pub enum Layout {
 /// best tree.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum BuildQuality {
-    /// Top-down binned SAH (`binned.rs`), one primitive per leaf, then
-    /// 5% reinsertion; the `Medium` preset's leaf sizes and collapse.
-    /// Traces as fast as `Medium` and needs about half its memory.
+    /// Top-down binned SAH (`binned.rs`), one primitive per leaf; the
+    /// `Medium` preset's wide-leaf size (and, for [`Layout::Binary`], its
+    /// collapse and reinsertion). Against `Medium` on a 1M-triangle
+    /// height field: 9% fewer instructions per path-traced iteration,
+    /// the same on the bundled Cornell boxes, about 1.2x its build time,
+    /// and about half its build memory. (obvhs' reinsertion after it
+    /// changed nothing measurable and took a third of the build time.)
     #[default]
     Binned,
     /// PLOC search distance 1, no reinsertion, one primitive per leaf.
@@ -182,15 +189,20 @@ struct PreparedRay {
 }
 
 impl Bvh {
-    /// Peak memory of [`Bvh::build`] per triangle, in bytes, for checking
-    /// that a scene fits before it is built. Measured: a 999,698-triangle
-    /// OBJ height field (`cargo xtask bench --scaling`) peaked at 272 MB
-    /// resident while building, against 10 MiB for 968 triangles; the
-    /// scene held 22 bytes per triangle. Of the rest, obvhs' PLOC builder
-    /// holds 212 bytes per primitive at its peak (its two 48-byte node
-    /// buffers, the BVH2's two 48-byte nodes and index, 16 bytes of Morton
-    /// codes).
-    pub const BUILD_BYTES_PER_TRIANGLE: u64 = 250;
+    /// Peak memory of [`Bvh::build`] per triangle beyond the scene's own,
+    /// in bytes, for checking that a scene fits before it is built.
+    /// Measured (default options): building a 999,698-triangle OBJ height
+    /// field (`cargo xtask bench --scaling`) took the process from 37.8 to
+    /// 131.7 MB resident, 94 bytes per triangle: the builder's 28-byte
+    /// references and its tree's two 32-byte nodes and 4-byte index per
+    /// primitive (`binned.rs`). The conversion to the wide tree needs less
+    /// (the tree, 14 bytes of decisions, the wide nodes), and so does what
+    /// stays (48 bytes of triangle corners, a 4-byte id, the wide nodes).
+    /// obvhs' PLOC presets need more: by the same count about 150 (two
+    /// node buffers and the tree, 32 bytes a node with its
+    /// `small_bvh2_node` feature, 48 before; Morton codes), measured 212
+    /// with 48-byte nodes.
+    pub const BUILD_BYTES_PER_TRIANGLE: u64 = 100;
 
     /// Builds a BVH over `triangles` with the default [`BuildOptions`], in
     /// parallel on the current rayon pool.
@@ -321,13 +333,7 @@ impl Bvh {
         let has_spheres = prims.len() > valid_triangles;
         // Each builder's leaves give the primitives' caller ids.
         let bvh2 = match options.quality {
-            BuildQuality::Binned => {
-                let mut bvh2 = binned::build(&mut prims);
-                drop(prims);
-                let config = options.quality.params();
-                ReinsertionOptimizer::default().run(&mut bvh2, config.reinsertion_batch_ratio, None);
-                bvh2
-            }
+            BuildQuality::Binned => binned::build(&mut prims),
             _ => {
                 let mut bvh2 = if !has_spheres && options.quality.params().pre_split {
                     let tris: Vec<Triangle> = prims
@@ -343,9 +349,7 @@ impl Bvh {
                         .collect();
                     build_bvh2_split(&tris, options)
                 } else {
-                    let boxes = prims
-                        .iter()
-                        .map(|p| Aabb::new(p.min.into(), p.max.into()));
+                    let boxes = prims.iter().map(|p| Aabb::new(p.min.into(), p.max.into()));
                     build_bvh2(boxes, prims.len(), options)
                 };
                 for index in &mut bvh2.primitive_indices {
@@ -354,6 +358,8 @@ impl Bvh {
                 bvh2
             }
         };
+        // The references are no longer needed (28 bytes per primitive).
+        drop(prims);
         let mut tree = finish_tree(bvh2, options);
         // The traversals report slots; the slot -> id map moves here.
         bvh.ids = match &mut tree {
