@@ -1,6 +1,8 @@
-//! BVH over triangles and spheres: obvhs builds and traverses the tree;
-//! this module owns the primitives, the ray/triangle test (the ray/sphere
-//! test is `sphere.rs`'s) and the mapping back to caller ids.
+//! BVH over triangles and spheres: `binned.rs` (by default) or obvhs'
+//! PLOC builds the binary tree, `convert.rs` makes it 8-wide, obvhs'
+//! node types hold it and `traverse.rs` walks it; this module owns the
+//! primitives, the ray/triangle test (the ray/sphere test is
+//! `sphere.rs`'s) and the mapping back to caller ids.
 
 use std::ops::ControlFlow;
 
@@ -15,6 +17,7 @@ use obvhs::{
     triangle::Triangle,
 };
 
+use crate::binned::{self, PrimRef};
 use crate::convert::bvh2_to_cwbvh;
 use crate::sphere::Sphere;
 use crate::traverse::{NodeRay, traverse_binary, traverse_wide};
@@ -51,17 +54,28 @@ pub struct Hit {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Layout {
     /// 8-wide compressed BVH (Ylitie et al. 2017, 80 bytes per node), built by
-    /// converting the PLOC BVH2; SIMD node tests. Fastest traversal.
+    /// converting the binary tree; SIMD node tests. Fastest traversal.
     #[default]
     Wide,
-    /// Binary BVH (PLOC, reinsertion, leaf collapse). Faster to build.
+    /// Binary BVH (the builder's tree, reinsertion, leaf collapse). Faster
+    /// to build.
     Binary,
 }
 
+/// The builder: this crate's binned SAH builder (the default), or an
 /// obvhs build preset (`BvhBuildParams::*_build`), from fastest build to
 /// best tree.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum BuildQuality {
+    /// Top-down binned SAH (`binned.rs`), one primitive per leaf; the
+    /// `Medium` preset's wide-leaf size (and, for [`Layout::Binary`], its
+    /// collapse and reinsertion). Against `Medium` on a 1M-triangle
+    /// height field: 9% fewer instructions per path-traced iteration,
+    /// the same on the bundled Cornell boxes, about 1.2x its build time,
+    /// and about half its build memory. (obvhs' reinsertion after it
+    /// changed nothing measurable and took a third of the build time.)
+    #[default]
+    Binned,
     /// PLOC search distance 1, no reinsertion, one primitive per leaf.
     Fastest,
     /// Search distance 1, 1% reinsertion.
@@ -69,7 +83,6 @@ pub enum BuildQuality {
     /// Search distance 6, 2% reinsertion.
     Fast,
     /// Search distance 14, 5% reinsertion ("about Embree build time").
-    #[default]
     Medium,
     /// Search distance 24, 20% reinsertion, pre-splits of large triangles.
     Slow,
@@ -78,8 +91,10 @@ pub enum BuildQuality {
 }
 
 impl BuildQuality {
-    /// Every preset, fastest build first.
-    pub const ALL: [Self; 6] = [
+    /// Every builder: the binned SAH builder, then obvhs' presets, fastest
+    /// build first.
+    pub const ALL: [Self; 7] = [
+        Self::Binned,
         Self::Fastest,
         Self::VeryFast,
         Self::Fast,
@@ -93,7 +108,7 @@ impl BuildQuality {
             Self::Fastest => BvhBuildParams::fastest_build(),
             Self::VeryFast => BvhBuildParams::very_fast_build(),
             Self::Fast => BvhBuildParams::fast_build(),
-            Self::Medium => BvhBuildParams::medium_build(),
+            Self::Medium | Self::Binned => BvhBuildParams::medium_build(),
             Self::Slow => BvhBuildParams::slow_build(),
             Self::VerySlow => BvhBuildParams::very_slow_build(),
         }
@@ -174,15 +189,20 @@ struct PreparedRay {
 }
 
 impl Bvh {
-    /// Peak memory of [`Bvh::build`] per triangle, in bytes, for checking
-    /// that a scene fits before it is built. Measured: a 999,698-triangle
-    /// OBJ height field (`cargo xtask bench --scaling`) peaked at 272 MB
-    /// resident while building, against 10 MiB for 968 triangles; the
-    /// scene held 22 bytes per triangle. Of the rest, obvhs' PLOC builder
-    /// holds 212 bytes per primitive at its peak (its two 48-byte node
-    /// buffers, the BVH2's two 48-byte nodes and index, 16 bytes of Morton
-    /// codes).
-    pub const BUILD_BYTES_PER_TRIANGLE: u64 = 250;
+    /// Peak memory of [`Bvh::build`] per triangle beyond the scene's own,
+    /// in bytes, for checking that a scene fits before it is built.
+    /// Measured (default options): building a 999,698-triangle OBJ height
+    /// field (`cargo xtask bench --scaling`) took the process from 37.8 to
+    /// 131.7 MB resident, 94 bytes per triangle: the builder's 28-byte
+    /// references and its tree's two 32-byte nodes and 4-byte index per
+    /// primitive (`binned.rs`). The conversion to the wide tree needs less
+    /// (the tree, 14 bytes of decisions, the wide nodes), and so does what
+    /// stays (48 bytes of triangle corners, a 4-byte id, the wide nodes).
+    /// obvhs' PLOC presets need more: by the same count about 150 (two
+    /// node buffers and the tree, 32 bytes a node with its
+    /// `small_bvh2_node` feature, 48 before; Morton codes), measured 212
+    /// with 48-byte nodes.
+    pub const BUILD_BYTES_PER_TRIANGLE: u64 = 100;
 
     /// Builds a BVH over `triangles` with the default [`BuildOptions`], in
     /// parallel on the current rayon pool.
@@ -256,7 +276,10 @@ impl Bvh {
         );
         let mut min = Vec3::INFINITY;
         let mut max = Vec3::NEG_INFINITY;
-        let mut valid_ids = Vec::with_capacity(count);
+        // Triangles first, then spheres, each with its caller id: the
+        // builders' input, and all the build keeps per primitive besides
+        // the tree (28 bytes).
+        let mut prims = Vec::with_capacity(count);
         for id in 0..count {
             let tri = &corners(id);
             if !tri
@@ -265,24 +288,30 @@ impl Bvh {
             {
                 continue;
             }
-            for v in tri {
-                min = min.min(*v);
-                max = max.max(*v);
-            }
-            if !is_degenerate(tri) {
-                valid_ids.push(id as u32);
-            }
-        }
-        let valid_spheres: Vec<u32> = (0..spheres.len() as u32)
-            .filter(|&j| {
-                let s = &spheres[j as usize];
-                s.is_valid() && s.center.abs().max_element() + s.radius <= MAX_COORDINATE
-            })
-            .collect();
-        for &j in &valid_spheres {
-            let (lo, hi) = spheres[j as usize].bounds();
+            let lo = tri[0].min(tri[1]).min(tri[2]);
+            let hi = tri[0].max(tri[1]).max(tri[2]);
             min = min.min(lo);
             max = max.max(hi);
+            if !is_degenerate(tri) {
+                prims.push(PrimRef {
+                    min: lo,
+                    id: id as u32,
+                    max: hi,
+                });
+            }
+        }
+        let valid_triangles = prims.len();
+        for (j, s) in spheres.iter().enumerate() {
+            if s.is_valid() && s.center.abs().max_element() + s.radius <= MAX_COORDINATE {
+                let (lo, hi) = s.bounds();
+                min = min.min(lo);
+                max = max.max(hi);
+                prims.push(PrimRef {
+                    min: lo,
+                    id: (count + j) as u32,
+                    max: hi,
+                });
+            }
         }
         let bounds = if min.x <= max.x {
             (min, max)
@@ -298,54 +327,55 @@ impl Bvh {
             bounds,
             scene_exponent: 0,
         };
-        if valid_ids.is_empty() && valid_spheres.is_empty() {
+        if prims.is_empty() {
             return bvh;
         }
-        let triangle = |id: u32| {
-            let [v0, v1, v2] = corners(id as usize);
-            Triangle {
-                v0: v0.into(),
-                v1: v1.into(),
-                v2: v2.into(),
+        let has_spheres = prims.len() > valid_triangles;
+        // Each builder's leaves give the primitives' caller ids.
+        let bvh2 = match options.quality {
+            BuildQuality::Binned => binned::build(&mut prims),
+            _ => {
+                let mut bvh2 = if !has_spheres && options.quality.params().pre_split {
+                    let tris: Vec<Triangle> = prims
+                        .iter()
+                        .map(|p| {
+                            let [v0, v1, v2] = corners(p.id as usize);
+                            Triangle {
+                                v0: v0.into(),
+                                v1: v1.into(),
+                                v2: v2.into(),
+                            }
+                        })
+                        .collect();
+                    build_bvh2_split(&tris, options)
+                } else {
+                    let boxes = prims.iter().map(|p| Aabb::new(p.min.into(), p.max.into()));
+                    build_bvh2(boxes, prims.len(), options)
+                };
+                for index in &mut bvh2.primitive_indices {
+                    *index = prims[*index as usize].id;
+                }
+                bvh2
             }
         };
-        // Triangles' boxes first, then the spheres': a primitive index
-        // below valid_ids.len() is a triangle. The boxes go straight into
-        // the builder's leaves, with no copy of the primitives.
-        let boxes =
-            valid_ids
-                .iter()
-                .map(|&id| triangle(id).aabb())
-                .chain(valid_spheres.iter().map(|&j| {
-                    let (lo, hi) = spheres[j as usize].bounds();
-                    Aabb::new(lo.into(), hi.into())
-                }));
-        let bvh2 = if valid_spheres.is_empty() && options.quality.params().pre_split {
-            let prims: Vec<Triangle> = valid_ids.iter().map(|&id| triangle(id)).collect();
-            build_bvh2_split(&prims, options)
-        } else {
-            build_bvh2(boxes, valid_ids.len() + valid_spheres.len(), options)
-        };
-        let tree = finish_tree(bvh2, options);
-        let slots = match &tree {
-            Tree::Wide(wide) => &wide.primitive_indices,
-            Tree::Binary(bvh2, _) => &bvh2.primitive_indices,
+        // The references are no longer needed (28 bytes per primitive).
+        drop(prims);
+        let mut tree = finish_tree(bvh2, options);
+        // The traversals report slots; the slot -> id map moves here.
+        bvh.ids = match &mut tree {
+            Tree::Wide(wide) => std::mem::take(&mut wide.primitive_indices),
+            Tree::Binary(bvh2, _) => std::mem::take(&mut bvh2.primitive_indices),
             Tree::Empty => unreachable!("a tree over at least one primitive"),
         };
-        bvh.triangles = slots
+        bvh.triangles = bvh
+            .ids
             .iter()
-            .map(|&s| {
-                valid_ids.get(s as usize).map_or([Vec3A::ZERO; 3], |&id| {
+            .map(|&id| {
+                if (id as usize) < count {
                     corners(id as usize).map(Vec3A::from)
-                })
-            })
-            .collect();
-        let first_sphere = count as u32;
-        bvh.ids = slots
-            .iter()
-            .map(|&s| match valid_ids.get(s as usize) {
-                Some(&id) => id,
-                None => first_sphere + valid_spheres[s as usize - valid_ids.len()],
+                } else {
+                    [Vec3A::ZERO; 3]
+                }
             })
             .collect();
         bvh.tree = tree;

@@ -1,8 +1,9 @@
 //! Ray-tracing acceleration for the renderer, behind a narrow API so that the
 //! BVH library can be swapped by editing this crate only:
 //!
-//! - [`Bvh`]: a triangle BVH built by [obvhs] (PLOC + reinsertion, converted
-//!   to an 8-wide compressed BVH), with closest-hit ([`Bvh::intersect`]) and
+//! - [`Bvh`]: a triangle BVH (this crate's binned SAH builder, or [obvhs]'
+//!   PLOC with reinsertion, converted to an 8-wide compressed BVH in
+//!   obvhs' node format), with closest-hit ([`Bvh::intersect`]) and
 //!   any-hit ([`Bvh::occluded`]) queries that return caller triangle ids and
 //!   barycentrics. The ray/triangle test is this crate's own watertight test
 //!   (Woop et al. 2013); obvhs only traverses nodes.
@@ -25,12 +26,15 @@
 //!   reciprocal), see [`Bvh::intersect`].
 //!
 //! # Choice of layout and preset
-//! The default [`BuildOptions`] (wide CWBVH, `medium` preset) were picked from
-//! the `cargo bench -p accel` numbers; see `benches/bvh.rs` and the
-//! crate's README section in the report for the measurements.
+//! The default layout (wide CWBVH) was picked from the `cargo bench -p
+//! accel` numbers (`benches/bvh.rs`); the default builder,
+//! [`BuildQuality::Binned`], replaced obvhs' `medium` preset for its
+//! memory, with trees that trace as fast or faster (its documentation
+//! has the measurements).
 //!
 //! [obvhs]: https://crates.io/crates/obvhs
 
+mod binned;
 mod bvh;
 mod convert;
 mod grid;

@@ -1,7 +1,20 @@
 //! Wavefront OBJ/MTL loading with `tobj` (mapping: see `material` module docs).
+//!
+//! The file is streamed, never held whole: one pass checks its values
+//! ([`check_lines`]), then tobj parses it through [`Chunked`], which cuts
+//! long runs of faces into models of at most [`CHUNK_TRIANGLES`]
+//! triangles (tobj keeps 104 bytes per face of the model it is reading),
+//! and the models go into the scene one by one, each freed once copied.
+//! A 999,698-triangle height field peaked at about 200 bytes per triangle
+//! in this loader when it read the whole text and gave it to tobj at once;
+//! streamed, the process peaks at 97 MB resident while loading it (by our
+//! count mostly the edge map of `SceneBuilder::finish`, 61 MB, beside the
+//! scene's 23 MB).
 
 use std::cell::RefCell;
 use std::collections::HashMap;
+use std::fs::File;
+use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
@@ -28,6 +41,14 @@ const MTL_COAT_F0: f32 = {
     r * r
 };
 
+/// Triangles of faces tobj holds at most, give or take one model's worth,
+/// before it exports them as a model ([`Chunked`]): 6.8 MB of its 104-byte
+/// face records, the same for any file size.
+const CHUNK_TRIANGLES: usize = 1 << 16;
+
+/// Read buffer of the OBJ file's passes.
+const READ_BUFFER: usize = 1 << 16;
+
 /// Material of faces without `usemtl`.
 pub(crate) fn default_material() -> Material {
     Material {
@@ -53,8 +74,16 @@ pub fn load(
     path: &Path,
     policy: &crate::paths::ReferencePolicy,
 ) -> Result<SceneBuilder, SceneError> {
-    let text = std::fs::read(path).map_err(|e| SceneError::io(path, e))?;
-    check_lines(path, &text)?;
+    let ChecksPassed {
+        usemtl,
+        vertices,
+        triangles,
+    } = check_lines(path)?;
+    // The scene's arrays at their final size before tobj runs, so that
+    // they never move while growing past tobj's freed buffers (glibc then
+    // keeps the holes: 29 MB of a million-triangle load was such).
+    let mut builder = SceneBuilder::default();
+    builder.reserve(triangles, vertices);
     let options = tobj::LoadOptions {
         single_index: true,
         triangulate: true,
@@ -83,9 +112,14 @@ pub fn load(
             }
         }
     };
-    let loaded = tobj::load_obj_buf(&mut text.as_slice(), &options, loader);
+    let file = File::open(path).map_err(|e| SceneError::io(path, e))?;
+    let mut reader = Chunked::new(BufReader::with_capacity(READ_BUFFER, file));
+    let loaded = tobj::load_obj_buf(&mut reader, &options, loader);
     if let Some(e) = mtl_error.into_inner() {
         return Err(e);
+    }
+    if let Some(e) = reader.error.take() {
+        return Err(SceneError::io(path, e));
     }
     let (models, materials) = loaded.map_err(|e| SceneError::malformed(path, describe(&e)))?;
     let mtl_materials = match materials {
@@ -101,8 +135,10 @@ pub fn load(
         }
     };
     let origins = origins.into_inner();
-    let mut builder = SceneBuilder::default();
-    for (line, name) in undefined_materials(&text, &mtl_materials) {
+    for (line, name) in usemtl
+        .into_iter()
+        .filter(|(_, name)| !mtl_materials.iter().any(|m| m.name == *name))
+    {
         builder.report.warnings.push(format!(
             "{}: line {line}: usemtl {} names no material of its MTL files: the default \
              material (diffuse 0.8) is used",
@@ -126,8 +162,20 @@ pub fn load(
         material_ids.push(builder.add_material(material));
     }
     let mut default_id = None;
-    for model in &models {
+    // Triangles of the models so far, and of the ones before this one of
+    // the same run of faces (those `Chunked` cut it into).
+    let (mut triangles, mut first_triangle) = (0, 0);
+    let mut splits = reader.splits.iter().peekable();
+    // Each model is freed once in the scene.
+    for model in models {
         let mesh = &model.mesh;
+        let count = mesh.indices.len() / 3;
+        if count > 0 {
+            if splits.next_if_eq(&&triangles).is_none() {
+                first_triangle = 0;
+            }
+            triangles += count;
+        }
         let material = match mesh.material_id {
             Some(id) => *material_ids.get(id).ok_or_else(|| {
                 SceneError::malformed(
@@ -163,6 +211,7 @@ pub fn load(
         // so the file's vertices are shared as they are.
         builder.begin_shared_vertices(mesh.positions.len() / 3);
         for (f, face) in mesh.indices.chunks_exact(3).enumerate() {
+            let f = first_triangle + f;
             let element = || format!("object {}, triangle {f}", quoted(&model.name));
             let get = |g: &dyn Fn(u32) -> Option<Vec3>| -> Option<[Vec3; 3]> {
                 Some([g(face[0])?, g(face[1])?, g(face[2])?])
@@ -191,8 +240,150 @@ pub fn load(
                 material,
             )?;
         }
+        first_triangle += count;
     }
     Ok(builder)
+}
+
+/// The OBJ file as tobj reads it, with a `g` line of the current object's
+/// name inserted before a face whenever [`CHUNK_TRIANGLES`] triangles have
+/// been read since the last `o`, `g` or `usemtl` line (or insertion).
+/// tobj ends a model at a `g` line and exports its faces, so it never
+/// holds more than about that many faces; the inserted line names the
+/// object as it was named (tobj's rule: the line after its first
+/// character, trimmed, or `unnamed_object`), so the models differ from
+/// tobj's own only in where they are cut. `splits` records where, for
+/// the triangle numbers of error messages.
+struct Chunked<R> {
+    inner: R,
+    /// The line being handed out (after any inserted line), from `pos`.
+    out: Vec<u8>,
+    pos: usize,
+    /// The next line of the file.
+    line: Vec<u8>,
+    /// The current object's name, as tobj names it.
+    name: String,
+    /// Triangles since the last `o`, `g`, `usemtl` or insertion.
+    run: usize,
+    /// Triangles read.
+    triangles: usize,
+    /// The number of triangles read before each insertion, increasing.
+    splits: Vec<usize>,
+    /// A read error (tobj reports only that reading failed).
+    error: Option<std::io::Error>,
+}
+
+impl<R: BufRead> Chunked<R> {
+    fn new(inner: R) -> Self {
+        Self {
+            inner,
+            out: Vec::new(),
+            pos: 0,
+            line: Vec::new(),
+            name: "unnamed_object".into(),
+            run: 0,
+            triangles: 0,
+            splits: Vec::new(),
+            error: None,
+        }
+    }
+
+    /// Reads the next line into `out`, with a `g` line before it if it is
+    /// a face that ends a chunk. An empty `out` is the end of the file.
+    fn next_line(&mut self) -> std::io::Result<()> {
+        self.out.clear();
+        self.pos = 0;
+        self.line.clear();
+        self.inner.read_until(b'\n', &mut self.line)?;
+        let text = String::from_utf8_lossy(&self.line);
+        let text = text.trim_end_matches('\n').trim_end_matches('\r');
+        let mut words = text.split_whitespace();
+        match words.next() {
+            Some("o" | "g") => {
+                // tobj: the line after its first character, trimmed.
+                let first = text.chars().next().map_or(0, char::len_utf8);
+                let name = text[first..].trim();
+                self.name = if name.is_empty() {
+                    "unnamed_object".into()
+                } else {
+                    name.to_owned()
+                };
+                self.run = 0;
+            }
+            Some("usemtl") => self.run = 0,
+            Some("f") => {
+                if self.run >= CHUNK_TRIANGLES {
+                    self.out.extend_from_slice(b"g ");
+                    self.out.extend_from_slice(self.name.as_bytes());
+                    self.out.push(b'\n');
+                    self.splits.push(self.triangles);
+                    self.run = 0;
+                }
+                let triangles = words.count().saturating_sub(2);
+                self.run += triangles;
+                self.triangles += triangles;
+            }
+            _ => {}
+        }
+        self.out.extend_from_slice(&self.line);
+        Ok(())
+    }
+}
+
+impl<R: BufRead> Read for Chunked<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let available = self.fill_buf()?;
+        let n = available.len().min(buf.len());
+        buf[..n].copy_from_slice(&available[..n]);
+        self.consume(n);
+        Ok(n)
+    }
+}
+
+impl<R: BufRead> BufRead for Chunked<R> {
+    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
+        if self.pos == self.out.len()
+            && let Err(e) = self.next_line()
+        {
+            // Kept for our error message; tobj sees a failed read.
+            let kind = e.kind();
+            self.error.get_or_insert(e);
+            return Err(kind.into());
+        }
+        Ok(&self.out[self.pos..])
+    }
+
+    fn consume(&mut self, amount: usize) {
+        self.pos = (self.pos + amount).min(self.out.len());
+    }
+}
+
+/// Calls `f(n, line)` for each line of the file at `path` (`n` from 0),
+/// as `str::lines` splits it, invalid UTF-8 replaced, streamed.
+fn for_each_line(
+    path: &Path,
+    mut f: impl FnMut(usize, &str) -> Result<(), SceneError>,
+) -> Result<(), SceneError> {
+    let file = File::open(path).map_err(|e| SceneError::io(path, e))?;
+    let mut reader = BufReader::with_capacity(READ_BUFFER, file);
+    let mut line = Vec::new();
+    for n in 0.. {
+        line.clear();
+        reader
+            .read_until(b'\n', &mut line)
+            .map_err(|e| SceneError::io(path, e))?;
+        if line.is_empty() {
+            break;
+        }
+        if line.ends_with(b"\n") {
+            line.pop();
+            if line.ends_with(b"\r") {
+                line.pop();
+            }
+        }
+        f(n, &String::from_utf8_lossy(&line))?;
+    }
+    Ok(())
 }
 
 /// What tobj reads from one MTL file.
@@ -304,26 +495,47 @@ fn check_mtl(path: &Path, text: &[u8]) -> Result<Vec<(String, usize)>, SceneErro
     Ok(newmtl)
 }
 
+/// What [`check_lines`] found besides errors.
+struct ChecksPassed {
+    /// The first `usemtl` line (from 1) of each material name.
+    usemtl: Vec<(usize, String)>,
+    /// `v` lines.
+    vertices: usize,
+    /// Triangles of the faces (a face of `k` vertices is a fan of `k - 2`).
+    triangles: usize,
+}
+
 /// Finds the first `v`, `vn` or `vt` line with a number that does not parse or is
 /// not finite, the first face with fewer than three vertices, and the first
 /// face (or line, or point) index that is not a whole number or refers to no
 /// element, so that the error names the line (tobj's errors do not; it drops
 /// short faces silently, and overflows on an index such as -9223372036854775808).
 /// Negative indices count back from the elements read so far; positive ones
-/// may refer to any element of the file.
-fn check_lines(path: &Path, text: &[u8]) -> Result<(), SceneError> {
-    let text = String::from_utf8_lossy(text);
+/// may refer to any element of the file. Two passes over the file.
+fn check_lines(path: &Path) -> Result<ChecksPassed, SceneError> {
     let mut totals = [0usize; 3];
-    for line in text.lines() {
+    let mut triangles = 0;
+    let mut usemtl: Vec<(usize, String)> = Vec::new();
+    let mut named = std::collections::HashSet::new();
+    for_each_line(path, |n, line| {
+        let line = line.trim();
         match line.split_whitespace().next() {
             Some("v") => totals[0] += 1,
             Some("vt") => totals[1] += 1,
             Some("vn") => totals[2] += 1,
+            Some("f") => triangles += line.split_whitespace().count().saturating_sub(3),
+            Some("usemtl") => {
+                let name = line["usemtl".len()..].trim();
+                if !name.is_empty() && named.insert(name.to_owned()) {
+                    usemtl.push((n + 1, name.to_owned()));
+                }
+            }
             _ => {}
         }
-    }
+        Ok(())
+    })?;
     let mut counts = [0usize; 3];
-    for (n, line) in text.lines().enumerate() {
+    for_each_line(path, |n, line| {
         let element = || format!("line {}", n + 1);
         let mut words = line.split_whitespace();
         match words.next() {
@@ -361,8 +573,13 @@ fn check_lines(path: &Path, text: &[u8]) -> Result<(), SceneError> {
             }
             _ => {}
         }
-    }
-    Ok(())
+        Ok(())
+    })?;
+    Ok(ChecksPassed {
+        usemtl,
+        vertices: totals[0],
+        triangles,
+    })
 }
 
 /// One `v/vt/vn` of a face: whole numbers, not 0, referring to existing elements.
@@ -400,26 +617,6 @@ fn check_face_vertex(word: &str, counts: &[usize; 3], totals: &[usize; 3]) -> Re
         }
     }
     Ok(())
-}
-
-/// The first `usemtl` line of each material name that no MTL file defines.
-fn undefined_materials(text: &[u8], materials: &[tobj::Material]) -> Vec<(usize, String)> {
-    let text = String::from_utf8_lossy(text);
-    let mut missing: Vec<(usize, String)> = Vec::new();
-    for (n, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.split_whitespace().next() != Some("usemtl") {
-            continue;
-        }
-        let name = line["usemtl".len()..].trim();
-        if !name.is_empty()
-            && !materials.iter().any(|m| m.name == name)
-            && !missing.iter().any(|(_, m)| m == name)
-        {
-            missing.push((n + 1, name.to_owned()));
-        }
-    }
-    missing
 }
 
 fn describe(e: &tobj::LoadError) -> String {
@@ -770,4 +967,88 @@ fn load_texture(
     let id = builder.add_texture(texture);
     cache.insert(texture_path, id);
     Ok(id)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A fresh folder for one test's files.
+    fn folder(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("obj-{name}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    /// A strip of `quads` quads in one object named "strip", as an OBJ
+    /// text: vertex `2k + 1` is `(k, 0, 0)`, `2k + 2` is `(k, 1, 0)`;
+    /// vertex `bad` if given is `v 1e30 0 0 1e-38` (its w makes x
+    /// overflow). Quad `k` is triangles `2k` (corners `2k + 1`, `2k + 3`,
+    /// `2k + 2`) and `2k + 1`.
+    fn strip(quads: usize, bad: Option<usize>) -> String {
+        let mut text = String::from("o strip\n");
+        for k in 0..=quads {
+            for y in [0, 1] {
+                if bad == Some(2 * k + y + 1) {
+                    text += "v 1e30 0 0 1e-38\n";
+                } else {
+                    text += &format!("v {k} {y} 0\n");
+                }
+            }
+        }
+        for k in 0..quads {
+            let (a, b) = (2 * k + 1, 2 * k + 2);
+            text += &format!("f {a} {} {b}\nf {b} {} {}\n", a + 2, a + 2, b + 2);
+        }
+        text
+    }
+
+    /// A mesh longer than a chunk: every triangle, in order, with the
+    /// file's corners; vertices shared within each chunk; the chunk cut
+    /// made where promised.
+    #[test]
+    fn chunked_load_keeps_every_triangle() {
+        let quads = CHUNK_TRIANGLES / 2 + 1000;
+        let path = folder("chunked").join("strip.obj");
+        std::fs::write(&path, strip(quads, None)).unwrap();
+        let policy = crate::paths::ReferencePolicy::new(&path, false);
+        let builder = load(&path, &policy).unwrap();
+        assert_eq!(builder.triangles.len(), 2 * quads);
+        for (t, tri) in builder.triangles.iter().enumerate() {
+            let k = (t / 2) as f32;
+            let want = if t % 2 == 0 {
+                [(k, 0.0), (k + 1.0, 0.0), (k, 1.0)]
+            } else {
+                [(k, 1.0), (k + 1.0, 0.0), (k + 1.0, 1.0)]
+            };
+            let got = tri.map(|v| builder.positions[v as usize]);
+            assert_eq!(got, want.map(|(x, y)| Vec3::new(x, y, 0.0)), "triangle {t}");
+        }
+        // One cut, between two quads: its column of two vertices is
+        // stored twice.
+        assert_eq!(builder.positions.len(), 2 * (quads + 1) + 2);
+        let file = BufReader::new(File::open(&path).unwrap());
+        let mut reader = Chunked::new(file);
+        std::io::copy(&mut reader, &mut std::io::sink()).unwrap();
+        assert_eq!(reader.splits, [CHUNK_TRIANGLES]);
+    }
+
+    /// An error in a triangle past a cut names the triangle by its number
+    /// in the object, as without cuts.
+    #[test]
+    fn errors_past_a_cut_number_triangles_in_the_object() {
+        let quads = CHUNK_TRIANGLES / 2 + 10;
+        // Vertex 2m + 1 is first used by triangle 2(m - 1).
+        let m = quads - 3;
+        let path = folder("numbering").join("strip.obj");
+        std::fs::write(&path, strip(quads, Some(2 * m + 1))).unwrap();
+        let policy = crate::paths::ReferencePolicy::new(&path, false);
+        let error = load(&path, &policy).expect_err("an error").to_string();
+        let first_use = 2 * (m - 1);
+        assert!(first_use > CHUNK_TRIANGLES);
+        assert!(
+            error.contains(&format!("object \"strip\", triangle {first_use}")),
+            "{error}"
+        );
+    }
 }

@@ -248,6 +248,17 @@ struct Corner {
 }
 
 impl SceneBuilder {
+    /// Reserves room for `triangles` more triangles and `vertices` more
+    /// vertices (loaders that know their counts: a large mesh's arrays
+    /// then never move, see `obj::load`).
+    pub(crate) fn reserve(&mut self, triangles: usize, vertices: usize) {
+        self.triangles.reserve_exact(triangles);
+        self.triangle_materials.reserve_exact(triangles);
+        self.positions.reserve(vertices);
+        self.normals.reserve(vertices);
+        self.uvs.reserve(vertices);
+    }
+
     /// Adds a material and returns its index.
     pub(crate) fn add_material(&mut self, material: Material) -> u32 {
         self.materials.push(material);
@@ -521,7 +532,6 @@ impl SceneBuilder {
                 self.lights.push(Light::Sphere { sphere: i as u32 });
             }
         }
-        self.report.non_manifold_edges = count_non_manifold_edges(&self.positions, &self.triangles);
         // Attributes no vertex has are not stored (a mesh without normals
         // or uvs is positions and indices only).
         if self.normals.iter().all(|&n| n == Vec3::ZERO) {
@@ -533,6 +543,9 @@ impl SceneBuilder {
         if !self.tangents.is_empty() {
             self.tangents.resize(self.positions.len(), Vec4::ZERO);
         }
+        // After the unused attributes are freed: the edge map is the peak
+        // of a large mesh's load.
+        self.report.non_manifold_edges = count_non_manifold_edges(&self.positions, &self.triangles);
         // An empty scene is refused or warned about by `validate`.
         let (min, max) = bounds_with_spheres(&self.positions, &self.spheres);
         let camera = camera.unwrap_or_else(|| Camera::framing(min, max, resolution));
