@@ -6,8 +6,9 @@
 //! 1. fetch its source into a scratch folder outside this repository, e.g.
 //!    `git clone https://github.com/SmallVCM/SmallVCM /tmp/SmallVCM`;
 //! 2. `cargo xtask smallvcm --src /tmp/SmallVCM` builds it with
-//!    `g++ -O3 -std=c++11 -fopenmp` into `<out>/smallvcm` (its own Makefile's
-//!    flags), builds our `render-cli` in release, then renders each scene with
+//!    `g++ -O3 -std=c++11 -fopenmp` (its own Makefile's flags) plus, on
+//!    x86_64, `-march=x86-64-v2` into `<out>/smallvcm-<baseline>`, builds our
+//!    `render-cli` in release, then renders each scene with
 //!    each algorithm at 1 and 1 + K iterations with both programs, interleaved,
 //!    `--repeat` times; both use every core (OpenMP, rayon).
 //! 3. Seconds per iteration = (t(1 + K) - t(1)) / K, t being the wall-clock
@@ -18,6 +19,12 @@
 //!    threads. SmallVCM runs whole iterations in parallel (one per thread),
 //!    so K must be a multiple of the core count for its K extra iterations to
 //!    keep every thread busy: K is rounded up to one.
+//!
+//! Same instruction set on both sides: our x86_64 builds target x86-64-v2
+//! (`.cargo/config.toml`: SSE4.2 and POPCNT, no AVX or FMA), so SmallVCM is
+//! compiled with `-march=x86-64-v2` too ([`MARCH`]); its Makefile's bare
+//! `-O3` would target the 2003 baseline (SSE2) and give it a handicap.
+//! v2 has no FMA, so neither side can contract `a * b + c` into one rounding.
 //!
 //! Our scenes are `scenes/smallvcm-1` and `scenes/smallvcm-2`, transcribed
 //! from SmallVCM's `scene.hxx`; their manifests say where our models differ
@@ -153,7 +160,25 @@ fn parse(root: &Path, args: &[String]) -> Result<Options, String> {
     Ok(options)
 }
 
-/// Builds SmallVCM from `src` into `out/smallvcm` unless it is already there.
+/// The `-march` SmallVCM is built with: the instruction-set baseline of our
+/// own x86_64 builds (`.cargo/config.toml`), so that the comparison measures
+/// code, not instruction sets; elsewhere the compiler's default.
+const MARCH: Option<&str> = if cfg!(target_arch = "x86_64") {
+    Some("x86-64-v2")
+} else {
+    None
+};
+
+/// g++'s flags for SmallVCM: its Makefile's, plus [`MARCH`].
+fn gxx_flags() -> Vec<String> {
+    let mut flags = vec!["-O3".to_string(), "-std=c++11".into(), "-fopenmp".into()];
+    flags.extend(MARCH.map(|m| format!("-march={m}")));
+    flags
+}
+
+/// Builds SmallVCM from `src` into `out/smallvcm-<march>` unless it is
+/// already there (the name carries [`MARCH`], so a binary built with other
+/// flags is not reused).
 fn build_smallvcm(src: &Path, out: &Path) -> Result<PathBuf, String> {
     let main = src.join("src/smallvcm.cxx");
     if !main.is_file() {
@@ -162,14 +187,17 @@ fn build_smallvcm(src: &Path, out: &Path) -> Result<PathBuf, String> {
             main.display()
         ));
     }
-    let binary = out.join("smallvcm");
+    let flags = gxx_flags();
+    let binary = out.join(format!("smallvcm-{}", MARCH.unwrap_or("default")));
     if !binary.is_file() {
         println!(
-            "smallvcm: building {} with g++ -O3 -std=c++11 -fopenmp",
-            main.display()
+            "smallvcm: building {} with g++ {}",
+            main.display(),
+            flags.join(" ")
         );
         let status = Command::new("g++")
-            .args(["-O3", "-std=c++11", "-fopenmp", "-o"])
+            .args(&flags)
+            .arg("-o")
             .arg(&binary)
             .arg(&main)
             .status()
@@ -258,11 +286,13 @@ fn report(commit: &str, options: &Options, rows: &[Row]) -> Result<(), String> {
     let mut md = format!(
         "# Ours against SmallVCM, seconds per iteration\n\n\
          commit {commit}, {} cores, load average {} at the end; 512x512, (t(1 + {k}) - t(1)) / {k} \
-         with t the wall-clock time of the process, median of {} interleaved rounds. Ratio < 1: ours is faster.\n\n\
+         with t the wall-clock time of the process, median of {} interleaved rounds; SmallVCM built with \
+         `g++ {}`. Ratio < 1: ours is faster.\n\n\
          | scene | algorithm | ours (s/it) | SmallVCM (s/it) | ours / SmallVCM |\n|---|---|---:|---:|---:|\n",
         crate::cores(),
         crate::load_average(),
         options.repeat,
+        gxx_flags().join(" "),
         k = options.iterations,
     );
     for r in rows {

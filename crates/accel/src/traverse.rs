@@ -119,10 +119,12 @@ fn wide_hit_mask(node: &CwBvhNode, mask: u32, oct_inv4: u32) -> u32 {
     hit_mask
 }
 
-/// Entries of the CWBVH traversal stack: one per level below the root at
-/// most, for the trees of up to `bvh::MAX_WIDE_DEPTH` (24) levels that are
-/// traversed wide.
-const WIDE_STACK: usize = 23;
+/// Entries of the CWBVH traversal stack, for the trees of up to
+/// `bvh::MAX_WIDE_DEPTH` (24) levels that are traversed wide: a traversal
+/// holds at most one group per level below the root (23), and a stack of
+/// `N` entries keeps `N - 1` (its top entry is the slot that a push onto a
+/// full stack overwrites, see [`WideStack`]).
+const WIDE_STACK: usize = 24;
 
 /// The traversal stack of [`traverse_wide`]: obvhs' `StackStack` with fewer
 /// entries (obvhs' has 32, whose 256-byte zeroing was a `memset` call per
