@@ -247,7 +247,8 @@ impl SplitQuadrature {
     }
 
     /// (1/pi) int_0^pi of the integrand over the ring (sin_h, cos_h), split
-    /// at the total-internal-reflection and back-facing azimuths.
+    /// at the azimuths of the curves in the type's docs (back-facing cut,
+    /// reflected horizon, total internal reflection, V-cavity's kinks).
     fn ring(
         &self,
         wi: DVec3,
