@@ -191,6 +191,20 @@ impl SplitQuadrature {
     /// with `eta` = `None` E(mu, alpha) of the white conductor (F = 1, no
     /// transmission).
     pub(crate) fn albedo(&self, mu: f64, eta: Option<f64>) -> f64 {
+        self.albedo_with(mu, eta, |_, _| {})
+    }
+
+    /// `albedo`, and each node's share of the reflected part passed to
+    /// `visit(mu_o, share)`, with mu_o the cosine of the reflected
+    /// direction: the shares of a white conductor sum to its albedo, and
+    /// binned by mu_o they give the azimuth-integrated kernel of
+    /// `crate::gain`. The returned albedo is `albedo`'s, bit for bit.
+    pub(crate) fn albedo_with(
+        &self,
+        mu: f64,
+        eta: Option<f64>,
+        mut visit: impl FnMut(f64, f64),
+    ) -> f64 {
         let mu = mu.clamp(GRAZING_MU, 1.0);
         let sin_i = (1.0 - mu * mu).max(0.0).sqrt();
         let wi = DVec3::new(sin_i, 0.0, mu);
@@ -240,7 +254,9 @@ impl SplitQuadrature {
                 let u1 = a + (b - a) * x;
                 let (cos2, sin2) = self.model.ndf.d_cos_polar(u1);
                 let (sin_h, cos_h) = (sin2.max(0.0).sqrt(), cos2.max(0.0).sqrt());
-                sum += w * (b - a) * self.ring(wi, g1_wi, (sin_i, mu), (sin_h, cos_h), tir, eta);
+                let weight = w * (b - a);
+                let ring = (sin_i, mu, sin_h, cos_h);
+                sum += weight * self.ring(wi, g1_wi, ring, tir, eta, weight, &mut visit);
             }
         }
         sum
@@ -248,15 +264,18 @@ impl SplitQuadrature {
 
     /// (1/pi) int_0^pi of the integrand over the ring (sin_h, cos_h), split
     /// at the azimuths of the curves in the type's docs (back-facing cut,
-    /// reflected horizon, total internal reflection, V-cavity's kinks).
+    /// reflected horizon, total internal reflection, V-cavity's kinks);
+    /// `visit` as in `albedo_with`, `radial` the ring's radial weight.
+    #[allow(clippy::too_many_arguments)]
     fn ring(
         &self,
         wi: DVec3,
         g1_wi: f32,
-        (sin_i, cos_i): (f64, f64),
-        (sin_h, cos_h): (f64, f64),
+        (sin_i, cos_i, sin_h, cos_h): (f64, f64, f64, f64),
         tir: Option<f64>,
         eta: Option<f64>,
+        radial: f64,
+        visit: &mut impl FnMut(f64, f64),
     ) -> f64 {
         let pi = std::f64::consts::PI;
         // phi where <wi,h> = k (0 or pi if the ring does not reach k).
@@ -293,7 +312,12 @@ impl SplitQuadrature {
             for &(x, w) in &self.azimuth {
                 let (sin_phi, cos_phi) = (a + (b - a) * x).sin_cos();
                 let h = DVec3::new(sin_h * cos_phi, sin_h * sin_phi, cos_h);
-                sum += w * (b - a) * self.integrand(wi, g1_wi, h, eta);
+                let weight = w * (b - a);
+                let (value, reflected) = self.integrand(wi, g1_wi, h, eta);
+                sum += weight * value;
+                if let Some((mu_o, share)) = reflected {
+                    visit(mu_o, radial * weight * share / pi);
+                }
             }
         }
         sum / pi
@@ -303,11 +327,18 @@ impl SplitQuadrature {
     /// in f64. Smith's G needs only the outgoing cosines, which are explicit
     /// (reflection 2 <wi,h> h_z - mu; refraction -mu/eta + (<wi,h>/eta -
     /// cos theta_t) h_z, Snell's law as in `frame::refract_f64`); V-cavity's
-    /// needs the directions.
-    fn integrand(&self, wi: DVec3, g1_wi: f32, h: DVec3, eta: Option<f64>) -> f64 {
+    /// needs the directions. With it, (cosine of the reflected direction,
+    /// the reflection's part of the integrand) when it reflects.
+    fn integrand(
+        &self,
+        wi: DVec3,
+        g1_wi: f32,
+        h: DVec3,
+        eta: Option<f64>,
+    ) -> (f64, Option<(f64, f64)>) {
         let (wi_h, mu) = (wi.dot(h), wi.z);
         if !(wi_h > 0.0) || !(h.z > 0.0) {
-            return 0.0;
+            return (0.0, None);
         }
         // The white conductor reflects everything and transmits nothing (its
         // eta is never used).
@@ -319,12 +350,13 @@ impl SplitQuadrature {
             None => (1.0, 0.0, 1.0),
         };
         let reflected_z = 2.0 * wi_h * h.z - mu;
-        let mut value = 0.0;
+        let (mut value, mut reflected) = (0.0, 0.0);
         match self.model.shadowing {
             Shadowing::Smith => {
                 let g = |cos_o: f64| f64::from(g1_wi * self.smith_g1.at(cos_o.abs() as f32));
                 if reflected_z > 0.0 {
-                    value += f * g(reflected_z);
+                    reflected = f * g(reflected_z);
+                    value += reflected;
                 }
                 if t > 0.0 {
                     let cos_t = ((eta - 1.0) * (eta + 1.0) + wi_h * wi_h).max(0.0).sqrt() / eta;
@@ -338,7 +370,8 @@ impl SplitQuadrature {
                 let (wi32, h32) = (wi.as_vec3(), h.as_vec3());
                 if reflected_z > 0.0 {
                     let wo = (2.0 * wi_h * h - wi).as_vec3();
-                    value += f * f64::from(self.model.g(wi32, wo, h32));
+                    reflected = f * f64::from(self.model.g(wi32, wo, h32));
+                    value += reflected;
                 }
                 if t > 0.0
                     && let Some(wo) = refract_f64(wi32, h32, eta)
@@ -348,7 +381,10 @@ impl SplitQuadrature {
                 }
             }
         }
-        value * wi_h / (mu * h.z)
+        (
+            value * wi_h / (mu * h.z),
+            (reflected_z > 0.0).then(|| (reflected_z, reflected * wi_h / (mu * h.z))),
+        )
     }
 }
 
