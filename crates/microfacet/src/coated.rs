@@ -48,7 +48,9 @@
 //! compensation (`crate::energy`) the specular lobe gains the compensation
 //! lobe, tinted with the cosine-weighted average of `specular_fresnel`
 //! (`specular_fresnel_average`), sampled inside the specular branch of the
-//! coin with probability P_c(mu_i).
+//! coin with probability P_c(mu_i). Where the widened coat gains energy its
+//! lobe is scaled by s(mu_i) s(mu_o) (`crate::gain`), which changes values
+//! and sample weights, not densities.
 //!
 //! # Smooth coats
 //!
@@ -306,19 +308,23 @@ impl Coated {
             pdf: (1.0 - p_i) * wo.z * FRAC_1_PI,
             pdf_reverse: (1.0 - p_o) * wi.z * FRAC_1_PI,
         };
+        // The coat's compensation: s(mu_i) s(mu_o) scales its lobe where
+        // the widened coat gains energy (`crate::gain`; exactly 1
+        // otherwise), and the compensation lobe belongs to it: its value is
+        // added and its density shares the specular coin.
+        let (scale, compensation) = self.model.compensation_terms(wi, wo);
         let (specular_pdf, specular_pdf_reverse) = match self.configuration(wi, wo) {
             Some((wi, wo, h)) if !self.model.is_smooth() => {
                 let facet = self.model.facet_terms(wi, wo, h);
                 let wi_h = wi.dot(h);
-                terms.f += self.specular_fresnel(wi_h) * (facet.d * facet.g / (4.0 * wi.z * wo.z));
+                terms.f +=
+                    self.specular_fresnel(wi_h) * (facet.d * facet.g / (4.0 * wi.z * wo.z) * scale);
                 // <wo,h> = <wi,h> for a reflection.
                 (facet.pdf_h_wi / (4.0 * wi_h), facet.pdf_h_wo / (4.0 * wi_h))
             }
             _ => (0.0, 0.0),
         };
-        // The coat's compensation lobe belongs to the specular lobe: its
-        // value is added and its density shares the specular coin.
-        terms.f += self.model.compensation_value(wi, wo);
+        terms.f += compensation;
         terms.pdf += p_i * self.model.with_compensation_pdf(wi, wo, specular_pdf);
         terms.pdf_reverse += p_o
             * self

@@ -5,6 +5,8 @@
 //! (`crate::energy`, tinted with `Fresnel::average`): its value is added,
 //! and sampling picks it with probability P_c(mu_i) (cosine-weighted
 //! directions), so `pdf` is the mixture (1 - P_c) p_spec + P_c mu_o/pi.
+//! Where the widened lobe gains energy its value is scaled by s(mu_i)
+//! s(mu_o) (`crate::gain`): the sample's weight changes, its pdfs do not.
 
 use glam::{Vec2, Vec3};
 
@@ -29,17 +31,18 @@ impl Conductor {
     }
 
     /// f_r = F(<wi,h>) D(h) G(wi,wo) / (4 |<wi,n><wo,n>|), h = normalize(wi + wo)
-    /// (SPEC §3), plus the compensation lobe of a regularized conductor
-    /// (module docs). 0 for opposite sides, grazing directions, or a mirror.
+    /// (SPEC §3), for a regularized conductor scaled by s(mu_i) s(mu_o) and
+    /// plus the compensation lobe (module docs). 0 for opposite sides, grazing directions, or a mirror.
     pub fn eval(&self, wi: Vec3, wo: Vec3) -> Vec3 {
+        let (scale, compensation) = self.model.compensation_terms(wi, wo);
         let specular = match self.configuration(wi, wo) {
             Some((wi, wo, h)) => {
                 let t = self.model.facet_terms(wi, wo, h);
-                self.fresnel.eval(wi.dot(h)) * t.d * t.g / (4.0 * wi.z * wo.z)
+                self.fresnel.eval(wi.dot(h)) * t.d * t.g / (4.0 * wi.z * wo.z) * scale
             }
             None => Vec3::ZERO,
         };
-        specular + self.model.compensation_value(wi, wo)
+        specular + compensation
     }
 
     /// pdf(wo) = pdf_h(wi, h) / (4 <wo,h>) (SPEC §3); with compensation the

@@ -30,7 +30,8 @@
 //! for mu >= 0.04; a cell is finer than a narrow lobe's bend only above
 //! that (2.7e-3 at alpha 0.002, mu 0.012). Compensated against the
 //! original's albedo, without noise (`tests/energy_compensation.rs`,
-//! originals 0 to 0.3, alpha-hat to 1): within 2.7e-4 for mu >= 0.04.
+//! originals 0 to 0.3, alpha-hat to 1): within 4.0e-4 for mu >= 0.04,
+//! where widening gains energy too (below: "Gains").
 //!
 //! **Colour.** f_c is scaled by the lobe's Fresnel average
 //! F_avg = 2 int F mu dmu (Kulla & Conty's choice; `Fresnel::average`,
@@ -45,19 +46,31 @@
 //! undefined for a lobe the original lacks, and SPEC §6 only needs every
 //! technique to use the same pdf.
 //!
+//! **Gains.** Where the wider lobe reflects more than the original
+//! (V-cavity, Beckmann and Blinn-Phong; GGX/Smith below mu = 0.1: up to
+//! +0.061 of white albedo) a non-negative lobe cannot remove the gain.
+//! There the widened lobe is scaled reciprocally instead
+//! (`crate::gain`): f' = s(mu_i) s(mu_o) f-hat + f_c, s the symmetric
+//! Sinkhorn-Knopp balancing of the azimuth-integrated kernel of f-hat that
+//! makes it reflect min(E_alpha, E_alpha-hat)(mu), with f_c on dE as
+//! above, so that f' reflects E_alpha at every mu. Only a lobe whose pair
+//! (alpha, alpha-hat) gains at some table node (`Compensation::scaled`) is
+//! scaled; every other one is unchanged bit for bit. Such a lobe may carry
+//! the scaling alone: `Compensation` then has no f_c (dE_avg = 0,
+//! `Compensation::has_lobe`). Compensated and scaled, the albedo is within
+//! 4.0e-4 of the original's for mu >= 0.04 (`crate::gain`, "Accuracy").
+//!
 //! **Cost** per regularized vertex: 2 x 64 cubic table lookups (4 rows each)
 //! and a Fresnel average (8 Fresnel evaluations for complex-index
-//! conductors); 4 cubic lookups per evaluation.
-//!
-//! **Limits.** Where the wider lobe reflects more than the original
-//! (V-cavity, and Beckmann/Blinn-Phong near grazing: up to +0.049) a
-//! non-negative lobe cannot remove the gain, and nothing is added.
+//! conductors); 4 cubic lookups per evaluation, 4 more and two lookups of
+//! the scaling's table for a scaled lobe (`crate::gain`, "Cost").
 
 use std::f32::consts::FRAC_1_PI;
 use std::sync::OnceLock;
 
 use glam::Vec3;
 
+use crate::gain::{MIN_GAIN, kept_share, mean_scale_table};
 use crate::model::MicrofacetModel;
 use crate::ndf::NdfKind;
 use crate::quadrature::{SplitQuadrature, gauss_legendre_4};
@@ -124,6 +137,19 @@ impl AlbedoTable {
         let row = self.row(alpha);
         let cubic = catmull_rom_cubic(|i| f64::from(row(i)), j, (0, TABLE_MU - 1));
         cubic_at(cubic, f64::from(t)) as f32
+    }
+
+    /// E at alpha node k and mu node j, as computed.
+    pub(crate) fn node(&self, k: usize, j: usize) -> f32 {
+        self.e[k * TABLE_MU + j]
+    }
+
+    /// E(mu) at alpha node k: the row's Catmull-Rom cubic in sqrt(mu), as
+    /// `albedo` interpolates it.
+    pub(crate) fn node_albedo(&self, k: usize, mu: f32) -> f64 {
+        let (j, t) = cell(mu, TABLE_MU, 1.0);
+        let cubic = catmull_rom_cubic(|i| f64::from(self.node(k, i)), j, (0, TABLE_MU - 1));
+        cubic_at(cubic, f64::from(t))
     }
 
     /// mu -> E(mu_j, alpha) at node j, a Catmull-Rom cubic in sqrt(alpha)
@@ -263,19 +289,24 @@ pub fn albedo_quadrature(
 pub struct Compensation {
     /// The original (unregularized) alpha.
     pub alpha: f32,
-    /// dE_avg = 2 int_0^1 dE(mu) mu dmu.
+    /// dE_avg = 2 int_0^1 dE(mu) mu dmu; 0 when the compensation lobe is
+    /// left out (below `MIN_DEFICIT_AVERAGE`: the lobe only gains).
     pub deficit_average: f32,
     /// The colour of the compensated energy: the lobe's Fresnel average
     /// F_avg = 2 int F(mu) mu dmu (Kulla & Conty's choice for their
     /// multiple-scattering colour; direction-independent, so f_c stays
     /// reciprocal); white until the lobe sets it.
     pub tint: Vec3,
+    /// True when the widened lobe gains energy at some mu (by more than
+    /// `gain::MIN_GAIN` at a table node) and is scaled by s(mu_i) s(mu_o)
+    /// (`crate::gain`); false keeps it unscaled, bit for bit.
+    pub scaled: bool,
 }
 
 impl Compensation {
     /// The compensation of `model` (at alpha-hat) for a lobe of width
-    /// `alpha`, or `None` when it would carry nothing (alpha-hat <= alpha,
-    /// or dE_avg below `MIN_DEFICIT_AVERAGE`).
+    /// `alpha`, or `None` when it would change nothing (alpha-hat <= alpha,
+    /// or dE_avg below `MIN_DEFICIT_AVERAGE` and no gain).
     pub fn new(model: &MicrofacetModel, alpha: f32) -> Option<Self> {
         let alpha_hat = model.alpha();
         if !(alpha_hat > alpha) || model.is_smooth() {
@@ -284,17 +315,68 @@ impl Compensation {
         let table = albedo_table(model.ndf.kind(), model.shadowing);
         let nodes = table.deficit_nodes(alpha, alpha_hat);
         let average = positive_part_moment(&nodes) as f32;
-        (average > MIN_DEFICIT_AVERAGE).then_some(Self {
+        let scaled = nodes.iter().any(|&d| d < -MIN_GAIN);
+        let deficit_average = if average > MIN_DEFICIT_AVERAGE {
+            average
+        } else {
+            0.0
+        };
+        (deficit_average > 0.0 || scaled).then_some(Self {
             alpha,
-            deficit_average: average,
+            deficit_average,
             tint: Vec3::ONE,
+            scaled,
         })
     }
 
-    /// dE(mu) of the regularized `model` (its alpha is alpha-hat).
+    /// True when the compensation lobe f_c is present (dE_avg above
+    /// `MIN_DEFICIT_AVERAGE`).
+    pub fn has_lobe(&self) -> bool {
+        self.deficit_average > 0.0
+    }
+
+    /// dE(mu) of the regularized `model` (its alpha is alpha-hat): what the
+    /// compensation lobe reflects (0 without it).
     pub fn deficit(&self, model: &MicrofacetModel, mu: f32) -> f32 {
+        if !self.has_lobe() {
+            return 0.0;
+        }
+        let (e, e_hat) = self.albedos(model, mu);
+        (e - e_hat).max(0.0)
+    }
+
+    /// s(mu) = m(mu) / s-bar(mu) of the widened lobe (`crate::gain`),
+    /// m = min(1, E_alpha / E_alpha-hat); exactly 1 unless it gains.
+    pub fn scale(&self, model: &MicrofacetModel, mu: f32) -> f32 {
+        self.deficit_and_scale(model, mu).1
+    }
+
+    /// (dE(mu), s(mu)), from one lookup of each albedo.
+    fn deficit_and_scale(&self, model: &MicrofacetModel, mu: f32) -> (f32, f32) {
+        if !self.scaled {
+            return (self.deficit(model, mu), 1.0);
+        }
+        let (e, e_hat) = self.albedos(model, mu);
+        let deficit = if self.has_lobe() {
+            (e - e_hat).max(0.0)
+        } else {
+            0.0
+        };
+        let mean = mean_scale_table(model.ndf.kind(), model.shadowing).mean_scale(
+            self.alpha,
+            model.alpha(),
+            mu,
+        );
+        (deficit, kept_share(e, e_hat) / mean)
+    }
+
+    /// (E_alpha(mu), E_alpha-hat(mu)) (white) of the regularized `model`.
+    fn albedos(&self, model: &MicrofacetModel, mu: f32) -> (f32, f32) {
         let table = albedo_table(model.ndf.kind(), model.shadowing);
-        (table.albedo(mu, self.alpha) - table.albedo(mu, model.alpha())).max(0.0)
+        (
+            table.albedo(mu, self.alpha),
+            table.albedo(mu, model.alpha()),
+        )
     }
 
     /// E_alpha-hat(mu) (white) of the regularized `model`.
@@ -302,14 +384,31 @@ impl Compensation {
         albedo_table(model.ndf.kind(), model.shadowing).albedo(mu, model.alpha())
     }
 
-    /// f_c(wi, wo) = dE(mu_i) dE(mu_o) / (pi dE_avg), untinted.
+    /// f_c(wi, wo) = dE(mu_i) dE(mu_o) / (pi dE_avg), untinted (0 without
+    /// the lobe).
     pub fn value(&self, model: &MicrofacetModel, mu_i: f32, mu_o: f32) -> f32 {
-        self.deficit(model, mu_i) * self.deficit(model, mu_o) * FRAC_1_PI / self.deficit_average
+        self.terms(model, mu_i, mu_o).1
+    }
+
+    /// (s(mu_i) s(mu_o), f_c(wi, wo) untinted): the scaling of the widened
+    /// lobe and the compensation lobe's value, sharing the albedo lookups.
+    pub fn terms(&self, model: &MicrofacetModel, mu_i: f32, mu_o: f32) -> (f32, f32) {
+        let (deficit_i, scale_i) = self.deficit_and_scale(model, mu_i);
+        let (deficit_o, scale_o) = self.deficit_and_scale(model, mu_o);
+        let value = if self.has_lobe() {
+            deficit_i * deficit_o * FRAC_1_PI / self.deficit_average
+        } else {
+            0.0
+        };
+        (scale_i * scale_o, value)
     }
 
     /// The probability of sampling the compensation lobe for a query at
     /// `mu_i`: its share dE / (E_alpha-hat + dE) of the white albedo.
     pub fn probability(&self, model: &MicrofacetModel, mu_i: f32) -> f32 {
+        if !self.has_lobe() {
+            return 0.0;
+        }
         let deficit = self.deficit(model, mu_i);
         let total = deficit + self.regularized_albedo(model, mu_i);
         if total > 0.0 {

@@ -40,6 +40,7 @@ pub mod dielectric_energy;
 pub mod energy;
 pub mod frame;
 pub mod fresnel;
+pub mod gain;
 pub mod lambertian;
 pub mod model;
 pub mod ndf;

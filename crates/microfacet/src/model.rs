@@ -94,12 +94,32 @@ impl MicrofacetModel {
         self.compensation.map_or(0.0, |c| c.probability(self, mu_i))
     }
 
+    /// s(mu_i) s(mu_o), the reciprocal scaling of a widened lobe that gains
+    /// energy (`crate::gain`): multiplies the microfacet lobe's value and a
+    /// sample's weight, never its pdf. Exactly 1 for every other model.
+    pub fn lobe_scale(&self, mu_i: f32, mu_o: f32) -> f32 {
+        match self.compensation {
+            Some(c) if c.scaled => c.terms(self, mu_i, mu_o).0,
+            _ => 1.0,
+        }
+    }
+
     /// The compensation lobe's value f_c(wi, wo) with its tint, for
     /// directions on the same side (0 otherwise and without compensation).
     pub fn compensation_value(&self, wi: Vec3, wo: Vec3) -> Vec3 {
+        self.compensation_terms(wi, wo).1
+    }
+
+    /// (`lobe_scale`, `compensation_value`) of a pair, sharing their table
+    /// lookups: what a lobe's value needs of the compensation; (1, 0)
+    /// without it and for directions on opposite sides.
+    pub fn compensation_terms(&self, wi: Vec3, wo: Vec3) -> (f32, Vec3) {
         match self.compensation {
-            Some(c) if same_hemisphere(wi, wo) => c.tint * c.value(self, wi.z.abs(), wo.z.abs()),
-            _ => Vec3::ZERO,
+            Some(c) if same_hemisphere(wi, wo) => {
+                let (scale, value) = c.terms(self, wi.z.abs(), wo.z.abs());
+                (scale, c.tint * value)
+            }
+            _ => (1.0, Vec3::ZERO),
         }
     }
 
