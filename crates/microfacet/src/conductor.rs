@@ -31,8 +31,9 @@ impl Conductor {
     }
 
     /// f_r = F(<wi,h>) D(h) G(wi,wo) / (4 |<wi,n><wo,n>|), h = normalize(wi + wo)
-    /// (SPEC §3), for a regularized conductor scaled by s(mu_i) s(mu_o) and
-    /// plus the compensation lobe (module docs). 0 for opposite sides, grazing directions, or a mirror.
+    /// (SPEC §3); for a regularized conductor scaled by s(mu_i) s(mu_o),
+    /// plus the compensation lobe (module docs). 0 for opposite sides,
+    /// grazing directions, or a mirror.
     pub fn eval(&self, wi: Vec3, wo: Vec3) -> Vec3 {
         let (scale, compensation) = self.model.compensation_terms(wi, wo);
         let specular = match self.configuration(wi, wo) {
