@@ -62,8 +62,9 @@
 //!
 //! **Cost** per regularized vertex: 2 x 64 cubic table lookups (4 rows each)
 //! and a Fresnel average (8 Fresnel evaluations for complex-index
-//! conductors); 4 cubic lookups per evaluation, 4 more and two lookups of
-//! the scaling's table for a scaled lobe (`crate::gain`, "Cost").
+//! conductors); 4 cubic lookups per evaluation and 2 per sampling
+//! probability, and two lookups of the scaling's table for a scaled lobe
+//! (`crate::gain`, "Cost").
 
 use std::f32::consts::FRAC_1_PI;
 use std::sync::OnceLock;
