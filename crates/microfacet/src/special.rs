@@ -116,28 +116,29 @@ const LENTZ_TINY: f64 = 1e-300;
 /// Continued fraction of DLMF 8.17.22, evaluated by the modified Lentz method,
 /// on whichever of x and 1 - x makes it converge fast (DLMF 8.17.4 symmetry).
 pub fn beta_inc(a: f64, b: f64, x: f64) -> f64 {
-    beta_inc_with(a, b, ln_inv_beta(a, b), x)
+    if x <= 0.0 {
+        return 0.0;
+    }
+    let front = (ln_inv_beta(a, b) + a * x.ln() + b * (-x).ln_1p()).exp();
+    beta_inc_from_front(a, b, x, front)
 }
 
 /// ln(1 / B(a, b)) = ln Gamma(a + b) - ln Gamma(a) - ln Gamma(b): the part of
-/// [`beta_inc`]'s front factor that does not depend on x, for callers that
-/// evaluate I_x(a, b) at many x ([`beta_inc_with`]).
+/// [`beta_inc`]'s front factor that does not depend on x.
 pub fn ln_inv_beta(a: f64, b: f64) -> f64 {
     ln_gamma(a + b) - ln_gamma(a) - ln_gamma(b)
 }
 
-/// [`beta_inc`] with its x-independent part `ln_inv_beta` =
-/// [`ln_inv_beta`]`(a, b)` given: the same value bit for bit, without the
-/// three ln Gamma evaluations.
-pub fn beta_inc_with(a: f64, b: f64, ln_inv_beta: f64, x: f64) -> f64 {
+/// [`beta_inc`] with its whole front factor x^a (1 - x)^b / B(a, b) (DLMF
+/// 8.17.22) given, for callers that have its powers at hand without
+/// logarithms (`ndf::lambda_blinn_phong`).
+pub fn beta_inc_from_front(a: f64, b: f64, x: f64, front: f64) -> f64 {
     if x <= 0.0 {
         return 0.0;
     }
     if x >= 1.0 {
         return 1.0;
     }
-    let ln_front = ln_inv_beta + a * x.ln() + b * (-x).ln_1p();
-    let front = ln_front.exp();
     if x < (a + 1.0) / (a + b + 2.0) {
         front * beta_continued_fraction(a, b, x) / a
     } else {
