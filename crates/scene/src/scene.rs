@@ -250,10 +250,11 @@ struct Corner {
 impl SceneBuilder {
     /// Reserves room for `triangles` more triangles and `vertices` more
     /// vertices (loaders that know their counts: a large mesh's arrays
-    /// then never move, see `obj::load`).
+    /// then never move, see `obj::load`). Exact on empty arrays, amortized
+    /// (`Vec::reserve`) when called again, as per glTF primitive.
     pub(crate) fn reserve(&mut self, triangles: usize, vertices: usize) {
-        self.triangles.reserve_exact(triangles);
-        self.triangle_materials.reserve_exact(triangles);
+        self.triangles.reserve(triangles);
+        self.triangle_materials.reserve(triangles);
         self.positions.reserve(vertices);
         self.normals.reserve(vertices);
         self.uvs.reserve(vertices);
