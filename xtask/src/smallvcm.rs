@@ -19,6 +19,11 @@
 //!    threads. SmallVCM runs whole iterations in parallel (one per thread),
 //!    so K must be a multiple of the core count for its K extra iterations to
 //!    keep every thread busy: K is rounded up to one.
+//! 4. With `--cpu-time` both run on one thread (`--threads 1`,
+//!    `OMP_NUM_THREADS=1`) and t is the CPU time (user + system) of the
+//!    process: on a machine shared with other work, wall-clock time measures
+//!    the load as much as the code, while CPU time barely moves with it. It
+//!    also leaves out how each program spreads an iteration over the cores.
 //!
 //! Same instruction set on both sides: our x86_64 builds target x86-64-v2
 //! (`.cargo/config.toml`: SSE4.2 and POPCNT, no AVX or FMA), so SmallVCM is
@@ -48,6 +53,8 @@ pub const USAGE: &str = "  smallvcm --src DIR [options]
       --repeat R            interleaved rounds, median reported (default 3)
       --algorithms LIST     comma-separated (default pt,bpt,bpm,ppm,vcm)
       --scenes LIST         SmallVCM scene numbers, 1 and/or 2 (default 1,2)
+      --cpu-time            one thread each, timed by CPU time instead of wall clock
+                            (steadier on a busy machine; Linux: reads /proc)
       --out DIR             output folder (default target/smallvcm)";
 
 struct Options {
@@ -57,12 +64,16 @@ struct Options {
     algorithms: Vec<String>,
     scenes: Vec<u32>,
     out: PathBuf,
+    /// One thread each, timed by CPU time (`--cpu-time`).
+    cpu_time: bool,
 }
 
 /// Runs the comparison; see the module docs.
 pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
     let mut options = parse(root, args)?;
-    options.iterations = options.iterations.next_multiple_of(crate::cores() as u32);
+    if !options.cpu_time {
+        options.iterations = options.iterations.next_multiple_of(crate::cores() as u32);
+    }
     let commit = crate::git(root, &["rev-parse", "--short", "HEAD"])
         .map(|o| String::from_utf8_lossy(&o).trim().to_string())
         .unwrap_or_else(|| "?".into());
@@ -83,10 +94,10 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
                     options.repeat
                 );
                 ours_s.push(per_iteration(options.iterations, |n| {
-                    time_ours(&ours, &manifest, algorithm, n, &options.out)
+                    time_ours(&ours, &manifest, algorithm, n, &options)
                 })?);
                 theirs_s.push(per_iteration(options.iterations, |n| {
-                    time_smallvcm(&theirs, scene, algorithm, n, &options.out)
+                    time_smallvcm(&theirs, scene, algorithm, n, &options)
                 })?);
             }
             rows.push(Row {
@@ -110,6 +121,7 @@ fn parse(root: &Path, args: &[String]) -> Result<Options, String> {
             .to_vec(),
         scenes: vec![1, 2],
         out: root.join("target/smallvcm"),
+        cpu_time: false,
     };
     let mut it = args.iter();
     while let Some(flag) = it.next() {
@@ -142,6 +154,7 @@ fn parse(root: &Path, args: &[String]) -> Result<Options, String> {
                     .collect::<Result<_, _>>()?;
             }
             "--out" => options.out = root.join(value()?),
+            "--cpu-time" => options.cpu_time = true,
             _ => return Err(format!("unknown flag {flag}\n{USAGE}")),
         }
     }
@@ -221,14 +234,18 @@ fn time_ours(
     manifest: &Path,
     algorithm: &str,
     n: u32,
-    out: &Path,
+    options: &Options,
 ) -> Result<f64, String> {
     let mut command = Command::new(binary);
     command
         .arg(manifest)
         .args(["--integrator", algorithm, "--iterations", &n.to_string()])
         .args(["--regularize", "off", "--no-png", "-o"])
-        .arg(out.join("ours.exr"));
+        .arg(options.out.join("ours.exr"));
+    if options.cpu_time {
+        command.args(["--threads", "1"]);
+        return cpu_time(&mut command);
+    }
     wall_time(&mut command)
 }
 
@@ -237,15 +254,19 @@ fn time_smallvcm(
     scene: u32,
     algorithm: &str,
     n: u32,
-    out: &Path,
+    options: &Options,
 ) -> Result<f64, String> {
     let scene = scene.to_string();
     let n = n.to_string();
     let mut command = Command::new(binary);
     command
         .args(["-s", &scene, "-a", algorithm, "-i", &n, "-o"])
-        .arg(out.join("smallvcm.hdr"))
-        .current_dir(out);
+        .arg(options.out.join("smallvcm.hdr"))
+        .current_dir(&options.out);
+    if options.cpu_time {
+        command.env("OMP_NUM_THREADS", "1");
+        return cpu_time(&mut command);
+    }
     wall_time(&mut command)
 }
 
@@ -253,10 +274,70 @@ fn time_smallvcm(
 /// program and says what it printed when it fails.
 fn wall_time(command: &mut Command) -> Result<f64, String> {
     let start = Instant::now();
+    run_to_end(command)?;
+    Ok(start.elapsed().as_secs_f64())
+}
+
+/// CPU seconds (user + system) of running `command` to its end: the growth
+/// of this process's waited-for children's CPU time.
+fn cpu_time(command: &mut Command) -> Result<f64, String> {
+    let before = children_cpu_seconds()?;
+    run_to_end(command)?;
+    Ok(children_cpu_seconds()? - before)
+}
+
+/// User plus system CPU seconds of every child this process has waited for:
+/// fields 16 and 17 (`cutime`, `cstime`) of /proc/self/stat, in clock ticks
+/// of `getconf CLK_TCK` (proc(5)). Linux only.
+fn children_cpu_seconds() -> Result<f64, String> {
+    let stat = std::fs::read_to_string("/proc/self/stat")
+        .map_err(|e| format!("--cpu-time reads /proc/self/stat (Linux only): {e}"))?;
+    ticks_to_seconds(children_ticks(&stat)?)
+}
+
+/// cutime + cstime from a /proc/<pid>/stat line. Fields are counted after
+/// the command name's closing parenthesis (the name may hold spaces):
+/// field 3 (state) is the first there, so fields 16 and 17 are the 14th and
+/// 15th.
+fn children_ticks(stat: &str) -> Result<u64, String> {
+    let rest = stat
+        .rsplit_once(')')
+        .map(|(_, rest)| rest)
+        .ok_or("/proc/self/stat has no command name")?;
+    let field = |k: usize| {
+        rest.split_whitespace()
+            .nth(k - 3)
+            .and_then(|v| v.parse::<u64>().ok())
+            .ok_or(format!("/proc/self/stat: field {k} is missing"))
+    };
+    Ok(field(16)? + field(17)?)
+}
+
+/// Clock ticks to seconds with the kernel's tick rate (`getconf CLK_TCK`,
+/// read once).
+fn ticks_to_seconds(ticks: u64) -> Result<f64, String> {
+    static CLK_TCK: std::sync::OnceLock<Result<f64, String>> = std::sync::OnceLock::new();
+    let rate = CLK_TCK.get_or_init(|| {
+        let output = Command::new("getconf")
+            .arg("CLK_TCK")
+            .output()
+            .map_err(|e| format!("--cpu-time runs getconf CLK_TCK: {e}"))?;
+        String::from_utf8_lossy(&output.stdout)
+            .trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|&r| r > 0.0)
+            .ok_or_else(|| "getconf CLK_TCK printed no tick rate".to_string())
+    });
+    Ok(ticks as f64 / rate.clone()?)
+}
+
+/// Runs `command` to its end; an error names the program and says what it
+/// printed when it fails.
+fn run_to_end(command: &mut Command) -> Result<(), String> {
     let output = command
         .output()
         .map_err(|e| format!("cannot run {:?}: {e}", command.get_program()))?;
-    let seconds = start.elapsed().as_secs_f64();
     if !output.status.success() {
         return Err(format!(
             "{:?} failed ({}): {}{}",
@@ -266,7 +347,7 @@ fn wall_time(command: &mut Command) -> Result<f64, String> {
             String::from_utf8_lossy(&output.stderr)
         ));
     }
-    Ok(seconds)
+    Ok(())
 }
 
 fn median(values: &mut [f64]) -> f64 {
@@ -286,7 +367,7 @@ fn report(commit: &str, options: &Options, rows: &[Row]) -> Result<(), String> {
     let mut md = format!(
         "# Ours against SmallVCM, seconds per iteration\n\n\
          commit {commit}, {} cores, load average {} at the end; 512x512, (t(1 + {k}) - t(1)) / {k} \
-         with t the wall-clock time of the process, median of {} interleaved rounds; SmallVCM built with \
+         with t the {clock} of the process, median of {} interleaved rounds; SmallVCM built with \
          `g++ {}`. Ratio < 1: ours is faster.\n\n\
          | scene | algorithm | ours (s/it) | SmallVCM (s/it) | ours / SmallVCM |\n|---|---|---:|---:|---:|\n",
         crate::cores(),
@@ -294,6 +375,11 @@ fn report(commit: &str, options: &Options, rows: &[Row]) -> Result<(), String> {
         options.repeat,
         gxx_flags().join(" "),
         k = options.iterations,
+        clock = if options.cpu_time {
+            "CPU time (user + system), one thread each,"
+        } else {
+            "wall-clock time"
+        },
     );
     for r in rows {
         md += &format!(
@@ -310,6 +396,7 @@ fn report(commit: &str, options: &Options, rows: &[Row]) -> Result<(), String> {
         "cores": crate::cores(),
         "iterations": options.iterations,
         "repeat": options.repeat,
+        "clock": if options.cpu_time { "cpu, one thread" } else { "wall" },
         "rows": rows.iter().map(|r| json!({
             "scene": r.scene, "algorithm": r.algorithm,
             "ours_s_per_iteration": r.ours, "smallvcm_s_per_iteration": r.theirs,
@@ -329,6 +416,22 @@ mod tests {
         let e = wall_time(Command::new("false").arg("x")).unwrap_err();
         assert!(e.contains("false"), "{e}");
         assert!(wall_time(&mut Command::new("true")).unwrap() >= 0.0);
+    }
+
+    /// The children's CPU time is read from the right fields, also when the
+    /// command name holds spaces and parentheses, and grows with a child
+    /// that computes.
+    #[test]
+    fn cpu_time_counts_the_childs_cpu_seconds() {
+        let stat = "12 (a (b) c) S 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16";
+        // Field 16 is "13" and 17 is "14" (field 3 is "S").
+        assert_eq!(children_ticks(stat).unwrap(), 27);
+        let busy = cpu_time(
+            Command::new("sh").args(["-c", "i=0; while [ $i -lt 300000 ]; do i=$((i+1)); done"]),
+        )
+        .unwrap();
+        assert!(busy > 0.05, "{busy}");
+        assert!(cpu_time(&mut Command::new("true")).unwrap() < busy);
     }
 
     #[test]

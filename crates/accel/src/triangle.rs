@@ -51,13 +51,20 @@ impl RayTransform {
         let rz = 1.0 / direction[kz];
         let sx = direction[kx] * rz;
         let sy = direction[ky] * rz;
-        let mut cols = [Vec3A::ZERO; 3];
-        cols[kx] = Vec3A::new(scale, 0.0, 0.0);
-        cols[ky] = Vec3A::new(0.0, scale, 0.0);
-        cols[kz] = Vec3A::new(-sx, -sy, rz) * scale;
+        // Column j of the matrix multiplies coordinate j: selected by value
+        // rather than stored at indices (a store-and-reload through the stack).
+        let column = |j: usize| {
+            if j == kx {
+                Vec3A::new(scale, 0.0, 0.0)
+            } else if j == ky {
+                Vec3A::new(0.0, scale, 0.0)
+            } else {
+                Vec3A::new(-sx, -sy, rz) * scale
+            }
+        };
         Self {
             origin: origin.into(),
-            shear: Mat3A::from_cols(cols[0], cols[1], cols[2]),
+            shear: Mat3A::from_cols(column(0), column(1), column(2)),
         }
     }
 

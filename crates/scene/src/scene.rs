@@ -250,10 +250,11 @@ struct Corner {
 impl SceneBuilder {
     /// Reserves room for `triangles` more triangles and `vertices` more
     /// vertices (loaders that know their counts: a large mesh's arrays
-    /// then never move, see `obj::load`).
+    /// then never move, see `obj::load`). Exact on empty arrays, amortized
+    /// (`Vec::reserve`) when called again, as per glTF primitive.
     pub(crate) fn reserve(&mut self, triangles: usize, vertices: usize) {
-        self.triangles.reserve_exact(triangles);
-        self.triangle_materials.reserve_exact(triangles);
+        self.triangles.reserve(triangles);
+        self.triangle_materials.reserve(triangles);
         self.positions.reserve(vertices);
         self.normals.reserve(vertices);
         self.uvs.reserve(vertices);
@@ -445,14 +446,15 @@ impl SceneBuilder {
         let texture_offset = self.textures.len();
         let triangle_offset = self.triangles.len() as u32;
         let map_offset = self.environment_maps.len() as u32;
-        if self.positions.is_empty() {
-            // The first model: its arrays move (a large mesh is not copied).
+        if self.positions.is_empty() && self.triangles.is_empty() {
+            // The first model: its arrays move (a large mesh is not copied;
+            // a copy also left the original's space resident under it: 35
+            // bytes per triangle of a million-triangle glTF's peak).
             self.positions = std::mem::take(&mut other.positions);
             self.normals = std::mem::take(&mut other.normals);
             self.uvs = std::mem::take(&mut other.uvs);
             self.tangents = std::mem::take(&mut other.tangents);
-            let triangles = std::mem::take(&mut other.triangles);
-            self.triangles.extend(triangles);
+            self.triangles = std::mem::take(&mut other.triangles);
         } else {
             let vertex_offset = self.positions.len() as u32;
             if !(self.tangents.is_empty() && other.tangents.is_empty()) {
@@ -470,8 +472,15 @@ impl SceneBuilder {
                     .map(|t| t.map(|v| v + vertex_offset)),
             );
         }
-        self.triangle_materials
-            .extend(other.triangle_materials.iter().map(|m| m + material_offset));
+        if self.triangle_materials.is_empty() {
+            self.triangle_materials = std::mem::take(&mut other.triangle_materials);
+            for m in &mut self.triangle_materials {
+                *m += material_offset;
+            }
+        } else {
+            self.triangle_materials
+                .extend(other.triangle_materials.iter().map(|m| m + material_offset));
+        }
         let sphere_offset = self.spheres.len() as u32;
         self.spheres.extend(other.spheres.iter().map(|s| Sphere {
             material: s.material + material_offset,
