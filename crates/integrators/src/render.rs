@@ -10,6 +10,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use glam::Vec3;
 use microfacet::dielectric_energy::dielectric_albedo_table;
 use microfacet::energy::albedo_table;
+use microfacet::gain::mean_scale_table;
 use microfacet::{NdfKind, Shadowing};
 use mis::Techniques;
 use rayon::prelude::*;
@@ -219,11 +220,12 @@ impl Renderer {
     }
 
     /// Builds now, in parallel, the energy-compensation tables
-    /// (`microfacet::energy`, `microfacet::dielectric_energy`) of every lobe
-    /// of the scene that regularization may widen; nothing when it is off
-    /// or loses energy. Otherwise each table is built at its first use,
-    /// inside the first iteration that widens such a lobe (about 0.2-1 s
-    /// for a reflection table, 3-6 s for a dielectric one), so timed
+    /// (`microfacet::energy`, `microfacet::gain`, `microfacet::dielectric_energy`)
+    /// of every lobe of the scene that regularization may widen; nothing when
+    /// it is off or loses energy. Otherwise each table is built at its first
+    /// use, inside the first iteration that widens such a lobe (about 0.2-1 s
+    /// for a reflection table and as much for its gain scaling, 7-13 s for a
+    /// dielectric one), so timed
     /// comparisons call this first: no configuration then pays for tables
     /// in its measured time, whichever ran before it in the process.
     pub fn prepare_energy_tables(&self) {
@@ -252,6 +254,9 @@ impl Renderer {
                     dielectric_albedo_table(kind, shadowing);
                 } else {
                     albedo_table(kind, shadowing);
+                    // The reciprocal scaling of lobes that gain energy
+                    // (`microfacet::gain`), which reads the albedo table.
+                    mean_scale_table(kind, shadowing);
                 }
             });
     }
