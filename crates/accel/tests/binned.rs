@@ -82,25 +82,10 @@ fn soups_meshes_and_height_fields_match_brute_force() {
 #[test]
 fn degenerate_distributions_match_brute_force() {
     let mut rng = Pcg32::new(22, 0);
-    let progression: Vec<[Vec3; 3]> = (0..400)
-        .map(|i| {
-            let x = 1.09f32.powi(i);
-            let s = x * 0.3;
-            [
-                Vec3::new(x, 0.0, -s),
-                Vec3::new(x, s, s),
-                Vec3::new(x, -s, s),
-            ]
-        })
-        .collect();
+    let progression = geometric_progression();
     let rays: Vec<_> = (0..400)
         .map(|_| {
-            let x = 1.09f32.powi((rng.next_u32() % 400) as i32);
-            let o = Vec3::new(
-                x * (0.5 + rng.uniform_f32()),
-                x * 0.3 * (rng.uniform_f32() - 0.5),
-                x * 0.3 * (rng.uniform_f32() - 0.5),
-            );
+            let o = progression_origin(&mut rng);
             (o, Vec3::new(-1.0, 0.0, 0.0), f32::INFINITY)
         })
         .collect();

@@ -502,17 +502,7 @@ fn single_triangles_and_tiny_counts() {
 #[test]
 fn deep_trees_stay_exact() {
     let mut rng = Pcg32::new(10, 0);
-    let tris: Vec<[Vec3; 3]> = (0..400)
-        .map(|i| {
-            let x = 1.09f32.powi(i);
-            let s = x * 0.3;
-            [
-                Vec3::new(x, 0.0, -s),
-                Vec3::new(x, s, s),
-                Vec3::new(x, -s, s),
-            ]
-        })
-        .collect();
+    let tris = geometric_progression();
     let bvhs = build_all(&tris);
     for (bvh, options) in bvhs.iter().zip(option_sets()) {
         // Too deep for obvhs' CWBVH traversal stack: built as a BVH2. (The
@@ -524,13 +514,7 @@ fn deep_trees_stay_exact() {
     {
         let rays: Vec<_> = (0..600)
             .map(|_| {
-                let i = (rng.next_u32() % 400) as i32;
-                let x = 1.09f32.powi(i);
-                let o = Vec3::new(
-                    x * (0.5 + rng.uniform_f32()),
-                    x * 0.3 * (rng.uniform_f32() - 0.5),
-                    x * 0.3 * (rng.uniform_f32() - 0.5),
-                );
+                let o = progression_origin(&mut rng);
                 (
                     o,
                     Vec3::new(-1.0, 0.01 * (rng.uniform_f32() - 0.5), 0.0),

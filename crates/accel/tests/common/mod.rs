@@ -181,6 +181,37 @@ pub fn height_field(n: u32) -> Mesh {
     mesh
 }
 
+/// Triangles at x = 1.09^i, i < `PROGRESSION`, each 0.3 x wide (a
+/// geometric progression of boxes: every split peels one off, so trees
+/// grow deep).
+pub fn geometric_progression() -> Vec<[Vec3; 3]> {
+    (0..PROGRESSION)
+        .map(|i| {
+            let x = 1.09f32.powi(i);
+            let s = x * 0.3;
+            [
+                Vec3::new(x, 0.0, -s),
+                Vec3::new(x, s, s),
+                Vec3::new(x, -s, s),
+            ]
+        })
+        .collect()
+}
+
+/// Triangles of [`geometric_progression`].
+pub const PROGRESSION: i32 = 400;
+
+/// A ray origin beside a random triangle of [`geometric_progression`],
+/// on its +x side (rays towards -x cross it and the smaller ones).
+pub fn progression_origin(rng: &mut Pcg32) -> Vec3 {
+    let x = 1.09f32.powi((rng.next_u32() % PROGRESSION as u32) as i32);
+    Vec3::new(
+        x * (0.5 + rng.uniform_f32()),
+        x * 0.3 * (rng.uniform_f32() - 0.5),
+        x * 0.3 * (rng.uniform_f32() - 0.5),
+    )
+}
+
 /// `count` random triangles of size up to `size` in [-1, 1]^3.
 pub fn random_soup(rng: &mut Pcg32, count: usize, size: f32) -> Vec<[Vec3; 3]> {
     (0..count)
