@@ -8,7 +8,7 @@
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use glam::Vec3;
-use microfacet::dielectric_energy::dielectric_albedo_table;
+use microfacet::dielectric_gain::prepare_mean_scale;
 use microfacet::energy::albedo_table;
 use microfacet::gain::mean_scale_table;
 use microfacet::{NdfKind, Shadowing};
@@ -225,7 +225,7 @@ impl Renderer {
     /// it is off or loses energy. Otherwise each table is built at its first
     /// use, inside the first iteration that widens such a lobe (about 0.2-1 s
     /// for a reflection table and as much for its gain scaling, 7-13 s for a
-    /// dielectric one), so timed
+    /// dielectric one and 0.1-4 s for its gain scaling at one eta), so timed
     /// comparisons call this first: no configuration then pays for tables
     /// in its measured time, whichever ran before it in the process.
     pub fn prepare_energy_tables(&self) {
@@ -233,7 +233,9 @@ impl Renderer {
         if regularization.mode == Mode::Off || regularization.energy == Energy::Lost {
             return;
         }
-        let mut tables: Vec<(bool, NdfKind, Shadowing)> = Vec::new();
+        // (kind, shadowing, None) for a reflecting lobe's tables, (kind,
+        // shadowing, Some(eta)) for a transmitting one's.
+        let mut tables: Vec<(NdfKind, Shadowing, Option<f32>)> = Vec::new();
         for material in &self.ctx.scene.materials {
             let surface = &material.surface;
             let Some(model) = surface.microfacet() else {
@@ -241,18 +243,25 @@ impl Renderer {
             };
             let (kind, shadowing) = (model.ndf.kind(), model.shadowing);
             let reflects = !matches!(surface, scene::Surface::Dielectric { .. });
-            for (dielectric, used) in [(false, reflects), (true, surface.may_transmit())] {
-                if used && !tables.contains(&(dielectric, kind, shadowing)) {
-                    tables.push((dielectric, kind, shadowing));
+            let eta = match *surface {
+                scene::Surface::Dielectric { ior, .. } => ior,
+                scene::Surface::Textured(pbr) => pbr.ior,
+                _ => 1.0,
+            };
+            for (used, eta) in [(reflects, None), (surface.may_transmit(), Some(eta))] {
+                if used && !tables.contains(&(kind, shadowing, eta)) {
+                    tables.push((kind, shadowing, eta));
                 }
             }
         }
         tables
             .into_par_iter()
-            .for_each(|(dielectric, kind, shadowing)| {
-                if dielectric {
-                    dielectric_albedo_table(kind, shadowing);
-                } else {
+            .for_each(|(kind, shadowing, eta)| match eta {
+                // The scaling of interfaces that gain energy
+                // (`microfacet::dielectric_gain`) at this eta, which reads
+                // the albedo table.
+                Some(eta) => prepare_mean_scale(kind, shadowing, eta),
+                None => {
                     albedo_table(kind, shadowing);
                     // The reciprocal scaling of lobes that gain energy
                     // (`microfacet::gain`), which reads the albedo table.

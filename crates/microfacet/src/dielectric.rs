@@ -123,15 +123,17 @@ impl Dielectric {
     /// |<wi,h><wo,h>| / |cos_i cos_o| (1 - F) D G / (<wi,h> + eta <wo,h>)^2 for
     /// refraction in Radiance mode, times eta^2 in Importance mode
     /// (eta = eta_t/eta_i; equivalent to SPEC's eta_i^2, eta_t^2 numerators);
-    /// the refraction value times `tint` (module docs); plus the
-    /// compensation lobe of a regularized interface.
+    /// the refraction value times `tint` (module docs); for a regularized
+    /// interface, the lobe scaled by s(wi) s(wo) where it gains
+    /// (`crate::dielectric_gain`) plus the compensation lobe.
     pub fn eval(&self, wi: Vec3, wo: Vec3, mode: TransportMode) -> Vec3 {
         let refracted = wi.z * wo.z < 0.0;
         let lobe = self.evaluate(wi, wo, mode).map_or(0.0, |t| t.f);
-        let compensation = self
-            .compensation
-            .map_or(0.0, |c| c.value(&self.model, self.eta, wi, wo, mode));
-        self.colour(lobe + compensation, refracted)
+        let Some(c) = self.compensation else {
+            return self.colour(lobe, refracted);
+        };
+        let (scale, compensation) = c.terms(&self.model, self.eta, wi, wo, mode);
+        self.colour(scale * lobe + compensation, refracted)
     }
 
     /// A scalar value of the lobe as a colour: times `tint` when `refracted`.

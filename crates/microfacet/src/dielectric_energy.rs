@@ -87,15 +87,20 @@
 //! within 1.3e-4 of 48 x 48 per piece. Smith G1 comes from a 4097-node
 //! table per alpha.
 //!
-//! **Limits.** Where widening gains energy (up to +0.049) the gain is left;
-//! the reflection/transmission split is a model choice (the smooth
-//! interface's), not the rough interface's own multiple scattering.
+//! **Gains.** Where widening raises a side's energy albedo (up to +0.055:
+//! Beckmann, Blinn-Phong, V-cavity; GGX/Smith near grazing) the widened
+//! lobe is scaled by s(wi) s(wo) (`crate::dielectric_gain`), which keeps
+//! the generalized reciprocity above.
+//!
+//! **Limits.** The reflection/transmission split is a model choice (the
+//! smooth interface's), not the rough interface's own multiple scattering.
 
 use std::f32::consts::FRAC_1_PI;
 use std::sync::OnceLock;
 
 use glam::{Vec2, Vec3};
 
+use crate::dielectric_gain::dielectric_mean_scale;
 use crate::energy::{
     GRAZING_MU, MIN_DEFICIT_AVERAGE, MODELS, TABLE_ALPHA, TABLE_ALPHA_MAX, alpha_node,
     catmull_rom_cubic, catmull_rom_weights, cell, cubic_at, model_index, spline_moment_weights,
@@ -103,6 +108,7 @@ use crate::energy::{
 };
 use crate::frame::refract_f64;
 use crate::fresnel;
+use crate::gain::{Kernel, MIN_GAIN, kept_share};
 use crate::model::MicrofacetModel;
 use crate::ndf::NdfKind;
 use crate::quadrature::{SmithG1Table, SplitQuadrature, gauss_legendre};
@@ -155,15 +161,15 @@ pub fn side(w: Vec3) -> usize {
 }
 
 /// The index ratio seen from `side` of an interface with ratio `eta`.
-fn seen(eta: f32, side: usize) -> f32 {
+pub(crate) fn seen(eta: f32, side: usize) -> f32 {
     if side == ABOVE { eta } else { 1.0 / eta }
 }
 
 /// Medium of the query direction: the table of queries from the rarer
 /// medium (index ratio seen >= 1) and that of the denser one.
-const RARE: usize = 0;
+pub(crate) const RARE: usize = 0;
 /// See [`RARE`].
-const DENSE: usize = 1;
+pub(crate) const DENSE: usize = 1;
 
 /// The cosine of the interface's critical angle, c = sqrt(1 - 1/eta_r^2)
 /// with eta_r = max(eta, 1/eta) (Snell: sin theta_c = 1/eta_r), clamped to
@@ -176,7 +182,7 @@ const DENSE: usize = 1;
 /// eta = 1 the albedo moves with c, not with eta - 1 (which is c^2/2 there).
 /// Tables uniform in 1 - eta^{+-2} missed both: up to 6.6e-2 at eta 1/1.05
 /// and 4.8e-3 at eta 1.05 (mu 0.1) against a 256 x 256 quadrature.
-fn critical_cosine(eta: f32) -> (usize, f32) {
+pub(crate) fn critical_cosine(eta: f32) -> (usize, f32) {
     let (medium, ratio) = if eta < 1.0 {
         (DENSE, eta)
     } else {
@@ -192,12 +198,12 @@ fn critical_cosine(eta: f32) -> (usize, f32) {
 const CRITICAL_MAX: f32 = 0.942_809_04;
 
 /// c of table node i.
-fn critical_node(i: usize) -> f32 {
+pub(crate) fn critical_node(i: usize) -> f32 {
     CRITICAL_MAX * i as f32 / (TABLE_CRITICAL - 1) as f32
 }
 
 /// (cell index, fraction) of the critical cosine `c` on the nodes.
-fn critical_cell(c: f32) -> (usize, f32) {
+pub(crate) fn critical_cell(c: f32) -> (usize, f32) {
     let s = (c / CRITICAL_MAX).clamp(0.0, 1.0) * (TABLE_CRITICAL - 1) as f32;
     let i = (s as usize).min(TABLE_CRITICAL - 2);
     (i, s - i as f32)
@@ -215,13 +221,13 @@ fn critical_cell(c: f32) -> (usize, f32) {
 ///   has an infinite slope in mu). The kink is a node at every eta, and rows
 ///   of neighbouring c are interpolated at equal (s, t), kink to kink.
 #[derive(Clone, Copy, Debug, PartialEq)]
-enum MuGrid {
+pub(crate) enum MuGrid {
     Rare,
     Dense { critical: f32 },
 }
 
 impl MuGrid {
-    fn of(medium: usize, critical: f32) -> Self {
+    pub(crate) fn of(medium: usize, critical: f32) -> Self {
         if medium == RARE {
             Self::Rare
         } else {
@@ -252,7 +258,7 @@ impl MuGrid {
     }
 
     /// (cell index, fraction in the cell) of `mu`.
-    fn cell(self, mu: f32) -> (usize, f32) {
+    pub(crate) fn cell(self, mu: f32) -> (usize, f32) {
         match self {
             Self::Rare => cell(mu, TABLE_MU_DIELECTRIC, 1.0),
             Self::Dense { critical: c } => {
@@ -299,7 +305,7 @@ impl MuGrid {
     /// The nodes `first..=last` of the segment of cell j, inside which the
     /// table is one cubic spline (`catmull_rom_cubic`): the whole row from
     /// the rare side; from the dense side below and above the kink at c.
-    fn segment(self, j: usize) -> (usize, usize) {
+    pub(crate) fn segment(self, j: usize) -> (usize, usize) {
         match self {
             Self::Dense { .. } if j < DENSE_LOWER_CELLS => (0, DENSE_LOWER_CELLS),
             Self::Dense { .. } => (DENSE_LOWER_CELLS, TABLE_MU_DIELECTRIC - 1),
@@ -432,9 +438,33 @@ impl DielectricAlbedoTable {
         }
     }
 
+    /// E at node (c_i, alpha_k) of `medium`, at fraction t of its `MuGrid`
+    /// cell j: the row's cubic, as `albedo` interpolates it.
+    pub(crate) fn node_albedo(
+        &self,
+        medium: usize,
+        i: usize,
+        k: usize,
+        (j, t): (usize, f64),
+    ) -> f64 {
+        let start = (i * TABLE_ALPHA + k) * TABLE_MU_DIELECTRIC;
+        let row = &self.e[medium][start..start + TABLE_MU_DIELECTRIC];
+        let grid = MuGrid::of(medium, critical_node(i));
+        cubic_at(
+            catmull_rom_cubic(|n| f64::from(row[n]), j, grid.segment(j)),
+            t,
+        )
+    }
+
+    /// The table entry at node (c_i, alpha_k, mu_j) of `medium`.
+    pub(crate) fn node(&self, medium: usize, i: usize, k: usize, j: usize) -> f32 {
+        self.e[medium][(i * TABLE_ALPHA + k) * TABLE_MU_DIELECTRIC + j]
+    }
+
     /// 2 int_0^1 max(0, dE(mu)) mu dmu of dE = E(mu, alpha, eta) -
-    /// E(mu, alpha_hat, eta), interpolated as `albedo` does.
-    fn deficit_average(&self, alpha: f32, alpha_hat: f32, eta: f32) -> f64 {
+    /// E(mu, alpha_hat, eta), interpolated as `albedo` does, and whether
+    /// the widened lobe gains (dE below -`MIN_GAIN` at a node).
+    fn deficit_average(&self, alpha: f32, alpha_hat: f32, eta: f32) -> (f64, bool) {
         let (medium, c) = critical_cosine(eta);
         // Whole rows weighted and summed (contiguous: vectorized), as `row`
         // weights them node by node.
@@ -453,8 +483,48 @@ impl DielectricAlbedoTable {
                 }
             }
         }
-        MuGrid::of(medium, c).positive_part_moment(&nodes)
+        let gains = nodes.iter().any(|&d| d < -MIN_GAIN);
+        (MuGrid::of(medium, c).positive_part_moment(&nodes), gains)
     }
+}
+
+/// The azimuth-integrated kernel (`crate::gain::Kernel`) of the white
+/// interface of width `alpha > 0` with the critical cosine of node `i`, by
+/// the tables' quadrature rules (its rows sum to the table's nodes): rows
+/// and bins in two blocks, the rare medium's ([`RARE`]) and the dense
+/// one's, each on its `MuGrid`; reflection stays in its block, refraction
+/// lands in the other (`crate::dielectric_gain`).
+pub(crate) fn dielectric_kernel(
+    kind: NdfKind,
+    shadowing: Shadowing,
+    i: usize,
+    alpha: f32,
+    subdivisions: usize,
+) -> Kernel {
+    let c = critical_node(i);
+    let (radial, azimuth) = QUADRATURE_RARE;
+    let rare = Quadrature::new(kind, shadowing, alpha, radial, azimuth);
+    let dense = SplitQuadrature::new(kind, shadowing, alpha, QUADRATURE_DENSE);
+    let mut kernel = Kernel::zeros(2, TABLE_MU_DIELECTRIC, subdivisions);
+    for medium in [RARE, DENSE] {
+        let eta = f64::from(eta_of(medium, c));
+        for j in 0..TABLE_MU_DIELECTRIC {
+            let row = medium * TABLE_MU_DIELECTRIC + j;
+            let deposit = |cos_o: f64, share: f64| {
+                let to = if cos_o > 0.0 { medium } else { 1 - medium };
+                let (n, t) = MuGrid::of(to, c).cell(cos_o.abs() as f32);
+                let x = (n as f64 + f64::from(t)) * subdivisions as f64;
+                kernel.deposit(row, to, x, share);
+            };
+            let mu = MuGrid::of(medium, c).node(j);
+            if medium == RARE {
+                rare.albedo_with(mu, eta, deposit);
+            } else {
+                dense.albedo_with(mu, Some(eta), deposit);
+            }
+        }
+    }
+    kernel.finish()
 }
 
 /// The shared dielectric table of `kind` with `shadowing`, computed at first use.
@@ -468,7 +538,7 @@ pub fn dielectric_albedo_table(
 }
 
 /// The index ratio seen from `medium` whose critical cosine is `c`.
-fn eta_of(medium: usize, c: f32) -> f32 {
+pub(crate) fn eta_of(medium: usize, c: f32) -> f32 {
     let ratio = (1.0 - c * c).sqrt();
     if medium == RARE { ratio.recip() } else { ratio }
 }
@@ -524,6 +594,13 @@ impl Quadrature {
     /// <wi,h>/(<wi,n><h,n>) [F G_r + (1 - F) G_t], total internal
     /// reflection giving F = 1.
     fn albedo(&self, mu: f64, eta: f64) -> f64 {
+        self.albedo_with(mu, eta, |_, _| {})
+    }
+
+    /// `albedo`, and each normal's share of each scattered direction passed
+    /// to `visit(cos_o, share)` (as `SplitQuadrature::albedo_with`: cos_o > 0
+    /// reflected, < 0 refracted). The returned albedo is `albedo`'s.
+    fn albedo_with(&self, mu: f64, eta: f64, mut visit: impl FnMut(f64, f64)) -> f64 {
         let mu = mu.max(GRAZING_MU);
         let wi = Vec3::new((1.0 - mu * mu).max(0.0).sqrt() as f32, 0.0, mu as f32);
         let model = &self.model;
@@ -545,18 +622,23 @@ impl Quadrature {
                 continue;
             }
             let (f, t) = fresnel::dielectric_f64(f64::from(wi_h), eta);
+            let jacobian = |value: f64| weight * value * f64::from(wi_h) / (mu * f64::from(h.z));
             let mut value = 0.0;
             let wo = 2.0 * wi_h * h - wi;
             if wo.z > 0.0 {
-                value += f * f64::from(g(wo, h));
+                let reflected = f * f64::from(g(wo, h));
+                visit(f64::from(wo.z), jacobian(reflected));
+                value += reflected;
             }
             if t > 0.0
                 && let Some(wo) = refract_f64(wi, h, eta)
                 && wo.z < 0.0
             {
-                value += t * f64::from(g(wo, h));
+                let refracted = t * f64::from(g(wo, h));
+                visit(f64::from(wo.z), jacobian(refracted));
+                value += refracted;
             }
-            sum += weight * value * f64::from(wi_h) / (mu * f64::from(h.z));
+            sum += jacobian(value);
         }
         sum
     }
@@ -576,13 +658,28 @@ pub fn dielectric_albedo_quadrature(
     eta: f64,
     nodes: (usize, usize),
 ) -> f64 {
+    dielectric_albedo_quadrature_with(kind, shadowing, alpha, mu, eta, nodes, |_, _| {})
+}
+
+/// `dielectric_albedo_quadrature`, and each node's share of each scattered
+/// direction passed to `visit(cos_o, share)` (cos_o > 0 reflected, < 0
+/// refracted; `SplitQuadrature::albedo_with`). Needs `alpha > 0`.
+pub(crate) fn dielectric_albedo_quadrature_with(
+    kind: NdfKind,
+    shadowing: Shadowing,
+    alpha: f32,
+    mu: f64,
+    eta: f64,
+    nodes: (usize, usize),
+    visit: impl FnMut(f64, f64),
+) -> f64 {
     if alpha <= 0.0 {
         return 1.0;
     }
     if eta >= 1.0 {
-        Quadrature::new(kind, shadowing, alpha, nodes.0, nodes.1).albedo(mu, eta)
+        Quadrature::new(kind, shadowing, alpha, nodes.0, nodes.1).albedo_with(mu, eta, visit)
     } else {
-        SplitQuadrature::new(kind, shadowing, alpha, nodes).albedo(mu, Some(eta))
+        SplitQuadrature::new(kind, shadowing, alpha, nodes).albedo_with(mu, Some(eta), visit)
     }
 }
 
@@ -619,6 +716,10 @@ pub struct DielectricCompensation {
     /// T_s, the smooth interface's hemispherical transmittance seen from
     /// each side.
     pub transmittance: [f32; 2],
+    /// True when the widened lobe gains energy on a side (by more than
+    /// `gain::MIN_GAIN` at a table node) and is scaled by s(wi) s(wo)
+    /// (`crate::dielectric_gain`); false keeps it unscaled, bit for bit.
+    pub scaled: bool,
 }
 
 impl DielectricCompensation {
@@ -632,15 +733,18 @@ impl DielectricCompensation {
             return None;
         }
         let table = dielectric_albedo_table(model.ndf.kind(), model.shadowing);
+        let mut scaled = false;
         let deficit_average = [ABOVE, BELOW].map(|s| {
-            let average = table.deficit_average(alpha, alpha_hat, seen(eta, s)) as f32;
+            let (average, gains) = table.deficit_average(alpha, alpha_hat, seen(eta, s));
+            scaled |= gains;
+            let average = average as f32;
             if average > MIN_DEFICIT_AVERAGE {
                 average
             } else {
                 0.0
             }
         });
-        if deficit_average == [0.0, 0.0] {
+        if deficit_average == [0.0, 0.0] && !scaled {
             return None;
         }
         let above = transmittance_above(eta);
@@ -648,6 +752,7 @@ impl DielectricCompensation {
             alpha,
             deficit_average,
             transmittance: [above, above / (eta * eta)],
+            scaled,
         })
     }
 
@@ -686,6 +791,63 @@ impl DielectricCompensation {
         self.transmittance[side] * (other / own).min(1.0)
     }
 
+    /// s_s(mu) = m / s-bar of the widened lobe on `side`
+    /// (`crate::dielectric_gain`), m = min(1, E_alpha / E_alpha-hat);
+    /// exactly 1 unless it gains.
+    pub fn scale(&self, model: &MicrofacetModel, eta: f32, side: usize, mu: f32) -> f32 {
+        self.deficit_and_scale(model, eta, side, mu).1
+    }
+
+    /// (dE_s(mu), s_s(mu)), from one lookup of each albedo.
+    fn deficit_and_scale(
+        &self,
+        model: &MicrofacetModel,
+        eta: f32,
+        side: usize,
+        mu: f32,
+    ) -> (f32, f32) {
+        if !self.scaled {
+            return (self.deficit(model, eta, side, mu), 1.0);
+        }
+        let (kind, shadowing, eta) = (model.ndf.kind(), model.shadowing, seen(eta, side));
+        let table = dielectric_albedo_table(kind, shadowing);
+        let (e, e_hat) = (
+            table.albedo(mu, self.alpha, eta),
+            table.albedo(mu, model.alpha(), eta),
+        );
+        let deficit = if self.deficit_average[side] == 0.0 {
+            0.0
+        } else {
+            (e - e_hat).max(0.0)
+        };
+        let mean = dielectric_mean_scale(kind, shadowing, self.alpha, model.alpha(), eta, mu);
+        (deficit, kept_share(e, e_hat) / mean)
+    }
+
+    /// (s(wi) s(wo), the compensation value), sharing the albedo lookups:
+    /// the factor of the widened lobe (1 unless it gains) and `value`.
+    pub fn terms(
+        &self,
+        model: &MicrofacetModel,
+        eta: f32,
+        wi: Vec3,
+        wo: Vec3,
+        mode: TransportMode,
+    ) -> (f32, f32) {
+        if !self.scaled {
+            return (1.0, self.value(model, eta, wi, wo, mode));
+        }
+        let (s_i, s_o) = (side(wi), side(wo));
+        let (d_i, scale_i) = self.deficit_and_scale(model, eta, s_i, wi.z.abs());
+        let (d_o, scale_o) = self.deficit_and_scale(model, eta, s_o, wo.z.abs());
+        let value = if wi.z == 0.0 || wo.z == 0.0 || d_i == 0.0 {
+            0.0
+        } else {
+            self.value_of_deficits(eta, (s_i, d_i), (s_o, d_o), mode)
+        };
+        (scale_i * scale_o, value)
+    }
+
     /// The compensation value for `wi`, `wo` (untinted), in `mode`: f_R on
     /// one side, f_T across (module docs), 0 at grazing.
     pub fn value(
@@ -705,6 +867,17 @@ impl DielectricCompensation {
             return 0.0;
         }
         let d_o = self.deficit(model, eta, s_o, wo.z.abs());
+        self.value_of_deficits(eta, (s_i, d_i), (s_o, d_o), mode)
+    }
+
+    /// `value` from the sides and deficits of wi and wo.
+    fn value_of_deficits(
+        &self,
+        eta: f32,
+        (s_i, d_i): (usize, f32),
+        (s_o, d_o): (usize, f32),
+        mode: TransportMode,
+    ) -> f32 {
         if s_i == s_o {
             let reflected = 1.0 - self.transmitted_share(s_i);
             return reflected * d_i * d_o * FRAC_1_PI / self.deficit_average[s_i];

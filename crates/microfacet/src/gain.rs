@@ -120,7 +120,7 @@ const BALANCE_TOLERANCE: f64 = 1e-9;
 /// Iterations of the damped fixed point at most; it converges linearly,
 /// in at most a few hundred iterations for every tabulated pair
 /// (`tests::balancing_converges_for_every_pair`).
-const MAX_ITERATIONS: usize = 10_000;
+pub(crate) const MAX_ITERATIONS: usize = 10_000;
 
 /// (radial, azimuthal) Gauss-Legendre nodes per piece of the kernels'
 /// quadrature: the albedo tables' (`energy::QUADRATURE`), so the kernels'
@@ -168,11 +168,7 @@ impl MeanScaleTable {
     ) -> (Self, BalanceStatistics) {
         let albedo = albedo_table(kind, shadowing);
         let mut mean = vec![1.0; TABLE_ALPHA * TABLE_ALPHA * TABLE_MU];
-        let mut statistics = BalanceStatistics {
-            pairs: 0,
-            max_iterations: 0,
-            scale_range: (f64::INFINITY, 0.0),
-        };
+        let mut statistics = BalanceStatistics::default();
         for k in 0..TABLE_ALPHA {
             let gaining: Vec<usize> = (0..k)
                 .filter(|&a| {
@@ -194,16 +190,11 @@ impl MeanScaleTable {
                         f64::from(kept_share(e, e_hat[b]))
                     })
                     .collect();
-                let (node_means, iterations) = balance(&kernel, &kept);
-                statistics.pairs += 1;
-                statistics.max_iterations = statistics.max_iterations.max(iterations);
-                for (j, mean) in node_means.iter().enumerate() {
-                    let scale = kept[j * SUBDIVISIONS] / mean;
-                    let range = &mut statistics.scale_range;
-                    *range = (range.0.min(scale), range.1.max(scale));
-                }
+                let node_means = statistics.balance(&kernel, &kept, None, BALANCE_TOLERANCE);
                 let row = (a * TABLE_ALPHA + k) * TABLE_MU;
-                mean[row..row + TABLE_MU].copy_from_slice(&node_means.map(|x| x as f32));
+                for (mean, node) in mean[row..row + TABLE_MU].iter_mut().zip(node_means) {
+                    *mean = node as f32;
+                }
             }
         }
         // Below the diagonal (alpha > alpha-hat), which a lobe reads where
@@ -252,6 +243,36 @@ pub(crate) struct BalanceStatistics {
     pub(crate) scale_range: (f64, f64),
 }
 
+impl Default for BalanceStatistics {
+    fn default() -> Self {
+        Self {
+            pairs: 0,
+            max_iterations: 0,
+            scale_range: (f64::INFINITY, 0.0),
+        }
+    }
+}
+
+impl BalanceStatistics {
+    /// `balance(kernel, kept, start, tolerance)`, recorded.
+    pub(crate) fn balance(
+        &mut self,
+        kernel: &Kernel,
+        kept: &[f64],
+        start: Option<&[f64]>,
+        tolerance: f64,
+    ) -> Vec<f64> {
+        let (means, iterations) = balance(kernel, kept, start, tolerance);
+        self.pairs += 1;
+        self.max_iterations = self.max_iterations.max(iterations);
+        for (i, mean) in means.iter().enumerate() {
+            let scale = kept[kernel.node_bin(i)] / mean;
+            self.scale_range = (self.scale_range.0.min(scale), self.scale_range.1.max(scale));
+        }
+        means
+    }
+}
+
 /// The shared table of `kind` with `shadowing`, computed at first use
 /// (serially; after the albedo table it reads).
 pub fn mean_scale_table(kind: NdfKind, shadowing: Shadowing) -> &'static MeanScaleTable {
@@ -289,83 +310,172 @@ pub fn scaled_albedo_quadrature(
     f64::from(scale(mu as f32)) * sum
 }
 
-/// The azimuth-integrated kernel of the white widened lobe (module docs):
-/// `k[i][b]` = int f(wi_i, wo) mu_o hat_b(sqrt(mu_o)) dwo for wi_i at mu
-/// node i and the hat functions of the `BINS` bins.
+/// The azimuth-integrated kernel of a white widened lobe (module docs):
+/// `k[i][b]` = int f(wi_i, wo) |mu_o| hat_b(wo) dwo for wi_i at row (node) i
+/// and the hat functions of the bins. Rows and bins come in `blocks` of
+/// `nodes` table nodes each (one for a conductor; a dielectric's two sides,
+/// `crate::dielectric_gain`), a block's bins `subdivisions` per cell of its
+/// nodes' coordinate, every `subdivisions`-th on a node.
 pub(crate) struct Kernel {
-    k: Vec<[f64; BINS]>,
-    row_sums: [f64; TABLE_MU],
+    blocks: usize,
+    nodes: usize,
+    subdivisions: usize,
+    /// Row-major, `rows()` x `bins()`.
+    k: Vec<f64>,
+    row_sums: Vec<f64>,
+    /// The bins from a row's first to its last non-zero entry (a narrow
+    /// lobe reaches few).
+    row_spans: Vec<std::ops::Range<usize>>,
 }
 
 impl Kernel {
-    /// The kernel of the lobe of width `alpha` by the tables' quadrature;
-    /// for alpha = 0 the mirror's, which reflects all of mu_i into mu_i.
-    pub(crate) fn compute(kind: NdfKind, shadowing: Shadowing, alpha: f32) -> Self {
-        let k: Vec<[f64; BINS]> = if alpha <= 0.0 {
-            (0..TABLE_MU)
-                .map(|i| std::array::from_fn(|b| f64::from(u8::from(b == i * SUBDIVISIONS))))
-                .collect()
-        } else {
-            let rule = SplitQuadrature::new(kind, shadowing, alpha, QUADRATURE);
-            (0..TABLE_MU)
-                .map(|i| {
-                    let mut row = [0.0; BINS];
-                    rule.albedo_with(mu_node(i), None, |mu_o, share| {
-                        let (b, t) = cell(mu_o as f32, BINS, 1.0);
-                        let t = f64::from(t);
-                        row[b] += (1.0 - t) * share;
-                        row[b + 1] += t * share;
-                    });
-                    row
-                })
-                .collect()
-        };
-        let row_sums = std::array::from_fn(|i| k[i].iter().sum());
-        Self { k, row_sums }
+    /// A kernel of zeros with `blocks` blocks of `nodes` nodes.
+    pub(crate) fn zeros(blocks: usize, nodes: usize, subdivisions: usize) -> Self {
+        let bins = blocks * ((nodes - 1) * subdivisions + 1);
+        Self {
+            blocks,
+            nodes,
+            subdivisions,
+            k: vec![0.0; blocks * nodes * bins],
+            row_sums: Vec::new(),
+            row_spans: Vec::new(),
+        }
     }
 
-    /// `sum_b k[i][b]`: the lobe's albedo at mu node i.
+    /// The conductor kernel of the lobe of width `alpha` by the tables'
+    /// quadrature (rows and bins on the albedo table's mu nodes); for
+    /// alpha = 0 the mirror's, which reflects all of mu_i into mu_i.
+    pub(crate) fn compute(kind: NdfKind, shadowing: Shadowing, alpha: f32) -> Self {
+        let mut kernel = Self::zeros(1, TABLE_MU, SUBDIVISIONS);
+        if alpha <= 0.0 {
+            for i in 0..TABLE_MU {
+                kernel.deposit(i, 0, (i * SUBDIVISIONS) as f64, 1.0);
+            }
+        } else {
+            let rule = SplitQuadrature::new(kind, shadowing, alpha, QUADRATURE);
+            for i in 0..TABLE_MU {
+                rule.albedo_with(mu_node(i), None, |mu_o, share| {
+                    let (b, t) = cell(mu_o as f32, BINS, 1.0);
+                    kernel.deposit(i, 0, b as f64 + f64::from(t), share);
+                });
+            }
+        }
+        kernel.finish()
+    }
+
+    fn rows(&self) -> usize {
+        self.blocks * self.nodes
+    }
+
+    fn bins_per_block(&self) -> usize {
+        (self.nodes - 1) * self.subdivisions + 1
+    }
+
+    pub(crate) fn bins(&self) -> usize {
+        self.blocks * self.bins_per_block()
+    }
+
+    /// Adds `share` to row `i` at bin coordinate `x` (bin b + fraction) of
+    /// `block`, split between the two nearest bins.
+    pub(crate) fn deposit(&mut self, i: usize, block: usize, x: f64, share: f64) {
+        let (bins, per_block) = (self.bins(), self.bins_per_block());
+        let b = (x as usize).min(per_block - 2);
+        let t = (x - b as f64).clamp(0.0, 1.0);
+        let row = &mut self.k[i * bins + block * per_block..][..per_block];
+        row[b] += (1.0 - t) * share;
+        row[b + 1] += t * share;
+    }
+
+    /// Fixes the row sums once every share is deposited.
+    pub(crate) fn finish(mut self) -> Self {
+        let bins = self.bins();
+        self.row_sums = self.k.chunks(bins).map(|row| row.iter().sum()).collect();
+        self.row_spans = self
+            .k
+            .chunks(bins)
+            .map(|row| {
+                let first = row.iter().position(|&k| k != 0.0).unwrap_or(0);
+                let last = row.iter().rposition(|&k| k != 0.0).map_or(0, |b| b + 1);
+                first..last.max(first)
+            })
+            .collect();
+        self
+    }
+
+    /// `sum_b k[i][b]`: the lobe's albedo at row i.
     pub(crate) fn row_sum(&self, i: usize) -> f64 {
         self.row_sums[i]
     }
 
     /// `sum_b k[i][b] s_b`.
     fn apply(&self, i: usize, s: &[f64]) -> f64 {
-        self.k[i].iter().zip(s).map(|(k, s)| k * s).sum()
+        let span = self.row_spans[i].clone();
+        self.k[i * s.len()..][span.clone()]
+            .iter()
+            .zip(&s[span])
+            .map(|(k, s)| k * s)
+            .sum()
+    }
+
+    /// (row of the node, fraction towards the next) of bin b.
+    fn bin_node(&self, b: usize) -> (usize, usize) {
+        let per_block = self.bins_per_block();
+        let (block, r) = (b / per_block, b % per_block);
+        (
+            block * self.nodes + r / self.subdivisions,
+            r % self.subdivisions,
+        )
+    }
+
+    /// The bin on row (node) i.
+    pub(crate) fn node_bin(&self, i: usize) -> usize {
+        let (block, j) = (i / self.nodes, i % self.nodes);
+        block * self.bins_per_block() + j * self.subdivisions
     }
 }
 
-/// The balancing s(mu) s-bar(mu) = m(mu) at the table's mu nodes, with s =
-/// m / s-bar and s-bar(mu_i) = `sum_b K[i][b] s_b` / E_i the kernel's mean of
-/// s (module docs), `kept` the ratio m at the kernel's bins. In s it is
-/// Knight's damped fixed point s <- sqrt(s target / (K s)) for the targets
-/// m E; here for s-bar at the nodes (linear between them), s-bar <-
-/// sqrt(s-bar (K s) / E), from s-bar = 1. Rows below `MIN_ROW_SUM` keep
-/// s-bar = 1. Returns s-bar at the nodes and the iterations taken.
-pub(crate) fn balance(kernel: &Kernel, kept: &[f64]) -> ([f64; TABLE_MU], usize) {
-    let active: [bool; TABLE_MU] = std::array::from_fn(|i| kernel.row_sum(i) > MIN_ROW_SUM);
-    let mut mean = [1.0; TABLE_MU];
-    let mut s = vec![0.0; BINS];
+/// The balancing s(mu) s-bar(mu) = m(mu) at the kernel's rows (nodes), with
+/// s = m / s-bar and s-bar(mu_i) = `sum_b K[i][b] s_b` / E_i the kernel's
+/// mean of s (module docs), `kept` the ratio m at the kernel's bins. In s it
+/// is Knight's damped fixed point s <- sqrt(s target / (K s)) for the
+/// targets m E; here for s-bar at the nodes (linear between them within a
+/// block), s-bar <- sqrt(s-bar (K s) / E), from s-bar = 1. Rows below
+/// `MIN_ROW_SUM` keep s-bar = 1. Starts from `start` (s-bar = 1 if none)
+/// and stops when every row's scaled albedo is within `tolerance` of its
+/// target. Returns s-bar at the nodes and the iterations taken.
+pub(crate) fn balance(
+    kernel: &Kernel,
+    kept: &[f64],
+    start: Option<&[f64]>,
+    tolerance: f64,
+) -> (Vec<f64>, usize) {
+    let rows = kernel.rows();
+    let active: Vec<bool> = (0..rows).map(|i| kernel.row_sum(i) > MIN_ROW_SUM).collect();
+    let mut mean = start.map_or_else(|| vec![1.0; rows], <[f64]>::to_vec);
+    for (mean, _) in mean.iter_mut().zip(&active).filter(|(_, active)| !**active) {
+        *mean = 1.0;
+    }
+    let mut s = vec![0.0; kept.len()];
     for iteration in 0..MAX_ITERATIONS {
         for (b, s) in s.iter_mut().enumerate() {
-            let (j, r) = (b / SUBDIVISIONS, b % SUBDIVISIONS);
+            let (j, r) = kernel.bin_node(b);
             let at = if r == 0 {
                 mean[j]
             } else {
-                let t = r as f64 / SUBDIVISIONS as f64;
+                let t = r as f64 / kernel.subdivisions as f64;
                 mean[j] + (mean[j + 1] - mean[j]) * t
             };
             *s = kept[b] / at;
         }
-        let ks: [f64; TABLE_MU] = std::array::from_fn(|i| kernel.apply(i, &s));
-        let converged = (0..TABLE_MU).filter(|&i| active[i]).all(|i| {
-            let node = i * SUBDIVISIONS;
-            (s[node] * ks[i] - kept[node] * kernel.row_sum(i)).abs() <= BALANCE_TOLERANCE
+        let ks: Vec<f64> = (0..rows).map(|i| kernel.apply(i, &s)).collect();
+        let converged = (0..rows).filter(|&i| active[i]).all(|i| {
+            let node = kernel.node_bin(i);
+            (s[node] * ks[i] - kept[node] * kernel.row_sum(i)).abs() <= tolerance
         });
         if converged {
             return (mean, iteration);
         }
-        for i in (0..TABLE_MU).filter(|&i| active[i]) {
+        for i in (0..rows).filter(|&i| active[i]) {
             mean[i] = (mean[i] * ks[i] / kernel.row_sum(i)).sqrt();
         }
     }
@@ -428,10 +538,10 @@ mod tests {
     #[test]
     fn balancing_solves_the_trivial_cases() {
         let mirror = Kernel::compute(NdfKind::Ggx, Shadowing::Smith, 0.0);
-        let (mean, iterations) = balance(&mirror, &[1.0; BINS]);
-        assert_eq!((mean, iterations), ([1.0; TABLE_MU], 0));
+        let (mean, iterations) = balance(&mirror, &[1.0; BINS], None, BALANCE_TOLERANCE);
+        assert_eq!((mean, iterations), (vec![1.0; TABLE_MU], 0));
         let kept = vec![0.81; BINS];
-        let (mean, _) = balance(&mirror, &kept);
+        let (mean, _) = balance(&mirror, &kept, None, BALANCE_TOLERANCE);
         assert!(mean.iter().all(|m| (m - 0.9).abs() < 1e-8), "{mean:?}");
     }
 }

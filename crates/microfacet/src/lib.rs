@@ -37,6 +37,7 @@ pub mod coated;
 pub mod conductor;
 pub mod dielectric;
 pub mod dielectric_energy;
+pub mod dielectric_gain;
 pub mod energy;
 pub mod frame;
 pub mod fresnel;

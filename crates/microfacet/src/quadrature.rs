@@ -194,11 +194,12 @@ impl SplitQuadrature {
         self.albedo_with(mu, eta, |_, _| {})
     }
 
-    /// `albedo`, and each node's share of the reflected part passed to
-    /// `visit(mu_o, share)`, with mu_o the cosine of the reflected
-    /// direction: the shares of a white conductor sum to its albedo, and
-    /// binned by mu_o they give the azimuth-integrated kernel of
-    /// `crate::gain`. The returned albedo is `albedo`'s, bit for bit.
+    /// `albedo`, and each node's share of each scattered direction passed
+    /// to `visit(cos_o, share)`, with cos_o the cosine of the reflected
+    /// (> 0) or refracted (< 0) direction: the shares sum to the albedo, and
+    /// binned by cos_o they give the azimuth-integrated kernels of
+    /// `crate::gain` and `crate::dielectric_gain`. The returned albedo is
+    /// `albedo`'s, bit for bit.
     pub(crate) fn albedo_with(
         &self,
         mu: f64,
@@ -313,10 +314,10 @@ impl SplitQuadrature {
                 let (sin_phi, cos_phi) = (a + (b - a) * x).sin_cos();
                 let h = DVec3::new(sin_h * cos_phi, sin_h * sin_phi, cos_h);
                 let weight = w * (b - a);
-                let (value, reflected) = self.integrand(wi, g1_wi, h, eta);
+                let (value, scattered) = self.integrand(wi, g1_wi, h, eta);
                 sum += weight * value;
-                if let Some((mu_o, share)) = reflected {
-                    visit(mu_o, radial * weight * share / pi);
+                for (cos_o, share) in scattered.into_iter().flatten() {
+                    visit(cos_o, radial * weight * share / pi);
                 }
             }
         }
@@ -327,18 +328,18 @@ impl SplitQuadrature {
     /// in f64. Smith's G needs only the outgoing cosines, which are explicit
     /// (reflection 2 <wi,h> h_z - mu; refraction -mu/eta + (<wi,h>/eta -
     /// cos theta_t) h_z, Snell's law as in `frame::refract_f64`); V-cavity's
-    /// needs the directions. With it, (cosine of the reflected direction,
-    /// the reflection's part of the integrand) when it reflects.
+    /// needs the directions. With it, (cosine of the outgoing direction,
+    /// its part of the integrand) for the reflection and the refraction.
     fn integrand(
         &self,
         wi: DVec3,
         g1_wi: f32,
         h: DVec3,
         eta: Option<f64>,
-    ) -> (f64, Option<(f64, f64)>) {
+    ) -> (f64, [Option<(f64, f64)>; 2]) {
         let (wi_h, mu) = (wi.dot(h), wi.z);
         if !(wi_h > 0.0) || !(h.z > 0.0) {
-            return (0.0, None);
+            return (0.0, [None, None]);
         }
         // The white conductor reflects everything and transmits nothing (its
         // eta is never used).
@@ -350,19 +351,19 @@ impl SplitQuadrature {
             None => (1.0, 0.0, 1.0),
         };
         let reflected_z = 2.0 * wi_h * h.z - mu;
-        let (mut value, mut reflected) = (0.0, 0.0);
+        // (cos_o, F G or (1 - F) G) of the reflection and the refraction.
+        let mut scattered = [None, None];
         match self.model.shadowing {
             Shadowing::Smith => {
                 let g = |cos_o: f64| f64::from(g1_wi * self.smith_g1.at(cos_o.abs() as f32));
                 if reflected_z > 0.0 {
-                    reflected = f * g(reflected_z);
-                    value += reflected;
+                    scattered[0] = Some((reflected_z, f * g(reflected_z)));
                 }
                 if t > 0.0 {
                     let cos_t = ((eta - 1.0) * (eta + 1.0) + wi_h * wi_h).max(0.0).sqrt() / eta;
                     let refracted_z = -mu / eta + (wi_h / eta - cos_t) * h.z;
                     if refracted_z < 0.0 {
-                        value += t * g(refracted_z);
+                        scattered[1] = Some((refracted_z, t * g(refracted_z)));
                     }
                 }
             }
@@ -370,20 +371,21 @@ impl SplitQuadrature {
                 let (wi32, h32) = (wi.as_vec3(), h.as_vec3());
                 if reflected_z > 0.0 {
                     let wo = (2.0 * wi_h * h - wi).as_vec3();
-                    reflected = f * f64::from(self.model.g(wi32, wo, h32));
-                    value += reflected;
+                    scattered[0] = Some((reflected_z, f * f64::from(self.model.g(wi32, wo, h32))));
                 }
                 if t > 0.0
                     && let Some(wo) = refract_f64(wi32, h32, eta)
                     && wo.z < 0.0
                 {
-                    value += t * f64::from(self.model.g(wi32, wo, h32));
+                    let g = f64::from(self.model.g(wi32, wo, h32));
+                    scattered[1] = Some((f64::from(wo.z), t * g));
                 }
             }
         }
+        let value: f64 = scattered.iter().flatten().map(|(_, v)| v).sum();
         (
             value * wi_h / (mu * h.z),
-            (reflected_z > 0.0).then(|| (reflected_z, reflected * wi_h / (mu * h.z))),
+            scattered.map(|s| s.map(|(cos_o, v)| (cos_o, v * wi_h / (mu * h.z)))),
         )
     }
 }
