@@ -663,7 +663,7 @@ pub fn dielectric_albedo_quadrature(
 
 /// `dielectric_albedo_quadrature`, and each node's share of each scattered
 /// direction passed to `visit(cos_o, share)` (cos_o > 0 reflected, < 0
-/// refracted; `SplitQuadrature::albedo_with`). Needs `alpha > 0`.
+/// refracted; `SplitQuadrature::albedo_with`); for alpha = 0 none is.
 pub(crate) fn dielectric_albedo_quadrature_with(
     kind: NdfKind,
     shadowing: Shadowing,
