@@ -8,7 +8,8 @@
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use glam::Vec3;
-use microfacet::dielectric_gain::prepare_mean_scale;
+use microfacet::dielectric_energy::{DielectricAlbedoTable, dielectric_albedo_table};
+use microfacet::dielectric_gain::{mean_scale_slice, slices_read};
 use microfacet::energy::albedo_table;
 use microfacet::gain::mean_scale_table;
 use microfacet::{NdfKind, Shadowing};
@@ -220,54 +221,63 @@ impl Renderer {
     }
 
     /// Builds now, in parallel, the energy-compensation tables
-    /// (`microfacet::energy`, `microfacet::gain`, `microfacet::dielectric_energy`)
-    /// of every lobe of the scene that regularization may widen; nothing when
-    /// it is off or loses energy. Otherwise each table is built at its first
-    /// use, inside the first iteration that widens such a lobe (about 0.2-1 s
-    /// for a reflection table and as much for its gain scaling, 7-13 s for a
-    /// dielectric one and 0.1-4 s for its gain scaling at one eta), so timed
-    /// comparisons call this first: no configuration then pays for tables
-    /// in its measured time, whichever ran before it in the process.
+    /// (`microfacet::energy`, `microfacet::gain`, `microfacet::dielectric_energy`,
+    /// `microfacet::dielectric_gain`) of every lobe of the scene that
+    /// regularization may widen; nothing when it is off or loses energy.
+    /// Otherwise each table is built at its first use, inside the first
+    /// iteration that widens such a lobe (in a release build about 0.3-2 s
+    /// for a reflection table and as much for its gain scaling; for a
+    /// dielectric at one eta, 2-9 s for the four critical-cosine slices of
+    /// its albedo and 0.5-2 s for its gain scaling, on one core), so timed
+    /// comparisons and the CLI call this first: no configuration then pays
+    /// for tables in its measured time, whichever ran before it in the
+    /// process.
     pub fn prepare_energy_tables(&self) {
         let regularization = &self.ctx.config.regularization;
         if regularization.mode == Mode::Off || regularization.energy == Energy::Lost {
             return;
         }
-        // (kind, shadowing, None) for a reflecting lobe's tables, (kind,
-        // shadowing, Some(eta)) for a transmitting one's.
-        let mut tables: Vec<(NdfKind, Shadowing, Option<f32>)> = Vec::new();
+        let mut reflecting: Vec<(NdfKind, Shadowing)> = Vec::new();
+        let mut transmitting: Vec<(NdfKind, Shadowing, f32)> = Vec::new();
         for material in &self.ctx.scene.materials {
             let surface = &material.surface;
             let Some(model) = surface.microfacet() else {
                 continue;
             };
-            let (kind, shadowing) = (model.ndf.kind(), model.shadowing);
-            let reflects = !matches!(surface, scene::Surface::Dielectric { .. });
+            let model = (model.ndf.kind(), model.shadowing);
+            if !matches!(surface, scene::Surface::Dielectric { .. }) && !reflecting.contains(&model)
+            {
+                reflecting.push(model);
+            }
             let eta = match *surface {
                 scene::Surface::Dielectric { ior, .. } => ior,
                 scene::Surface::Textured(pbr) => pbr.ior,
                 _ => 1.0,
             };
-            for (used, eta) in [(reflects, None), (surface.may_transmit(), Some(eta))] {
-                if used && !tables.contains(&(kind, shadowing, eta)) {
-                    tables.push((kind, shadowing, eta));
-                }
+            let lobe = (model.0, model.1, eta);
+            if surface.may_transmit() && !transmitting.contains(&lobe) {
+                transmitting.push(lobe);
             }
         }
-        tables
-            .into_par_iter()
-            .for_each(|(kind, shadowing, eta)| match eta {
-                // The scaling of interfaces that gain energy
-                // (`microfacet::dielectric_gain`) at this eta, which reads
-                // the albedo table.
-                Some(eta) => prepare_mean_scale(kind, shadowing, eta),
-                None => {
-                    albedo_table(kind, shadowing);
-                    // The reciprocal scaling of lobes that gain energy
-                    // (`microfacet::gain`), which reads the albedo table.
-                    mean_scale_table(kind, shadowing);
+        // The albedo tables first, the gain scalings (which read them) next.
+        let mut albedos: Vec<Table> = reflecting.iter().map(|&m| Table::Albedo(m)).collect();
+        let mut gains: Vec<Table> = reflecting.iter().map(|&m| Table::MeanScale(m)).collect();
+        for &(kind, shadowing, eta) in &transmitting {
+            let model = (kind, shadowing);
+            albedos.extend(
+                DielectricAlbedoTable::nodes_read(eta).map(|i| Table::DielectricAlbedo(model, i)),
+            );
+            gains.extend(slices_read(eta).map(|i| Table::DielectricMeanScale(model, i)));
+        }
+        for tables in [albedos, gains] {
+            let mut unique = Vec::with_capacity(tables.len());
+            for table in tables {
+                if !unique.contains(&table) {
+                    unique.push(table);
                 }
-            });
+            }
+            unique.into_par_iter().for_each(Table::build);
+        }
     }
 
     /// Number of samples so far that were NaN or infinite and were replaced
@@ -280,5 +290,35 @@ impl Renderer {
     /// throughput figures (`cargo xtask bench`).
     pub fn rays_traced(&self) -> u64 {
         self.ctx.rays_traced()
+    }
+}
+
+/// One energy-compensation table (or slice of one) that
+/// `Renderer::prepare_energy_tables` builds: (NDF, shadowing) and, for a
+/// dielectric's, the critical-cosine node.
+#[derive(Clone, Copy, PartialEq)]
+enum Table {
+    Albedo((NdfKind, Shadowing)),
+    MeanScale((NdfKind, Shadowing)),
+    DielectricAlbedo((NdfKind, Shadowing), usize),
+    DielectricMeanScale((NdfKind, Shadowing), usize),
+}
+
+impl Table {
+    fn build(self) {
+        match self {
+            Self::Albedo((kind, shadowing)) => {
+                albedo_table(kind, shadowing);
+            }
+            Self::MeanScale((kind, shadowing)) => {
+                mean_scale_table(kind, shadowing);
+            }
+            Self::DielectricAlbedo((kind, shadowing), i) => {
+                dielectric_albedo_table(kind, shadowing).prepare_node(i)
+            }
+            Self::DielectricMeanScale((kind, shadowing), i) => {
+                mean_scale_slice(kind, shadowing, i);
+            }
+        }
     }
 }

@@ -53,11 +53,13 @@
 //! interpolated dE (`MuGrid::positive_part_moment`). An interface outside
 //! [1/`ETA_MAX`, `ETA_MAX`] is compensated as if its eta were clamped to it:
 //! its energy is then restored only approximately (the table's error grows
-//! with the distance), never with a NaN. Computed serially at first use by
-//! quadrature over microfacet normals (`Quadrature` from the rare side,
+//! with the distance), never with a NaN. Computed by quadrature over
+//! microfacet normals (`Quadrature` from the rare side,
 //! `crate::quadrature::SplitQuadrature`, split at the total-internal-reflection
-//! curve, from the dense side): 6.7 s (GGX/Smith) to 12.5 s (Beckmann/V-cavity)
-//! per NDF x shadowing in a release build.
+//! curve, from the dense side), serially, one critical-cosine node at its
+//! first use: an interface reads four of the 21 (release build, one core:
+//! 1.9 s for Beckmann/Smith, 2.7 s for GGX/Smith, 8.7 s for GGX/V-cavity at
+//! eta 1.5; the whole table 11 s, 14 s, 45 s).
 //!
 //! Accuracy (`tests/dielectric_compensation.rs`, against fine quadrature,
 //! eta in [1.05, 2.2] and its inverse): the compensated albedo E(alpha-hat) +
@@ -361,18 +363,30 @@ impl MuGrid {
 
 /// Energy albedo E(mu, alpha, eta) of a white rough dielectric (module
 /// docs): per medium of the query ([`RARE`], [`DENSE`]), `TABLE_CRITICAL`
-/// x `TABLE_ALPHA` x `TABLE_MU_DIELECTRIC` nodes in (c, alpha, `MuGrid` of c).
-#[derive(Clone, Debug)]
+/// x `TABLE_ALPHA` x `TABLE_MU_DIELECTRIC` nodes in (c, alpha, `MuGrid` of c),
+/// each critical-cosine node's slice computed at first use: an interface
+/// reads the four nodes around its own c (`nodes_read`), so a scene of one
+/// glass computes 4 of the 21.
+#[derive(Debug)]
 pub struct DielectricAlbedoTable {
-    /// `e[medium][(i * TABLE_ALPHA + k) * TABLE_MU_DIELECTRIC + j]` = E(mu_j, alpha_k,
-    /// eta(c_i)), mu_j the node j of the `MuGrid` of c_i.
+    kind: NdfKind,
+    shadowing: Shadowing,
+    slices: [OnceLock<CriticalSlice>; TABLE_CRITICAL],
+}
+
+/// The table at one critical-cosine node c_i: `e[medium][k *
+/// TABLE_MU_DIELECTRIC + j]` = E(mu_j, alpha_k, eta(c_i)), mu_j the node j
+/// of the `MuGrid` of c_i.
+#[derive(Debug)]
+struct CriticalSlice {
     e: [Vec<f32>; 2],
 }
 
-impl DielectricAlbedoTable {
-    /// Computes the table by quadrature (see [`dielectric_albedo_quadrature`]).
-    pub fn compute(kind: NdfKind, shadowing: Shadowing) -> Self {
-        let size = TABLE_CRITICAL * TABLE_ALPHA * TABLE_MU_DIELECTRIC;
+impl CriticalSlice {
+    /// The slice of node `i` by quadrature (see [`dielectric_albedo_quadrature`]).
+    fn compute(kind: NdfKind, shadowing: Shadowing, i: usize) -> Self {
+        let c = critical_node(i);
+        let size = TABLE_ALPHA * TABLE_MU_DIELECTRIC;
         let mut e = [vec![0.0; size], vec![0.0; size]];
         for k in 0..TABLE_ALPHA {
             let alpha = alpha_node(k);
@@ -384,26 +398,60 @@ impl DielectricAlbedoTable {
                     SplitQuadrature::new(kind, shadowing, alpha, QUADRATURE_DENSE),
                 )
             });
-            for (medium, table) in e.iter_mut().enumerate() {
-                for i in 0..TABLE_CRITICAL {
-                    let c = critical_node(i);
-                    let grid = MuGrid::of(medium, c);
-                    let eta = f64::from(eta_of(medium, c));
-                    for j in 0..TABLE_MU_DIELECTRIC {
-                        let mu = grid.node(j);
-                        table[(i * TABLE_ALPHA + k) * TABLE_MU_DIELECTRIC + j] =
-                            rules.as_ref().map_or(1.0, |(rare, dense)| {
-                                if medium == RARE {
-                                    rare.albedo(mu, eta)
-                                } else {
-                                    dense.albedo(mu, Some(eta))
-                                }
-                            }) as f32;
-                    }
+            for (medium, row) in e.iter_mut().enumerate() {
+                let grid = MuGrid::of(medium, c);
+                let eta = f64::from(eta_of(medium, c));
+                let row = &mut row[k * TABLE_MU_DIELECTRIC..(k + 1) * TABLE_MU_DIELECTRIC];
+                for (j, node) in row.iter_mut().enumerate() {
+                    let mu = grid.node(j);
+                    *node = rules.as_ref().map_or(1.0, |(rare, dense)| {
+                        if medium == RARE {
+                            rare.albedo(mu, eta)
+                        } else {
+                            dense.albedo(mu, Some(eta))
+                        }
+                    }) as f32;
                 }
             }
         }
         Self { e }
+    }
+
+    /// The row of E over the `MuGrid` nodes at alpha node k.
+    fn row(&self, medium: usize, k: usize) -> &[f32] {
+        &self.e[medium][k * TABLE_MU_DIELECTRIC..(k + 1) * TABLE_MU_DIELECTRIC]
+    }
+}
+
+impl DielectricAlbedoTable {
+    /// The table of `kind` with `shadowing`, no slice computed yet.
+    pub fn new(kind: NdfKind, shadowing: Shadowing) -> Self {
+        Self {
+            kind,
+            shadowing,
+            slices: [const { OnceLock::new() }; TABLE_CRITICAL],
+        }
+    }
+
+    /// The slice of critical-cosine node `i`, computed at first use.
+    fn slice(&self, i: usize) -> &CriticalSlice {
+        self.slices[i].get_or_init(|| CriticalSlice::compute(self.kind, self.shadowing, i))
+    }
+
+    /// Computes the slice of critical-cosine node `i` now, if not yet (for
+    /// callers that compute the slices in parallel, as `nodes_read` lists
+    /// them, before any timed work).
+    pub fn prepare_node(&self, i: usize) {
+        self.slice(i);
+    }
+
+    /// The critical-cosine nodes that queries at index ratio `eta` read,
+    /// from either side of the interface (the Catmull-Rom support in c).
+    pub fn nodes_read(eta: f32) -> impl Iterator<Item = usize> {
+        let (i, r) = critical_cell(critical_cosine(eta).1);
+        catmull_rom_weights(i, r, TABLE_CRITICAL)
+            .into_iter()
+            .map(|(i, _)| i)
     }
 
     /// E(mu, alpha, eta): linear in the `MuGrid` coordinate of the query's
@@ -426,13 +474,14 @@ impl DielectricAlbedoTable {
             catmull_rom_weights(k, s, TABLE_ALPHA),
             catmull_rom_weights(i, r, TABLE_CRITICAL),
         );
-        let e = &self.e[medium];
+        let slices = in_c.map(|(i, wc)| (self.slice(i), wc));
         move |j| {
-            in_c.iter()
-                .flat_map(|&(i, wc)| {
-                    in_alpha.iter().map(move |&(k, wa)| {
-                        wc * wa * e[(i * TABLE_ALPHA + k) * TABLE_MU_DIELECTRIC + j]
-                    })
+            slices
+                .iter()
+                .flat_map(|&(slice, wc)| {
+                    in_alpha
+                        .iter()
+                        .map(move |&(k, wa)| wc * wa * slice.row(medium, k)[j])
                 })
                 .sum()
         }
@@ -447,8 +496,7 @@ impl DielectricAlbedoTable {
         k: usize,
         (j, t): (usize, f64),
     ) -> f64 {
-        let start = (i * TABLE_ALPHA + k) * TABLE_MU_DIELECTRIC;
-        let row = &self.e[medium][start..start + TABLE_MU_DIELECTRIC];
+        let row = self.slice(i).row(medium, k);
         let grid = MuGrid::of(medium, critical_node(i));
         cubic_at(
             catmull_rom_cubic(|n| f64::from(row[n]), j, grid.segment(j)),
@@ -458,7 +506,7 @@ impl DielectricAlbedoTable {
 
     /// The table entry at node (c_i, alpha_k, mu_j) of `medium`.
     pub(crate) fn node(&self, medium: usize, i: usize, k: usize, j: usize) -> f32 {
-        self.e[medium][(i * TABLE_ALPHA + k) * TABLE_MU_DIELECTRIC + j]
+        self.slice(i).row(medium, k)[j]
     }
 
     /// 2 int_0^1 max(0, dE(mu)) mu dmu of dE = E(mu, alpha, eta) -
@@ -469,14 +517,13 @@ impl DielectricAlbedoTable {
         // Whole rows weighted and summed (contiguous: vectorized), as `row`
         // weights them node by node.
         let (i, r) = critical_cell(c);
-        let in_c = catmull_rom_weights(i, r, TABLE_CRITICAL);
+        let in_c = catmull_rom_weights(i, r, TABLE_CRITICAL).map(|(i, wc)| (self.slice(i), wc));
         let mut nodes = [0.0; TABLE_MU_DIELECTRIC];
         for (alpha, sign) in [(alpha, 1.0), (alpha_hat, -1.0)] {
             let (k, s) = cell(alpha, TABLE_ALPHA, TABLE_ALPHA_MAX);
             for (k, wa) in catmull_rom_weights(k, s, TABLE_ALPHA) {
-                for (i, wc) in in_c {
-                    let start = (i * TABLE_ALPHA + k) * TABLE_MU_DIELECTRIC;
-                    let row = &self.e[medium][start..start + TABLE_MU_DIELECTRIC];
+                for (slice, wc) in in_c {
+                    let row = slice.row(medium, k);
                     for (node, e) in nodes.iter_mut().zip(row) {
                         *node += sign * wc * wa * e;
                     }
@@ -533,8 +580,7 @@ pub fn dielectric_albedo_table(
     shadowing: Shadowing,
 ) -> &'static DielectricAlbedoTable {
     static TABLES: [OnceLock<DielectricAlbedoTable>; MODELS] = [const { OnceLock::new() }; MODELS];
-    TABLES[model_index(kind, shadowing)]
-        .get_or_init(|| DielectricAlbedoTable::compute(kind, shadowing))
+    TABLES[model_index(kind, shadowing)].get_or_init(|| DielectricAlbedoTable::new(kind, shadowing))
 }
 
 /// The index ratio seen from `medium` whose critical cosine is `c`.

@@ -43,8 +43,8 @@
 //! (kink to kink on the dense side, as the albedo table).
 //!
 //! **Cost.** A slice per critical-cosine node, computed at first use of an
-//! interface that gains between its c nodes (after the albedo table it
-//! reads): a kernel per alpha-hat node with a gaining pair, by the albedo
+//! interface that gains between its c nodes (after the albedo table's
+//! slice at the same node, which it reads): a kernel per alpha-hat node with a gaining pair, by the albedo
 //! table's own quadrature (a twenty-first of that table's build), and a
 //! balancing per pair. Only the rows of gaining pairs are stored.
 
@@ -203,13 +203,12 @@ pub fn mean_scale_slice(kind: NdfKind, shadowing: Shadowing, i: usize) -> &'stat
         .get_or_init(|| MeanScaleSlice::compute(kind, shadowing, i).0)
 }
 
-/// Computes the slices an interface of index ratio `eta` reads (those of
-/// the critical-cosine cell of its c), so that no timed render pays for them.
-pub fn prepare_mean_scale(kind: NdfKind, shadowing: Shadowing, eta: f32) {
+/// The slices an interface of index ratio `eta` reads, from either side
+/// (those of the critical-cosine cell of its c): for callers that compute
+/// them (`mean_scale_slice`) before any timed work.
+pub fn slices_read(eta: f32) -> [usize; 2] {
     let (i, _) = critical_cell(critical_cosine(eta).1);
-    for i in [i, i + 1] {
-        mean_scale_slice(kind, shadowing, i);
-    }
+    [i, i + 1]
 }
 
 /// s-bar(mu) of an interface of width `alpha` widened to `alpha_hat`,
