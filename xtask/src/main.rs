@@ -115,12 +115,18 @@ fn cores() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
 }
 
-/// `<target>/release/<name>` of this workspace, honouring `CARGO_TARGET_DIR`
-/// (a relative one is relative to `root`, where xtask runs cargo).
+/// `<target>/release/<name>` of this workspace.
 fn release_binary(root: &Path, name: &str) -> PathBuf {
+    binary(root, "release", name)
+}
+
+/// `<target>/<profile>/<name>` of this workspace, honouring
+/// `CARGO_TARGET_DIR` (a relative one is relative to `root`, where xtask
+/// runs cargo); `profile` is the profile's folder ("debug" for dev).
+fn binary(root: &Path, profile: &str, name: &str) -> PathBuf {
     std::env::var_os("CARGO_TARGET_DIR")
         .map_or_else(|| root.join("target"), |dir| root.join(dir))
-        .join("release")
+        .join(profile)
         .join(name)
 }
 

@@ -47,7 +47,10 @@ pub fn run(root: &Path) -> Result<(), String> {
         .strip_prefix("export SLURM_CONF=")
         .ok_or_else(|| format!("unexpected `slurm-local env` output: {conf}"))?;
     slurm::use_config(conf);
-    crate::cargo(root, &["build", "--release", "--quiet", "-p", "render-cli"])?;
+    // The dev profile (its math and integrator crates are optimised, see
+    // Cargo.toml): the selftest checks merging and resuming, not speed, and
+    // after `cargo test` the binary is already built.
+    crate::cargo(root, &["build", "--quiet", "-p", "render-cli"])?;
 
     let base = root.join("target/farm/selftest");
     let _ = std::fs::remove_dir_all(&base);
@@ -82,7 +85,7 @@ fn plan(root: &Path, folder: PathBuf, iterations: u64) -> Result<Plan, String> {
         iterations,
         ranges: shard_ranges(iterations, SHARDS)?,
         render_flags: FLAGS.iter().map(|f| f.to_string()).collect(),
-        render_cli: crate::release_binary(root, "render-cli"),
+        render_cli: crate::binary(root, "debug", "render-cli"),
         folder,
         resources: Resources {
             cpus_per_task: 1,
