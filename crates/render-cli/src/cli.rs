@@ -52,7 +52,8 @@ Examples:
     max_term_width = 100
 )]
 pub struct Cli {
-    /// The scene: a scene.toml manifest, a glTF 2.0 file (.gltf, .glb) or a Wavefront .obj file.
+    /// The scene: a scene.toml manifest (or a folder holding one, as scenes/caustic-glass), a
+    /// glTF 2.0 file (.gltf, .glb) or a Wavefront .obj file.
     #[arg(value_name = "SCENE")]
     pub scene: PathBuf,
 

@@ -78,9 +78,21 @@ pub struct EnvironmentOption {
     pub rotation_degrees: f32,
 }
 
-/// Loads a scene from a manifest (`.toml`), glTF (`.gltf`, `.glb`) or OBJ (`.obj`) file,
-/// and checks it against the input rule ([`validate`]) whatever its format.
+/// The manifest that a folder given as the scene stands for (the bundled
+/// scenes' layout, `scenes/<name>/scene.toml`).
+pub const FOLDER_MANIFEST: &str = "scene.toml";
+
+/// Loads a scene from a manifest (`.toml`), glTF (`.gltf`, `.glb`) or OBJ
+/// (`.obj`) file, or a folder's [`FOLDER_MANIFEST`], and checks it against
+/// the input rule ([`validate`]) whatever its format.
 pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
+    let manifest;
+    let path = if path.is_dir() {
+        manifest = path.join(FOLDER_MANIFEST);
+        manifest.as_path()
+    } else {
+        path
+    };
     let extension = path
         .extension()
         .and_then(|e| e.to_str())

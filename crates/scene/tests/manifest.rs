@@ -21,6 +21,25 @@ fn features(name: &str) -> (scene::Scene, SceneFeatures) {
 }
 
 #[test]
+fn a_folder_loads_its_manifest() {
+    let manifest = bundled("caustic-glass");
+    let folder = manifest.parent().unwrap();
+    let options = LoadOptions::default();
+    let (a, b) = (
+        load(folder, &options).unwrap(),
+        load(&manifest, &options).unwrap(),
+    );
+    assert_eq!(
+        (a.triangles.len(), a.spheres.len(), a.materials.len()),
+        (b.triangles.len(), b.spheres.len(), b.materials.len())
+    );
+    let empty = std::env::temp_dir().join("rlt-scene-folder-without-manifest");
+    std::fs::create_dir_all(&empty).unwrap();
+    let error = load(&empty, &options).unwrap_err().to_string();
+    assert!(error.contains("scene.toml"), "{error}");
+}
+
+#[test]
 fn bundled_scenes_have_what_their_readmes_say() {
     let (cornell, f) = features("cornell-box");
     assert_eq!(
