@@ -314,7 +314,8 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
 }
 
 /// The profile this executable was built with: `dev` (xtask unoptimised,
-/// the renderer's crates at opt-level 3, see the root Cargo.toml) or
+/// the renderer's crates at opt-level 3, see the root Cargo.toml; `cargo
+/// xtask` builds it as the test profile, which has the same settings) or
 /// `release`. Numbers of different profiles do not compare.
 const PROFILE: &str = if cfg!(debug_assertions) {
     "dev"

@@ -47,10 +47,13 @@ pub fn run(root: &Path) -> Result<(), String> {
         .strip_prefix("export SLURM_CONF=")
         .ok_or_else(|| format!("unexpected `slurm-local env` output: {conf}"))?;
     slurm::use_config(conf);
-    // The dev profile (its math and integrator crates are optimised, see
-    // Cargo.toml): the selftest checks merging and resuming, not speed, and
-    // after `cargo test` the binary is already built.
-    crate::cargo(root, &["build", "--quiet", "-p", "render-cli"])?;
+    // The test profile (the dev profile's settings; its math and integrator
+    // crates are optimised, see Cargo.toml): the selftest checks merging and
+    // resuming, not speed, and after `cargo test` the binary is built.
+    crate::cargo(
+        root,
+        &["build", "--quiet", "--profile", "test", "-p", "render-cli"],
+    )?;
 
     let base = root.join("target/farm/selftest");
     let _ = std::fs::remove_dir_all(&base);
