@@ -225,10 +225,10 @@ impl Renderer {
     /// `microfacet::dielectric_gain`) of every lobe of the scene that
     /// regularization may widen; nothing when it is off or loses energy.
     /// Otherwise each table is built at its first use, inside the first
-    /// iteration that widens such a lobe (in a release build about 0.3-2 s
-    /// for a reflection table and as much for its gain scaling; for a
-    /// dielectric at one eta, 2-9 s for the four critical-cosine slices of
-    /// its albedo and 0.5-2 s for its gain scaling, on one core), so timed
+    /// iteration that widens such a lobe (release build, one core: 0.25-1.7 s
+    /// for a reflection table and 0.4-3.2 s for its gain scaling; for a
+    /// dielectric at one eta, 1.9-8.7 s for the four critical-cosine slices
+    /// of its albedo and 0.1-4.1 s for its gain scaling), so timed
     /// comparisons and the CLI call this first: no configuration then pays
     /// for tables in its measured time, whichever ran before it in the
     /// process.
@@ -237,46 +237,34 @@ impl Renderer {
         if regularization.mode == Mode::Off || regularization.energy == Energy::Lost {
             return;
         }
-        let mut reflecting: Vec<(NdfKind, Shadowing)> = Vec::new();
-        let mut transmitting: Vec<(NdfKind, Shadowing, f32)> = Vec::new();
+        // The albedo tables first, the gain scalings (which read them) next.
+        let (mut albedos, mut gains) = (Vec::new(), Vec::new());
         for material in &self.ctx.scene.materials {
             let surface = &material.surface;
             let Some(model) = surface.microfacet() else {
                 continue;
             };
             let model = (model.ndf.kind(), model.shadowing);
-            if !matches!(surface, scene::Surface::Dielectric { .. }) && !reflecting.contains(&model)
-            {
-                reflecting.push(model);
+            if !matches!(surface, scene::Surface::Dielectric { .. }) {
+                Table::Albedo(model).add_to(&mut albedos);
+                Table::MeanScale(model).add_to(&mut gains);
             }
-            let eta = match *surface {
-                scene::Surface::Dielectric { ior, .. } => ior,
-                scene::Surface::Textured(pbr) => pbr.ior,
-                _ => 1.0,
-            };
-            let lobe = (model.0, model.1, eta);
-            if surface.may_transmit() && !transmitting.contains(&lobe) {
-                transmitting.push(lobe);
-            }
-        }
-        // The albedo tables first, the gain scalings (which read them) next.
-        let mut albedos: Vec<Table> = reflecting.iter().map(|&m| Table::Albedo(m)).collect();
-        let mut gains: Vec<Table> = reflecting.iter().map(|&m| Table::MeanScale(m)).collect();
-        for &(kind, shadowing, eta) in &transmitting {
-            let model = (kind, shadowing);
-            albedos.extend(
-                DielectricAlbedoTable::nodes_read(eta).map(|i| Table::DielectricAlbedo(model, i)),
-            );
-            gains.extend(slices_read(eta).map(|i| Table::DielectricMeanScale(model, i)));
-        }
-        for tables in [albedos, gains] {
-            let mut unique = Vec::with_capacity(tables.len());
-            for table in tables {
-                if !unique.contains(&table) {
-                    unique.push(table);
+            if surface.may_transmit() {
+                let eta = match *surface {
+                    scene::Surface::Dielectric { ior, .. } => ior,
+                    scene::Surface::Textured(pbr) => pbr.ior,
+                    _ => 1.0,
+                };
+                for i in DielectricAlbedoTable::nodes_read(eta) {
+                    Table::DielectricAlbedo(model, i).add_to(&mut albedos);
+                }
+                for i in slices_read(eta) {
+                    Table::DielectricMeanScale(model, i).add_to(&mut gains);
                 }
             }
-            unique.into_par_iter().for_each(Table::build);
+        }
+        for tables in [albedos, gains] {
+            tables.into_par_iter().for_each(Table::build);
         }
     }
 
@@ -305,6 +293,13 @@ enum Table {
 }
 
 impl Table {
+    /// Appends the table to `list` unless it is there.
+    fn add_to(self, list: &mut Vec<Self>) {
+        if !list.contains(&self) {
+            list.push(self);
+        }
+    }
+
     fn build(self) {
         match self {
             Self::Albedo((kind, shadowing)) => {
