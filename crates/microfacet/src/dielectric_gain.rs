@@ -44,9 +44,10 @@
 //!
 //! **Cost.** A slice per critical-cosine node, computed at first use of an
 //! interface that gains between its c nodes (after the albedo table's
-//! slice at the same node, which it reads): a kernel per alpha-hat node with a gaining pair, by the albedo
-//! table's own quadrature (a twenty-first of that table's build), and a
-//! balancing per pair. Only the rows of gaining pairs are stored.
+//! slice at the same node, which it reads): a kernel per alpha-hat node
+//! with a gaining pair, by the albedo table's own quadrature (at most as
+//! long as that slice's build), and a balancing per pair. Only the rows of
+//! gaining pairs are stored.
 
 use std::sync::OnceLock;
 
