@@ -448,10 +448,15 @@ impl DielectricAlbedoTable {
     /// The critical-cosine nodes that queries at index ratio `eta` read,
     /// from either side of the interface (the Catmull-Rom support in c).
     pub fn nodes_read(eta: f32) -> impl Iterator<Item = usize> {
-        let (i, r) = critical_cell(critical_cosine(eta).1);
-        catmull_rom_weights(i, r, TABLE_CRITICAL)
+        critical_weights(critical_cosine(eta).1)
             .into_iter()
             .map(|(i, _)| i)
+    }
+
+    /// The slices that interpolation at critical cosine `c` reads, with
+    /// their Catmull-Rom weights.
+    fn slices_at(&self, c: f32) -> [(&CriticalSlice, f32); 4] {
+        critical_weights(c).map(|(i, wc)| (self.slice(i), wc))
     }
 
     /// E(mu, alpha, eta): linear in the `MuGrid` coordinate of the query's
@@ -469,12 +474,8 @@ impl DielectricAlbedoTable {
     /// in sqrt(alpha) and c.
     fn row(&self, medium: usize, alpha: f32, c: f32) -> impl Fn(usize) -> f32 + '_ {
         let (k, s) = cell(alpha, TABLE_ALPHA, TABLE_ALPHA_MAX);
-        let (i, r) = critical_cell(c);
-        let (in_alpha, in_c) = (
-            catmull_rom_weights(k, s, TABLE_ALPHA),
-            catmull_rom_weights(i, r, TABLE_CRITICAL),
-        );
-        let slices = in_c.map(|(i, wc)| (self.slice(i), wc));
+        let in_alpha = catmull_rom_weights(k, s, TABLE_ALPHA);
+        let slices = self.slices_at(c);
         move |j| {
             slices
                 .iter()
@@ -516,8 +517,7 @@ impl DielectricAlbedoTable {
         let (medium, c) = critical_cosine(eta);
         // Whole rows weighted and summed (contiguous: vectorized), as `row`
         // weights them node by node.
-        let (i, r) = critical_cell(c);
-        let in_c = catmull_rom_weights(i, r, TABLE_CRITICAL).map(|(i, wc)| (self.slice(i), wc));
+        let in_c = self.slices_at(c);
         let mut nodes = [0.0; TABLE_MU_DIELECTRIC];
         for (alpha, sign) in [(alpha, 1.0), (alpha_hat, -1.0)] {
             let (k, s) = cell(alpha, TABLE_ALPHA, TABLE_ALPHA_MAX);
@@ -581,6 +581,12 @@ pub fn dielectric_albedo_table(
 ) -> &'static DielectricAlbedoTable {
     static TABLES: [OnceLock<DielectricAlbedoTable>; MODELS] = [const { OnceLock::new() }; MODELS];
     TABLES[model_index(kind, shadowing)].get_or_init(|| DielectricAlbedoTable::new(kind, shadowing))
+}
+
+/// The Catmull-Rom weights in c of the critical-cosine nodes around `c`.
+fn critical_weights(c: f32) -> [(usize, f32); 4] {
+    let (i, r) = critical_cell(c);
+    catmull_rom_weights(i, r, TABLE_CRITICAL)
 }
 
 /// The index ratio seen from `medium` whose critical cosine is `c`.
