@@ -229,7 +229,7 @@ impl Renderer {
     /// for a reflection table and 0.4-3.2 s for its gain scaling; for a
     /// dielectric at one eta, 1.9-8.7 s for the four critical-cosine slices
     /// of its albedo and 0.1-4.1 s for its gain scaling), so timed
-    /// comparisons and the CLI call this first: no configuration then pays
+    /// comparisons call this first: no configuration then pays
     /// for tables in its measured time, whichever ran before it in the
     /// process.
     pub fn prepare_energy_tables(&self) {

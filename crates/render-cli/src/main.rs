@@ -146,7 +146,6 @@ fn run(cli: &Cli) -> Result<ExitCode, Error> {
         if cli.explain {
             print_explanation(cli, &renderer, &settings, &outputs);
         }
-        render::prepare_tables(&renderer);
         let mut film = renderer.new_film();
         let first = settings.first_iteration;
         let outcome = render::progressive(&renderer, &mut film, settings.budget.value, first);

@@ -67,19 +67,6 @@ pub struct Outcome {
     pub interrupted: bool,
 }
 
-/// Builds the energy-compensation tables of the scene's regularized lobes
-/// (`Renderer::prepare_energy_tables`; up to about ten seconds for a rough
-/// glass) under a spinner before the first iteration, so that the progress
-/// bar and a `--time` budget measure rendering alone.
-pub fn prepare_tables(renderer: &Renderer) {
-    let spinner = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr())
-        .with_style(ProgressStyle::default_spinner())
-        .with_message("building energy-compensation tables");
-    spinner.enable_steady_tick(Duration::from_millis(100));
-    renderer.prepare_energy_tables();
-    spinner.finish_and_clear();
-}
-
 /// Renders iterations `first`, `first` + 1, ... (global indices) into
 /// `film` until `budget` is spent or an interrupt is requested: the
 /// iteration in progress is then abandoned within about a second (it
