@@ -62,15 +62,15 @@
 //! eta 1.5; the whole table 11 s, 14 s, 45 s).
 //!
 //! Accuracy (`tests/dielectric_compensation.rs`, against fine quadrature,
-//! eta in [1.05, 2.2] and its inverse): the compensated albedo E(alpha-hat) +
-//! dE is within 1e-3 of E(alpha) from the rare side for mu >= 0.1 (5.5e-4
-//! with Smith, 7.1e-4 with V-cavity shadowing); from the dense side 1.5e-3
-//! with Smith (wide lobes at mu = eta, which is no node) and 7.0e-3 with
-//! V-cavity (its min() kinks in refraction, which move with mu and eta);
-//! 5.4e-3 below mu = 0.1. 968 of the 1080 cases held to those wider bounds
-//! are within 1e-3 (the test's bounds say why). Beyond the tested ratios
-//! the last cell in c (eta 2.25 to 3) is coarse: 2e-3 at eta 2.6, alpha
-//! 0.93, mu 0.97.
+//! eta in [1.05, 2.2] and its inverse, originals alpha 0 to 0.3 widened to
+//! 0.15 to 1, mu >= 0.1 in steps of 0.01): the compensated albedo
+//! E(alpha-hat) + dE is within 1e-3 of E(alpha) from the rare side (6.9e-4
+//! with Smith, 3.9e-4 with V-cavity shadowing) and, with Smith, from the
+//! dense side (7.1e-4); with V-cavity from the dense side within 6.9e-3 (its
+//! min() kinks in refraction, which move with mu and eta); 5.6e-3 below mu =
+//! 0.1. Beyond the tested ratios, with Smith: 3.2e-4 at eta 2.6, 8.7e-4 at
+//! 1/2.6, up to 1.2e-3 from the dense side of nearly index-matched
+//! interfaces (eta 1/1.002 to 1/1.012).
 //!
 //! **Sampling.** The compensation is chosen with probability
 //! P_c = dE_s / (E-hat_s + dE_s), then transmission with probability t_s,
@@ -121,18 +121,23 @@ use crate::shadowing::Shadowing;
 /// 1.5, diamond 2.42, rutile 2.9 are inside.
 pub const ETA_MAX: f32 = 3.0;
 /// Table nodes per side in the interface's critical cosine c (`critical_cosine`),
-/// uniform on [0, c(`ETA_MAX`)]; node 0 is the index-matched eta = 1.
-pub const TABLE_CRITICAL: usize = 21;
+/// uniform on [0, c(`ETA_MAX`)]; node 0 is the index-matched eta = 1. From
+/// the dense side wide lobes have a feature at mu = eta (where the circle of
+/// total internal reflection around wi reaches the horizon of the normals),
+/// which moves across the rows' `MuGrid` as c changes: with 21 nodes
+/// interpolation in c missed it by up to 1.6e-3 (GGX/Smith, eta 1/1.5,
+/// alpha 1, mu 0.66; 6.0e-4 at a node), with 41 by 5.5e-4.
+pub const TABLE_CRITICAL: usize = 41;
 /// Table nodes in mu per row (`MuGrid`). More than the conductor tables'
-/// `TABLE_MU`: from the dense side the albedo has features that move with
-/// eta besides the kink at mu = c (at mu = eta, where the circle of
-/// total internal reflection around wi reaches the horizon of the normals);
-/// with 40 nodes linear interpolation missed them by 1.6e-3 (GGX/Smith,
-/// alpha 0.9, eta 0.62, mu 0.57).
-pub const TABLE_MU_DIELECTRIC: usize = 44;
+/// `TABLE_MU`: from the dense side narrow lobes fall over a cosine of the
+/// order of alpha just below the kink at mu = c, where the lower segment's
+/// nodes are sparsest; with 44 nodes (22 below the kink) the compensated
+/// albedo missed it by up to 1.3e-3 (GGX/Smith, eta 1/2.2, 0.03 -> 0.15,
+/// mu 0.86), with 64 by 7.1e-4.
+pub const TABLE_MU_DIELECTRIC: usize = 64;
 /// mu cells of a dense-side row below its critical cosine (`MuGrid::Dense`);
 /// the other `TABLE_MU_DIELECTRIC` - 1 - `DENSE_LOWER_CELLS` cells lie above it.
-const DENSE_LOWER_CELLS: usize = 22;
+const DENSE_LOWER_CELLS: usize = 32;
 /// (radial Gauss-Legendre, half-azimuth midpoint) nodes of the quadrature
 /// for queries from the rare side (eta >= 1): the integrand is smooth there
 /// and 32 x 32 nodes agree with 256 x 256 to 1e-4.
@@ -366,7 +371,7 @@ impl MuGrid {
 /// x `TABLE_ALPHA` x `TABLE_MU_DIELECTRIC` nodes in (c, alpha, `MuGrid` of c),
 /// each critical-cosine node's slice computed at first use: an interface
 /// reads the four nodes around its own c (`nodes_read`), so a scene of one
-/// glass computes 4 of the 21.
+/// glass computes 4 of the 41.
 #[derive(Debug)]
 pub struct DielectricAlbedoTable {
     kind: NdfKind,
