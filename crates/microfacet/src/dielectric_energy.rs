@@ -57,18 +57,24 @@
 //! microfacet normals (`Quadrature` from the rare side,
 //! `crate::quadrature::SplitQuadrature`, split at the total-internal-reflection
 //! curve, from the dense side), serially, one critical-cosine node at its
-//! first use: an interface reads four of the 21 (release build, one core:
-//! 1.9 s for Beckmann/Smith, 2.7 s for GGX/Smith, 8.7 s for GGX/V-cavity at
-//! eta 1.5; the whole table 11 s, 14 s, 45 s).
+//! first use: an interface reads four of the 41 (release build, one core,
+//! eta 1.5: 1.5-2.6 s for Beckmann/Smith, 2.7-3.3 s for GGX/Smith, 6.1-9.3 s
+//! for GGX/V-cavity, about 1.5x the former 21 x 44-node grid's, measured
+//! side by side).
 //!
-//! Accuracy (`tests/dielectric_compensation.rs`, against fine quadrature,
-//! eta in [1.05, 2.2] and its inverse, originals alpha 0 to 0.3 widened to
-//! 0.15 to 1, mu >= 0.1 in steps of 0.01): the compensated albedo
-//! E(alpha-hat) + dE is within 1e-3 of E(alpha) from the rare side (6.9e-4
-//! with Smith, 3.9e-4 with V-cavity shadowing) and, with Smith, from the
-//! dense side (7.1e-4); with V-cavity from the dense side within 6.9e-3 (its
-//! min() kinks in refraction, which move with mu and eta); 5.6e-3 below mu =
-//! 0.1. Beyond the tested ratios, with Smith: 3.2e-4 at eta 2.6, 8.7e-4 at
+//! Accuracy (against fine quadrature, originals alpha 0 to 0.3 widened to
+//! 0.15 to 1, eta in [1.05, 2.2] and its inverse; a sweep of mu in steps of
+//! 0.01, of which `tests/dielectric_compensation.rs` checks ten cosines): the
+//! compensated albedo E(alpha-hat) + dE is within 1e-3 of E(alpha)
+//! - with Smith shadowing from both sides for mu >= 0.03: 6.9e-4 from the
+//!   rare side, 7.1e-4 from the dense side, 2.4e-4 below mu = 0.1 (up to
+//!   1.8e-3 at mu 0.01 and 0.02, where the nodes do not follow the fall);
+//! - with V-cavity shadowing from the rare side for mu >= 0.1 (3.9e-4). From
+//!   the dense side 6.9e-3 (its min() kinks in refraction, which move with mu
+//!   and eta), and 5.6e-3 below mu = 0.1, where the rare side's product rule
+//!   misses them.
+//!
+//! Beyond the tested ratios, with Smith: 3.2e-4 at eta 2.6, 8.7e-4 at
 //! 1/2.6, up to 1.2e-3 from the dense side of nearly index-matched
 //! interfaces (eta 1/1.002 to 1/1.012).
 //!
