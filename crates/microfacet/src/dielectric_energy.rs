@@ -66,15 +66,15 @@
 //! 0.15 to 1, eta in [1.05, 2.2] and its inverse; a sweep of mu in steps of
 //! 0.01, of which `tests/dielectric_compensation.rs` checks ten cosines): the
 //! compensated albedo E(alpha-hat) + dE is within 1e-3 of E(alpha)
-//! - with Smith shadowing from both sides for mu >= 0.03: 6.9e-4 from the
+//! - GGX/Smith from both sides for mu >= 0.03: 6.9e-4 from the
 //!   rare side, 7.1e-4 from the dense side, 2.4e-4 below mu = 0.1 (up to
 //!   1.8e-3 at mu 0.01 and 0.02, where the nodes do not follow the fall);
-//! - with V-cavity shadowing from the rare side for mu >= 0.1 (3.9e-4). From
+//! - Beckmann/V-cavity from the rare side for mu >= 0.1 (3.9e-4). From
 //!   the dense side 6.9e-3 (its min() kinks in refraction, which move with mu
 //!   and eta), and 5.6e-3 below mu = 0.1, where the rare side's product rule
 //!   misses them.
 //!
-//! Beyond the tested ratios, with Smith: 3.2e-4 at eta 2.6, 8.7e-4 at
+//! Beyond the tested ratios, GGX/Smith: 3.2e-4 at eta 2.6, 8.7e-4 at
 //! 1/2.6, up to 1.2e-3 from the dense side of nearly index-matched
 //! interfaces (eta 1/1.002 to 1/1.012).
 //!
