@@ -48,7 +48,7 @@
 //! refracts to the cosine c, so the albedo is smooth in c where it was not in
 //! eta near 1 (`critical_cosine`). Rows of neighbouring c are interpolated at
 //! the same position relative to their kink; bicubic (Catmull-Rom) in
-//! sqrt(alpha) and c, and cubic in mu inside each segment of the `MuGrid`
+//! sqrt(alpha) (`crate::energy::alpha_weights`) and c, and cubic in mu inside each segment of the `MuGrid`
 //! (the dense side's kink ends one), with dE_avg the exact moment of the
 //! interpolated dE (`MuGrid::positive_part_moment`). An interface outside
 //! [1/`ETA_MAX`, `ETA_MAX`] is compensated as if its eta were clamped to it:
@@ -66,9 +66,10 @@
 //! 0.15 to 1, eta in [1.05, 2.2] and its inverse; a sweep of mu in steps of
 //! 0.01, of which `tests/dielectric_compensation.rs` checks ten cosines): the
 //! compensated albedo E(alpha-hat) + dE is within 1e-3 of E(alpha)
-//! - GGX/Smith from both sides for mu >= 0.03: 6.9e-4 from the
-//!   rare side, 7.1e-4 from the dense side, 2.4e-4 below mu = 0.1 (up to
-//!   1.8e-3 at mu 0.01 and 0.02, where the nodes do not follow the fall);
+//! - GGX/Smith from both sides for mu >= 0.01: 6.9e-4 from the rare side,
+//!   7.1e-4 from the dense side, 2.3e-4 below mu = 0.1 (1.8e-3 at mu 0.01
+//!   before the first alpha cell was made linear in alpha^2,
+//!   `crate::energy::alpha_weights`);
 //! - Beckmann/V-cavity from the rare side for mu >= 0.1 (3.9e-4). From
 //!   the dense side 6.9e-3 (its min() kinks in refraction, which move with mu
 //!   and eta), and 5.6e-3 below mu = 0.1, where the rare side's product rule
@@ -110,7 +111,7 @@ use glam::{Vec2, Vec3};
 
 use crate::dielectric_gain::dielectric_mean_scale;
 use crate::energy::{
-    GRAZING_MU, MIN_DEFICIT_AVERAGE, MODELS, TABLE_ALPHA, TABLE_ALPHA_MAX, alpha_node,
+    GRAZING_MU, MIN_DEFICIT_AVERAGE, MODELS, TABLE_ALPHA, alpha_node, alpha_weights,
     catmull_rom_cubic, catmull_rom_weights, cell, cubic_at, model_index, spline_moment_weights,
     spline_positive_moment,
 };
@@ -481,11 +482,10 @@ impl DielectricAlbedoTable {
         cubic_at(cubic, f64::from(t)) as f32
     }
 
-    /// mu node j -> E at node j, bicubic (Catmull-Rom, `catmull_rom_weights`)
-    /// in sqrt(alpha) and c.
+    /// mu node j -> E at node j, bicubic (Catmull-Rom) in sqrt(alpha)
+    /// (`alpha_weights`) and c (`critical_weights`).
     fn row(&self, medium: usize, alpha: f32, c: f32) -> impl Fn(usize) -> f32 + '_ {
-        let (k, s) = cell(alpha, TABLE_ALPHA, TABLE_ALPHA_MAX);
-        let in_alpha = catmull_rom_weights(k, s, TABLE_ALPHA);
+        let in_alpha = alpha_weights(alpha);
         let slices = self.slices_at(c);
         move |j| {
             slices
@@ -531,8 +531,7 @@ impl DielectricAlbedoTable {
         let in_c = self.slices_at(c);
         let mut nodes = [0.0; TABLE_MU_DIELECTRIC];
         for (alpha, sign) in [(alpha, 1.0), (alpha_hat, -1.0)] {
-            let (k, s) = cell(alpha, TABLE_ALPHA, TABLE_ALPHA_MAX);
-            for (k, wa) in catmull_rom_weights(k, s, TABLE_ALPHA) {
+            for (k, wa) in alpha_weights(alpha) {
                 for (slice, wc) in in_c {
                     let row = slice.row(medium, k);
                     for (node, e) in nodes.iter_mut().zip(row) {
