@@ -48,12 +48,13 @@
 //! refracts to the cosine c, so the albedo is smooth in c where it was not in
 //! eta near 1 (`critical_cosine`). Rows of neighbouring c are interpolated at
 //! the same position relative to their kink; bicubic (Catmull-Rom) in
-//! sqrt(alpha) (`crate::energy::alpha_weights`) and c, and cubic in mu inside each segment of the `MuGrid`
-//! (the dense side's kink ends one), with dE_avg the exact moment of the
-//! interpolated dE (`MuGrid::positive_part_moment`). An interface outside
-//! [1/`ETA_MAX`, `ETA_MAX`] is compensated as if its eta were clamped to it:
-//! its energy is then restored only approximately (the table's error grows
-//! with the distance), never with a NaN. Computed by quadrature over
+//! sqrt(alpha) (`crate::energy::alpha_weights`) and c, and cubic in mu
+//! inside each segment of the `MuGrid` (the dense side's kink ends one),
+//! with dE_avg the exact moment of the interpolated dE
+//! (`MuGrid::positive_part_moment`). An interface outside [1/`ETA_MAX`,
+//! `ETA_MAX`] is compensated as if its eta were clamped to it: its energy is
+//! then restored only approximately (the table's error grows with the
+//! distance), never with a NaN. Computed by quadrature over
 //! microfacet normals (`Quadrature` from the rare side,
 //! `crate::quadrature::SplitQuadrature`, split at the total-internal-reflection
 //! curve, from the dense side), serially, one critical-cosine node at its

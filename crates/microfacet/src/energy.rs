@@ -23,11 +23,10 @@
 //! (`SplitQuadrature`, split where the integrand bends: within 5e-5 of 64 x
 //! 64 nodes). 64 nodes uniform in s = sqrt(mu) by 40 uniform in sqrt(alpha)
 //! (0.05-1.1 s per table), interpolated by Catmull-Rom cubics in both
-//! (`catmull_rom_cubic`; `alpha_weights`: linear in alpha^2 below the first
-//! alpha node). dE(mu) is then a cubic in s
-//! per cell, and dE_avg its exact moment (`positive_part_integral`), so the
-//! furnace identity holds for the interpolated dE (4e-8 by a midpoint
-//! rule). The table against quadrature: within 1.7e-4 for mu >= 0.1, 8.1e-4
+//! (`catmull_rom_cubic`, `alpha_weights`: linear in alpha^2 below the first
+//! alpha node). dE(mu) is then a cubic in s per cell, and dE_avg its exact
+//! moment (`positive_part_integral`), so the furnace identity holds for the
+//! interpolated dE (4e-8 by a midpoint rule). The table against quadrature: within 1.7e-4 for mu >= 0.1, 8.1e-4
 //! for mu >= 0.04; a cell is finer than a narrow lobe's bend only above
 //! that (2.7e-3 at alpha 0.002, mu 0.012). Compensated against the
 //! original's albedo, without noise (`tests/energy_compensation.rs`,
