@@ -59,7 +59,7 @@
 //! `crate::quadrature::SplitQuadrature`, split at the total-internal-reflection
 //! curve, from the dense side), serially, one critical-cosine node at its
 //! first use: an interface reads four of the 41 (release build, one core,
-//! eta 1.5: 1.5-2.6 s for Beckmann/Smith, 2.7-3.3 s for GGX/Smith, 6.1-9.3 s
+//! eta 1.5: 1.5-2.6 s for Beckmann/Smith, 2.7-3.3 s for GGX/Smith, 6-10 s
 //! for GGX/V-cavity, about 1.5x the former 21 x 44-node grid's, measured
 //! side by side).
 //!
@@ -71,10 +71,9 @@
 //!   7.1e-4 from the dense side, 2.3e-4 below mu = 0.1 (1.8e-3 at mu 0.01
 //!   before the first alpha cell was made linear in alpha^2,
 //!   `crate::energy::alpha_weights`);
-//! - Beckmann/V-cavity from the rare side for mu >= 0.1 (3.9e-4). From
-//!   the dense side 6.9e-3 (its min() kinks in refraction, which move with mu
-//!   and eta), and 5.6e-3 below mu = 0.1, where the rare side's product rule
-//!   misses them.
+//! - Beckmann/V-cavity from the rare side for mu >= 0.04 (3.9e-4 for mu >=
+//!   0.1, 4.6e-4 at 0.04). From the dense side 6.9e-3 (its min() kinks in
+//!   refraction, which move with mu and eta; 2.4e-3 at the test's cosines).
 //!
 //! Beyond the tested ratios, GGX/Smith: 3.2e-4 at eta 2.6, 8.7e-4 at
 //! 1/2.6, up to 1.2e-3 from the dense side of nearly index-matched
@@ -147,9 +146,20 @@ pub const TABLE_MU_DIELECTRIC: usize = 64;
 /// the other `TABLE_MU_DIELECTRIC` - 1 - `DENSE_LOWER_CELLS` cells lie above it.
 const DENSE_LOWER_CELLS: usize = 32;
 /// (radial Gauss-Legendre, half-azimuth midpoint) nodes of the quadrature
-/// for queries from the rare side (eta >= 1): the integrand is smooth there
-/// and 32 x 32 nodes agree with 256 x 256 to 1e-4.
-const QUADRATURE_RARE: (usize, usize) = (32, 32);
+/// for queries from the rare side (eta >= 1). With Smith shadowing the
+/// integrand is smooth there and 32 x 32 nodes agree with 256 x 256 to
+/// 1e-4. V-cavity's min() has kinks the product rule does not follow, which
+/// matter near grazing: at mu >= 0.04 (Beckmann, eta 1.05-2.2, alpha
+/// 0.03-1) 32 x 32 nodes were 4.7e-3 off 192 x 192, 64 x 64 are 2.1e-4 off,
+/// at no measurable cost beside the dense side's rule (GGX/V-cavity, the
+/// four slices of eta 1.5: 9.5-9.7 s against 9.1-10.3 s with 32 x 32, side
+/// by side, release, one core).
+fn quadrature_rare(shadowing: Shadowing) -> (usize, usize) {
+    match shadowing {
+        Shadowing::Smith => (32, 32),
+        Shadowing::VCavity => (64, 64),
+    }
+}
 /// (radial, azimuthal) Gauss-Legendre nodes per piece of the split rule
 /// (`SplitQuadrature`) from the dense side (eta < 1), where F reaches 1
 /// with an infinite slope along the curve of total internal reflection: a
@@ -405,7 +415,7 @@ impl CriticalSlice {
             let alpha = alpha_node(k);
             // alpha = 0: the smooth interface, R + T = 1 exactly.
             let rules = (alpha > 0.0).then(|| {
-                let (radial, azimuth) = QUADRATURE_RARE;
+                let (radial, azimuth) = quadrature_rare(shadowing);
                 (
                     Quadrature::new(kind, shadowing, alpha, radial, azimuth),
                     SplitQuadrature::new(kind, shadowing, alpha, QUADRATURE_DENSE),
@@ -560,7 +570,7 @@ pub(crate) fn dielectric_kernel(
     subdivisions: usize,
 ) -> Kernel {
     let c = critical_node(i);
-    let (radial, azimuth) = QUADRATURE_RARE;
+    let (radial, azimuth) = quadrature_rare(shadowing);
     let rare = Quadrature::new(kind, shadowing, alpha, radial, azimuth);
     let dense = SplitQuadrature::new(kind, shadowing, alpha, QUADRATURE_DENSE);
     let mut kernel = Kernel::zeros(2, TABLE_MU_DIELECTRIC, subdivisions);
@@ -710,7 +720,7 @@ impl Quadrature {
 /// E(mu, alpha, eta) of one configuration by the tables' quadrature rules
 /// with `nodes`: from the rare side (eta >= 1) the product rule
 /// (`Quadrature`, (radial, half-azimuth) nodes; the tables use
-/// `QUADRATURE_RARE`), from the dense side the split rule
+/// `quadrature_rare`), from the dense side the split rule
 /// (`SplitQuadrature`, nodes per piece; the tables use `QUADRATURE_DENSE`);
 /// 1 for alpha = 0, the smooth interface. For tests, with finer rules.
 pub fn dielectric_albedo_quadrature(
