@@ -85,7 +85,8 @@
 //! mixture (as in `crate::energy`).
 //!
 //! **Quadrature.** From the rare side a product rule over D(h)<h,n> normals,
-//! 32 x 32, with u = v^2 (3 - 2v) removing the 1/<h,n> endpoint singularity
+//! 32 x 32 (64 x 64 with V-cavity shadowing, `quadrature_rare`), with
+//! u = v^2 (3 - 2v) removing the 1/<h,n> endpoint singularity
 //! of refraction through near-horizontal facets; from the dense side a rule
 //! split where the integrand has kinks (per ring of normals at the azimuths
 //! where <wi,h> reaches the total-internal-reflection cosine, where the
