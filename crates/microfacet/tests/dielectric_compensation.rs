@@ -42,9 +42,9 @@ const SIGMAS: f64 = 5.0;
 /// the rare side V-cavity is held to 1e-3, as Smith is from both sides.
 const VCAVITY_DENSE_TOLERANCE: f64 = 1e-2;
 
-/// The tolerance of a table or furnace value for a query at cosine `mu`
-/// seeing the index ratio `eta`: the 1e-3, except for V-cavity
-/// from the dense side (above).
+/// The tolerance of a table or furnace value for a query seeing the index
+/// ratio `eta`, at every cosine down to 0.04: the 1e-3, except for
+/// V-cavity from the dense side (above).
 fn tolerance(eta: f32, shadowing: Shadowing) -> f64 {
     if shadowing == Shadowing::VCavity && eta < 1.0 {
         VCAVITY_DENSE_TOLERANCE
