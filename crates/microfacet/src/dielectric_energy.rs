@@ -483,8 +483,9 @@ impl DielectricAlbedoTable {
         critical_weights(c).map(|(i, wc)| (self.slice(i), wc))
     }
 
-    /// E(mu, alpha, eta): linear in the `MuGrid` coordinate of the query's
-    /// c, in sqrt(alpha) and in c; alpha and eta clamped to the table.
+    /// E(mu, alpha, eta): cubic in the `MuGrid` coordinate of the query's
+    /// c (within its segment), bicubic in sqrt(alpha) and c (`row`); alpha
+    /// and eta clamped to the table.
     pub fn albedo(&self, mu: f32, alpha: f32, eta: f32) -> f32 {
         let (medium, c) = critical_cosine(eta);
         let grid = MuGrid::of(medium, c);
