@@ -68,16 +68,15 @@
 //! 0.01, of which `tests/dielectric_compensation.rs` checks ten cosines): the
 //! compensated albedo E(alpha-hat) + dE is within 1e-3 of E(alpha)
 //! - GGX/Smith from both sides for mu >= 0.01: 6.9e-4 from the rare side,
-//!   7.1e-4 from the dense side, 2.3e-4 below mu = 0.1 (1.8e-3 at mu 0.01
-//!   before the first alpha cell was made linear in alpha^2,
-//!   `crate::energy::alpha_weights`);
+//!   8.0e-4 from the dense side (1.8e-3 at mu 0.01 before the first alpha
+//!   cell was made linear in alpha^2, `crate::energy::alpha_weights`);
 //! - Beckmann/V-cavity from the rare side for mu >= 0.04 (3.9e-4 for mu >=
-//!   0.1, 4.6e-4 at 0.04). From the dense side 6.9e-3 (its min() kinks in
-//!   refraction, which move with mu and eta; 2.4e-3 at the test's cosines).
+//!   0.1, 4.6e-4 at 0.04). From the dense side 1.75e-3 (kinks of its min(),
+//!   `MuGrid`; 8.5e-4 at the test's cosines).
 //!
 //! Beyond the tested ratios, GGX/Smith: 3.2e-4 at eta 2.6, 8.7e-4 at
-//! 1/2.6, up to 1.2e-3 from the dense side of nearly index-matched
-//! interfaces (eta 1/1.002 to 1/1.012).
+//! 1/2.6; from the dense side of nearly index-matched interfaces 4.7e-4 at
+//! eta 1/1.012, 1.0e-3 at 1/1.0034, 1.8e-3 at 1/1.0017 (`MuGrid`).
 //!
 //! **Sampling.** The compensation is chosen with probability
 //! P_c = dE_s / (E-hat_s + dE_s), then transmission with probability t_s,
@@ -138,10 +137,10 @@ pub const ETA_MAX: f32 = 3.0;
 pub const TABLE_CRITICAL: usize = 41;
 /// Table nodes in mu per row (`MuGrid`). More than the conductor tables'
 /// `TABLE_MU`: from the dense side narrow lobes fall over a cosine of the
-/// order of alpha just below the kink at mu = c, where the lower segment's
-/// nodes are sparsest; with 44 nodes (22 below the kink) the compensated
-/// albedo missed it by up to 1.3e-3 (GGX/Smith, eta 1/2.2, 0.03 -> 0.15,
-/// mu 0.86), with 64 by 7.1e-4.
+/// order of alpha just below the kink at mu = c; with 44 nodes (22 below
+/// the kink, uniform in sqrt(mu/c)) the compensated albedo missed it by up
+/// to 1.3e-3 (GGX/Smith, eta 1/2.2, 0.03 -> 0.15, mu 0.86), with 64 by
+/// 7.1e-4.
 pub const TABLE_MU_DIELECTRIC: usize = 64;
 /// mu cells of a dense-side row below its critical cosine (`MuGrid::Dense`);
 /// the other `TABLE_MU_DIELECTRIC` - 1 - `DENSE_LOWER_CELLS` cells lie above it.
@@ -239,13 +238,25 @@ pub(crate) fn critical_cell(c: f32) -> (usize, f32) {
 ///
 /// - `Rare`: uniform in sqrt(mu), as the conductor tables (`crate::energy`):
 ///   the albedo changes fastest near grazing.
-/// - `Dense { critical: c }`: below the kink at mu = c (total internal
-///   reflection of the smooth interface), `DENSE_LOWER_CELLS` cells uniform
-///   in sqrt(mu/c); above it, cells uniform in the refracted cosine
-///   t = sqrt((mu^2 - c^2)/(1 - c^2)) = cos theta_t, in which the smooth
-///   interface's transmittance starts linearly (1 - F ~ cos theta_t, while it
-///   has an infinite slope in mu). The kink is a node at every eta, and rows
-///   of neighbouring c are interpolated at equal (s, t), kink to kink.
+/// - `Dense { critical: c }`: two segments that meet at the kink mu = c (total
+///   internal reflection of the smooth interface), a node at every eta:
+///   `DENSE_LOWER_CELLS` cells in x = mu/c below it, the rest above it in the
+///   refracted cosine t = sqrt((mu^2 - c^2)/(1 - c^2)) = cos theta_t, in which
+///   the smooth interface's transmittance starts linearly (1 - F ~ cos theta_t,
+///   while it has an infinite slope in mu). Rows of neighbouring c are
+///   interpolated at equal (x, t), kink to kink. Each segment's nodes cluster
+///   at both its ends (`segment_nodes`): grazing incidence; just below the
+///   kink, where narrow lobes fall over a cosine of the order of alpha; just
+///   above it, where the albedo of nearly index-matched interfaces climbs
+///   steeply over a cosine of the order of alpha; and normal incidence, where
+///   their wide lobes' feature at mu = eta lies. Against nodes uniform in
+///   sqrt(mu/c) and in t, a sweep of the compensated albedo (mu in steps of
+///   0.01, originals 0-0.3 widened to 0.15-1 in ten steps) fell from 4.6e-3 to
+///   1.75e-3 for Beckmann/V-cavity at eta 1/1.05-1/2.4 (kinks of its min(),
+///   near mu = 0.54 c and 0.86 c at the three eta examined, which cubics round
+///   off) and, for GGX/Smith, from 1.8e-3 to 7.2e-4 at eta 1/1.0056 and from
+///   4.3e-3 to 1.8e-3 at 1/1.0017, while it stayed within 8.0e-4 elsewhere
+///   (7.6e-4 before).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum MuGrid {
     Rare,
@@ -273,9 +284,9 @@ impl MuGrid {
             Self::Dense { critical } => {
                 let c = f64::from(critical);
                 let mu = if j <= DENSE_LOWER_CELLS {
-                    c * (j as f64 / DENSE_LOWER_CELLS as f64).powi(2)
+                    c * LOWER_NODES[j]
                 } else {
-                    let t = (j - DENSE_LOWER_CELLS) as f64 / Self::UPPER_CELLS as f64;
+                    let t = UPPER_NODES[j - DENSE_LOWER_CELLS];
                     (c * c + (1.0 - c * c) * t * t).sqrt()
                 };
                 mu.clamp(GRAZING_MU, 1.0)
@@ -288,21 +299,21 @@ impl MuGrid {
         match self {
             Self::Rare => cell(mu, TABLE_MU_DIELECTRIC, 1.0),
             Self::Dense { critical: c } => {
-                let mu = mu.clamp(0.0, 1.0);
-                let y = if mu < c {
-                    (mu / c).sqrt() * DENSE_LOWER_CELLS as f32
+                let (mu, c) = (f64::from(mu.clamp(0.0, 1.0)), f64::from(c));
+                if mu < c {
+                    segment_cell(mu / c, &LOWER_NODES)
                 } else {
+                    // In f64: mu^2 - c^2 cancels just above the kink.
                     let t = ((mu * mu - c * c) / (1.0 - c * c)).max(0.0).sqrt();
-                    DENSE_LOWER_CELLS as f32 + t * Self::UPPER_CELLS as f32
-                };
-                let j = (y as usize).min(TABLE_MU_DIELECTRIC - 2);
-                (j, (y - j as f32).clamp(0.0, 1.0))
+                    let (k, fraction) = segment_cell(t, &UPPER_NODES);
+                    (DENSE_LOWER_CELLS + k, fraction)
+                }
             }
         }
     }
 
     /// d(mu^2)/d tau in cell j at fraction tau: the measure 2 mu dmu of the
-    /// cosine-weighted average, a polynomial of degree 3 in tau.
+    /// cosine-weighted average, a polynomial of degree at most 3 in tau.
     fn measure(self, j: usize, tau: f64) -> f64 {
         match self {
             Self::Rare => {
@@ -312,18 +323,16 @@ impl MuGrid {
                 4.0 * s.powi(3) * h
             }
             Self::Dense { critical } => {
-                let c = f64::from(critical);
-                if j < DENSE_LOWER_CELLS {
-                    // mu = c s^2: mu^2 = c^2 s^4.
-                    let h = 1.0 / DENSE_LOWER_CELLS as f64;
-                    let s = (j as f64 + tau) * h;
-                    4.0 * c * c * s.powi(3) * h
+                // mu^2 = c^2 x^2 below the kink, c^2 + (1 - c^2) x^2
+                // above it, x = mu / c or t linear in the cell.
+                let c2 = f64::from(critical).powi(2);
+                let (scale, nodes, k) = if j < DENSE_LOWER_CELLS {
+                    (c2, &LOWER_NODES[..], j)
                 } else {
-                    // mu^2 = c^2 + (1 - c^2) t^2.
-                    let h = 1.0 / Self::UPPER_CELLS as f64;
-                    let t = ((j - DENSE_LOWER_CELLS) as f64 + tau) * h;
-                    2.0 * (1.0 - c * c) * t * h
-                }
+                    (1.0 - c2, &UPPER_NODES[..], j - DENSE_LOWER_CELLS)
+                };
+                let (x0, x1) = (nodes[k], nodes[k + 1]);
+                2.0 * scale * (x0 + (x1 - x0) * tau) * (x1 - x0)
             }
         }
     }
@@ -383,6 +392,38 @@ impl MuGrid {
             }
         }
     }
+}
+
+/// The N nodes in x of a dense-side `MuGrid` segment of N - 1 cells, x =
+/// mu/c below the kink and the refracted cosine t above it:
+/// x = u^2 (3 + 2u - 3u^2) / 2 at u = k / (N - 1), increasing on [0, 1] and
+/// clustered at both ends, as u^2 at x = 0 and as (1 - u)^2 at x = 1.
+const fn segment_nodes<const N: usize>() -> [f64; N] {
+    let mut x = [0.0; N];
+    let mut k = 0;
+    while k < N {
+        let u = k as f64 / (N - 1) as f64;
+        x[k] = 0.5 * u * u * (3.0 + u * (2.0 - 3.0 * u));
+        k += 1;
+    }
+    x
+}
+
+/// x of the nodes below the dense side's kink (`segment_nodes`).
+const LOWER_NODES: [f64; DENSE_LOWER_CELLS + 1] = segment_nodes();
+/// x of the nodes above it.
+const UPPER_NODES: [f64; MuGrid::UPPER_CELLS + 1] = segment_nodes();
+
+/// (cell, fraction) of x in [0, 1] among a segment's `nodes`, the fraction
+/// linear in x (so that `MuGrid::measure` stays a polynomial).
+fn segment_cell(x: f64, nodes: &[f64]) -> (usize, f32) {
+    let x = x.clamp(0.0, 1.0);
+    let k = nodes
+        .partition_point(|&node| node <= x)
+        .clamp(1, nodes.len() - 1)
+        - 1;
+    let (x0, x1) = (nodes[k], nodes[k + 1]);
+    (k, ((x - x0) / (x1 - x0)).clamp(0.0, 1.0) as f32)
 }
 
 /// Energy albedo E(mu, alpha, eta) of a white rough dielectric (module
@@ -1014,7 +1055,9 @@ mod tests {
         }
     }
 
-    /// Every grid's nodes are increasing, found again by `cell`, and the
+    /// Every grid's nodes are increasing, found again by `cell` (to the
+    /// resolution of an f32 cosine: just above the kink one ulp of mu moves
+    /// the refracted cosine t by up to 1e-2 of its first cell), and the
     /// dense grid has its kink mu = c at node `DENSE_LOWER_CELLS`.
     #[test]
     fn mu_grids_invert_their_nodes() {
@@ -1033,11 +1076,17 @@ mod tests {
                 let (a, b) = (grid.node(j - 1), grid.node(j));
                 assert!(a <= b, "{grid:?} {j}");
                 if a > GRAZING_MU {
-                    let (k, t) = grid.cell(a as f32);
-                    let found = k as f32 + t;
+                    let mu = a as f32;
+                    let found = |mu: f32| {
+                        let (k, t) = grid.cell(mu);
+                        k as f32 + t
+                    };
+                    let below = found(f32::from_bits(mu.to_bits() - 1));
+                    let above = found(f32::from_bits(mu.to_bits() + 1));
+                    let node = (j - 1) as f32;
                     assert!(
-                        (found - (j - 1) as f32).abs() < 1e-3,
-                        "{grid:?} {j}: {found}"
+                        below - 1e-3 < node && node < above + 1e-3,
+                        "{grid:?} {j}: {below}..{above}"
                     );
                 }
             }

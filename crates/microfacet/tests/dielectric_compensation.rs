@@ -35,12 +35,13 @@ const TOLERANCE: f64 = 1e-3;
 /// probability 2e-5: 0.03 false failures in ~1500 comparisons), and counts
 /// as resolving the tolerance only where `SIGMAS` standard errors are below it.
 const SIGMAS: f64 = 5.0;
-/// V-cavity's G is a min() of three terms, whose kinks in a refraction move
-/// with mu and eta: from the dense side a sweep in mu (steps of 0.01, the
-/// originals and widths of the quadrature furnace below, eta 1/1.05 to
-/// 1/2.2) measured up to 6.9e-3 (eta 1/1.05, 0.03 -> 0.15, mu 0.27). From
-/// the rare side V-cavity is held to 1e-3, as Smith is from both sides.
-const VCAVITY_DENSE_TOLERANCE: f64 = 1e-2;
+/// V-cavity's G is a min() of three terms, whose kinks in a refraction the
+/// table's cubics round off: from the dense side a sweep in mu (steps of
+/// 0.01 from 0.04, originals 0-0.3 widened to 0.15-1 in ten steps, eta
+/// 1/1.05 to 1/2.4) measured up to 1.75e-3 (eta 1/1.44, 0 -> 0.4, mu 0.61),
+/// 8.5e-4 at this test's cosines. From the rare side V-cavity is held to
+/// 1e-3, as Smith is from both sides.
+const VCAVITY_DENSE_TOLERANCE: f64 = 2e-3;
 
 /// The tolerance of a table or furnace value for a query seeing the index
 /// ratio `eta`, at every cosine down to 0.04: the 1e-3, except for
