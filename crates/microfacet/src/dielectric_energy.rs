@@ -245,7 +245,7 @@ pub(crate) fn critical_cell(c: f32) -> (usize, f32) {
 ///   the smooth interface's transmittance starts linearly (1 - F ~ cos theta_t,
 ///   while it has an infinite slope in mu). Rows of neighbouring c are
 ///   interpolated at equal (x, t), kink to kink. Each segment's nodes cluster
-///   at both its ends (`segment_nodes`): grazing incidence; just below the
+///   at both its ends (`Segment`): grazing incidence; just below the
 ///   kink, where narrow lobes fall over a cosine of the order of alpha; just
 ///   above it, where the albedo of nearly index-matched interfaces climbs
 ///   steeply over a cosine of the order of alpha; and normal incidence, where
@@ -284,9 +284,9 @@ impl MuGrid {
             Self::Dense { critical } => {
                 let c = f64::from(critical);
                 let mu = if j <= DENSE_LOWER_CELLS {
-                    c * LOWER_NODES[j]
+                    c * LOWER.x[j]
                 } else {
-                    let t = UPPER_NODES[j - DENSE_LOWER_CELLS];
+                    let t = UPPER.x[j - DENSE_LOWER_CELLS];
                     (c * c + (1.0 - c * c) * t * t).sqrt()
                 };
                 mu.clamp(GRAZING_MU, 1.0)
@@ -301,11 +301,11 @@ impl MuGrid {
             Self::Dense { critical: c } => {
                 let (mu, c) = (f64::from(mu.clamp(0.0, 1.0)), f64::from(c));
                 if mu < c {
-                    segment_cell(mu / c, &LOWER_NODES)
+                    LOWER.cell(mu / c)
                 } else {
                     // In f64: mu^2 - c^2 cancels just above the kink.
                     let t = ((mu * mu - c * c) / (1.0 - c * c)).max(0.0).sqrt();
-                    let (k, fraction) = segment_cell(t, &UPPER_NODES);
+                    let (k, fraction) = UPPER.cell(t);
                     (DENSE_LOWER_CELLS + k, fraction)
                 }
             }
@@ -327,14 +327,23 @@ impl MuGrid {
                 // above it, x = mu / c or t linear in the cell.
                 let c2 = f64::from(critical).powi(2);
                 let (scale, nodes, k) = if j < DENSE_LOWER_CELLS {
-                    (c2, &LOWER_NODES[..], j)
+                    (c2, &LOWER.x[..], j)
                 } else {
-                    (1.0 - c2, &UPPER_NODES[..], j - DENSE_LOWER_CELLS)
+                    (1.0 - c2, &UPPER.x[..], j - DENSE_LOWER_CELLS)
                 };
                 let (x0, x1) = (nodes[k], nodes[k + 1]);
                 2.0 * scale * (x0 + (x1 - x0) * tau) * (x1 - x0)
             }
         }
+    }
+
+    /// (node, weight) of the row's cubic at `mu` (`cell`; within the
+    /// segment, `catmull_rom_weights`, the same spline as
+    /// `catmull_rom_cubic`).
+    fn weights(self, mu: f32) -> [(usize, f32); 4] {
+        let (j, t) = self.cell(mu);
+        let (first, last) = self.segment(j);
+        catmull_rom_weights(j - first, t, last - first + 1).map(|(n, w)| (first + n, w))
     }
 
     /// The nodes `first..=last` of the segment of cell j, inside which the
@@ -394,37 +403,62 @@ impl MuGrid {
     }
 }
 
-/// The N nodes in x of a dense-side `MuGrid` segment of N - 1 cells, x =
-/// mu/c below the kink and the refracted cosine t above it:
-/// x = u^2 (3 + 2u - 3u^2) / 2 at u = k / (N - 1), increasing on [0, 1] and
-/// clustered at both ends, as u^2 at x = 0 and as (1 - u)^2 at x = 1.
-const fn segment_nodes<const N: usize>() -> [f64; N] {
-    let mut x = [0.0; N];
-    let mut k = 0;
-    while k < N {
-        let u = k as f64 / (N - 1) as f64;
-        x[k] = 0.5 * u * u * (3.0 + u * (2.0 - 3.0 * u));
-        k += 1;
+/// The nodes of a dense-side `MuGrid` segment of N - 1 cells in x = mu/c
+/// below the kink or the refracted cosine t above it, and for the search
+/// of `cell` the cell that holds the start of each of `SEGMENT_BINS` equal
+/// bins of x.
+struct Segment<const N: usize> {
+    x: [f64; N],
+    bin_cell: [u8; SEGMENT_BINS],
+}
+
+/// Bins of `Segment::cell`'s search: narrower than every cell but the
+/// first, so that a bin holds at most two nodes.
+const SEGMENT_BINS: usize = 256;
+
+impl<const N: usize> Segment<N> {
+    /// x = u^2 (3 + 2u - 3u^2) / 2 at u = k / (N - 1): increasing on
+    /// [0, 1] and clustered at both ends, as u^2 at x = 0 and as (1 - u)^2
+    /// at x = 1.
+    const fn new() -> Self {
+        assert!(N >= 3 && N - 1 <= u8::MAX as usize, "cells must fit bin_cell");
+        let mut x = [0.0; N];
+        let mut k = 0;
+        while k < N {
+            let u = k as f64 / (N - 1) as f64;
+            x[k] = 0.5 * u * u * (3.0 + u * (2.0 - 3.0 * u));
+            k += 1;
+        }
+        let mut bin_cell = [0; SEGMENT_BINS];
+        let (mut b, mut cell) = (0, 0);
+        while b < SEGMENT_BINS {
+            while cell + 2 < N && x[cell + 1] <= b as f64 / SEGMENT_BINS as f64 {
+                cell += 1;
+            }
+            bin_cell[b] = cell as u8;
+            b += 1;
+        }
+        Self { x, bin_cell }
     }
-    x
+
+    /// (cell, fraction) of x in [0, 1], the fraction linear in x (so that
+    /// `MuGrid::measure` stays a polynomial).
+    fn cell(&self, x: f64) -> (usize, f32) {
+        let x = x.clamp(0.0, 1.0);
+        let bin = ((x * SEGMENT_BINS as f64) as usize).min(SEGMENT_BINS - 1);
+        let mut k = usize::from(self.bin_cell[bin]);
+        while k + 2 < N && self.x[k + 1] <= x {
+            k += 1;
+        }
+        let (x0, x1) = (self.x[k], self.x[k + 1]);
+        (k, ((x - x0) / (x1 - x0)).clamp(0.0, 1.0) as f32)
+    }
 }
 
-/// x of the nodes below the dense side's kink (`segment_nodes`).
-const LOWER_NODES: [f64; DENSE_LOWER_CELLS + 1] = segment_nodes();
-/// x of the nodes above it.
-const UPPER_NODES: [f64; MuGrid::UPPER_CELLS + 1] = segment_nodes();
-
-/// (cell, fraction) of x in [0, 1] among a segment's `nodes`, the fraction
-/// linear in x (so that `MuGrid::measure` stays a polynomial).
-fn segment_cell(x: f64, nodes: &[f64]) -> (usize, f32) {
-    let x = x.clamp(0.0, 1.0);
-    let k = nodes
-        .partition_point(|&node| node <= x)
-        .clamp(1, nodes.len() - 1)
-        - 1;
-    let (x0, x1) = (nodes[k], nodes[k + 1]);
-    (k, ((x - x0) / (x1 - x0)).clamp(0.0, 1.0) as f32)
-}
+/// The segment below the dense side's kink.
+const LOWER: Segment<{ DENSE_LOWER_CELLS + 1 }> = Segment::new();
+/// The segment above it.
+const UPPER: Segment<{ MuGrid::UPPER_CELLS + 1 }> = Segment::new();
 
 /// Energy albedo E(mu, alpha, eta) of a white rough dielectric (module
 /// docs): per medium of the query ([`RARE`], [`DENSE`]), `TABLE_CRITICAL`
@@ -525,32 +559,31 @@ impl DielectricAlbedoTable {
     }
 
     /// E(mu, alpha, eta): cubic in the `MuGrid` coordinate of the query's
-    /// c (within its segment), bicubic in sqrt(alpha) and c (`row`); alpha
-    /// and eta clamped to the table.
+    /// c (within its segment), bicubic (Catmull-Rom) in sqrt(alpha)
+    /// (`alpha_weights`) and c (`critical_weights`); alpha and eta clamped
+    /// to the table.
     pub fn albedo(&self, mu: f32, alpha: f32, eta: f32) -> f32 {
-        let (medium, c) = critical_cosine(eta);
-        let grid = MuGrid::of(medium, c);
-        let (j, t) = grid.cell(mu);
-        let row = self.row(medium, alpha, c);
-        let cubic = catmull_rom_cubic(|i| f64::from(row(i)), j, grid.segment(j));
-        cubic_at(cubic, f64::from(t)) as f32
+        let [e] = self.albedos(mu, [alpha], eta);
+        e
     }
 
-    /// mu node j -> E at node j, bicubic (Catmull-Rom) in sqrt(alpha)
-    /// (`alpha_weights`) and c (`critical_weights`).
-    fn row(&self, medium: usize, alpha: f32, c: f32) -> impl Fn(usize) -> f32 + '_ {
-        let in_alpha = alpha_weights(alpha);
-        let slices = self.slices_at(c);
-        move |j| {
-            slices
-                .iter()
-                .flat_map(|&(slice, wc)| {
-                    in_alpha
-                        .iter()
-                        .map(move |&(k, wa)| wc * wa * slice.row(medium, k)[j])
-                })
-                .sum()
+    /// `albedo` at each of `alphas`, sharing the weights in c and mu and
+    /// the slices: the tricubic as a sum of weighted table entries.
+    fn albedos<const N: usize>(&self, mu: f32, alphas: [f32; N], eta: f32) -> [f32; N] {
+        let (medium, c) = critical_cosine(eta);
+        let in_mu = MuGrid::of(medium, c).weights(mu);
+        let in_alpha = alphas.map(alpha_weights);
+        let mut e = [0.0; N];
+        for (slice, wc) in self.slices_at(c) {
+            for (e, in_alpha) in e.iter_mut().zip(&in_alpha) {
+                for &(k, wa) in in_alpha {
+                    let row = slice.row(medium, k);
+                    let along: f32 = in_mu.iter().map(|&(j, wm)| wm * row[j]).sum();
+                    *e += wc * wa * along;
+                }
+            }
         }
+        e
     }
 
     /// E at node (c_i, alpha_k) of `medium`, at fraction t of its `MuGrid`
@@ -878,8 +911,8 @@ impl DielectricCompensation {
             return 0.0;
         }
         let table = dielectric_albedo_table(model.ndf.kind(), model.shadowing);
-        let eta = seen(eta, side);
-        (table.albedo(mu, self.alpha, eta) - table.albedo(mu, model.alpha(), eta)).max(0.0)
+        let [e, e_hat] = table.albedos(mu, [self.alpha, model.alpha()], seen(eta, side));
+        (e - e_hat).max(0.0)
     }
 
     /// E_s(mu) at alpha-hat (white, Importance mode) on `side`.
@@ -927,10 +960,7 @@ impl DielectricCompensation {
         }
         let (kind, shadowing, eta) = (model.ndf.kind(), model.shadowing, seen(eta, side));
         let table = dielectric_albedo_table(kind, shadowing);
-        let (e, e_hat) = (
-            table.albedo(mu, self.alpha, eta),
-            table.albedo(mu, model.alpha(), eta),
-        );
+        let [e, e_hat] = table.albedos(mu, [self.alpha, model.alpha()], eta);
         let deficit = if self.deficit_average[side] == 0.0 {
             0.0
         } else {
@@ -1091,6 +1121,25 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// `Segment::cell` finds the cell that holds x, and its fraction, at
+    /// every x (its binned search against the nodes).
+    #[test]
+    fn segments_find_the_cell_of_every_x() {
+        fn check<const N: usize>(segment: &Segment<N>) {
+            let steps = 100_000;
+            for m in 0..=steps {
+                let x = m as f64 / steps as f64;
+                let (k, t) = segment.cell(x);
+                let (x0, x1) = (segment.x[k], segment.x[k + 1]);
+                assert!(x0 <= x && (x < x1 || k == N - 2), "{N} {x}: {k}");
+                let back = x0 + f64::from(t) * (x1 - x0);
+                assert!((back - x).abs() < 1e-7, "{N} {x}: {back}");
+            }
+        }
+        check(&LOWER);
+        check(&UPPER);
     }
 
     /// The moment of a dE interpolated by the grid's splines against a fine
