@@ -421,7 +421,10 @@ impl<const N: usize> Segment<N> {
     /// [0, 1] and clustered at both ends, as u^2 at x = 0 and as (1 - u)^2
     /// at x = 1.
     const fn new() -> Self {
-        assert!(N >= 3 && N - 1 <= u8::MAX as usize, "cells must fit bin_cell");
+        assert!(
+            N >= 3 && N - 1 <= u8::MAX as usize,
+            "cells must fit bin_cell"
+        );
         let mut x = [0.0; N];
         let mut k = 0;
         while k < N {
