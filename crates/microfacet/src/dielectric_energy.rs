@@ -1044,8 +1044,14 @@ impl DielectricCompensation {
     /// compensation lobe for a query from `wi`, its share of the energy albedo.
     pub fn probability(&self, model: &MicrofacetModel, eta: f32, wi: Vec3) -> f32 {
         let (s, mu) = (side(wi), wi.z.abs());
-        let deficit = self.deficit(model, eta, s, mu);
-        let total = deficit + self.regularized_albedo(model, eta, s, mu);
+        if self.deficit_average[s] == 0.0 {
+            return 0.0;
+        }
+        // `deficit` and `regularized_albedo`, from one lookup of both albedos.
+        let table = dielectric_albedo_table(model.ndf.kind(), model.shadowing);
+        let [e, e_hat] = table.albedos(mu, [self.alpha, model.alpha()], seen(eta, s));
+        let deficit = (e - e_hat).max(0.0);
+        let total = deficit + e_hat;
         if deficit > 0.0 && total > 0.0 {
             (deficit / total).clamp(0.0, 1.0)
         } else {
