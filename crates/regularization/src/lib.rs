@@ -12,14 +12,18 @@
 //! - [`selective`]: off / uniform / selective / unsampleable modes and the
 //!   per-vertex tau_k carried along a subpath.
 //! - [`pdf`]: the MIS pdf correction p-hat (paper eq. 13, supp. §4).
+//! - [`memo`]: the last widened lobes, for callers that widen the same few
+//!   lobes again and again (a compensated lobe costs microseconds to build).
 //!
 //! Pure math on top of `microfacet`: no I/O, no threads, no global state.
 
+pub mod memo;
 pub mod pdf;
 pub mod schedule;
 pub mod selective;
 pub mod tau;
 
+pub use memo::RegularizationMemo;
 pub use pdf::p_hat;
 pub use schedule::{
     DEFAULT_SCHEDULE_EXPONENT, MAX_SCHEDULE_EXPONENT, Schedule, ScheduleError, cone_of_tau,

@@ -20,6 +20,7 @@ use std::str::FromStr;
 
 use microfacet::Bsdf;
 
+use crate::memo::RegularizationMemo;
 use crate::tau::{AlphaHat, is_bounded, regularize};
 
 /// Floor of rho^2 in tau_N / rho^2 (SPEC §5): keeps tau finite (at most
@@ -202,6 +203,21 @@ impl PathRegularization {
             Mode::Off => (*bsdf, None),
             Mode::Uniform | Mode::Selective | Mode::Unsampleable => {
                 regularize(bsdf, self.tau(), self.energy)
+            }
+        }
+    }
+
+    /// `regularize`, with the widened lobe from `memo` when it holds it
+    /// (bit for bit the same result).
+    pub fn regularize_with(
+        &self,
+        bsdf: &Bsdf,
+        memo: &mut RegularizationMemo,
+    ) -> (Bsdf, Option<AlphaHat>) {
+        match self.mode {
+            Mode::Off => (*bsdf, None),
+            Mode::Uniform | Mode::Selective | Mode::Unsampleable => {
+                memo.regularize(bsdf, self.tau(), self.energy)
             }
         }
     }

@@ -272,18 +272,24 @@ pub fn regularize(bsdf: &Bsdf, tau: f64, energy: Energy) -> (Bsdf, Option<AlphaH
     let regularized = if bsdf.alpha() == Some(hat.alpha) {
         *bsdf
     } else {
-        match energy {
-            Energy::Preserved => bsdf.regularized(hat.alpha),
-            Energy::Lost => bsdf.with_alpha(hat.alpha),
-        }
+        widen(bsdf, hat.alpha, energy)
     };
     (regularized, Some(hat))
+}
+
+/// `bsdf` at `alpha_hat`, with the compensation that keeps its albedo
+/// (`Energy::Preserved`, `Bsdf::regularized`) or without (`Energy::Lost`).
+pub(crate) fn widen(bsdf: &Bsdf, alpha_hat: f32, energy: Energy) -> Bsdf {
+    match energy {
+        Energy::Preserved => bsdf.regularized(alpha_hat),
+        Energy::Lost => bsdf.with_alpha(alpha_hat),
+    }
 }
 
 /// alpha-hat of the microfacet part of `bsdf` under tau (`None` for a lobe
 /// without roughness). A coated lobe's microfacet part is a reflection
 /// lobe; a dielectric is one interface, bounded both ways (`regularize`).
-fn bsdf_alpha_hat(bsdf: &Bsdf, tau: f64) -> Option<AlphaHat> {
+pub(crate) fn bsdf_alpha_hat(bsdf: &Bsdf, tau: f64) -> Option<AlphaHat> {
     let (model, lobe) = match bsdf {
         Bsdf::Lambertian(_) => return None,
         Bsdf::Conductor(c) => (c.model, Lobe::Reflection),
