@@ -220,6 +220,26 @@ impl Renderer {
         self.ctx.regularization_matters(tau)
     }
 
+    /// True when iteration `n` will read the energy-compensation tables
+    /// that `prepare_energy_tables` builds: the energy is preserved and the
+    /// rule widens every lobe tau_n binds (`uniform`, `selective`, and
+    /// `unsampleable` in PT, which applies it as `selective`), and tau_n
+    /// binds some lobe of the scene (`regularization_matters`). Under
+    /// `unsampleable` the bidirectional methods widen a lobe only on paths
+    /// that no technique samples, which a scene may not have (VCM on
+    /// caustic-glass widens none); their tables are built at first use.
+    pub fn reads_energy_tables(&self, n: u64) -> bool {
+        let regularization = &self.ctx.config.regularization;
+        let widens_where_bound = match regularization.mode {
+            Mode::Off => false,
+            Mode::Uniform | Mode::Selective => true,
+            Mode::Unsampleable => self.ctx.config.algorithm == Algorithm::Pt,
+        };
+        widens_where_bound
+            && regularization.energy == Energy::Preserved
+            && self.regularization_matters(regularization.tau_at(n))
+    }
+
     /// Builds now, in parallel, the energy-compensation tables
     /// (`microfacet::energy`, `microfacet::gain`, `microfacet::dielectric_energy`,
     /// `microfacet::dielectric_gain`) of every lobe of the scene that
@@ -231,11 +251,12 @@ impl Renderer {
     /// of its albedo and 0.1-7 s for its gain scaling), so timed
     /// comparisons call this first: no configuration then pays
     /// for tables in its measured time, whichever ran before it in the
-    /// process.
-    pub fn prepare_energy_tables(&self) {
+    /// process. Returns the number of tables (or slices) it asked for,
+    /// built now or before.
+    pub fn prepare_energy_tables(&self) -> usize {
         let regularization = &self.ctx.config.regularization;
         if regularization.mode == Mode::Off || regularization.energy == Energy::Lost {
-            return;
+            return 0;
         }
         // The albedo tables first, the gain scalings (which read them) next.
         let (mut albedos, mut gains) = (Vec::new(), Vec::new());
@@ -263,9 +284,11 @@ impl Renderer {
                 }
             }
         }
+        let count = albedos.len() + gains.len();
         for tables in [albedos, gains] {
             tables.into_par_iter().for_each(Table::build);
         }
+        count
     }
 
     /// Number of samples so far that were NaN or infinite and were replaced

@@ -136,7 +136,9 @@ pub struct Cli {
     /// Energy-preserving regularization: a widened lobe keeps the original's directional
     /// albedo through a compensation lobe (Kulla & Conty 2017) on conductors, coated
     /// surfaces and dielectrics; off widens the lobe alone, which loses energy (images 2-6 %
-    /// darker).
+    /// darker). On needs tables of the scene's lobes, built once per run (seconds for a
+    /// dielectric): before the first iteration when it will read them (uniform, selective,
+    /// and pt), otherwise at first use.
     /// [default: the manifest's `regularize_energy`, else on]
     #[arg(long, value_name = "on|off", value_parser = parse_on_off, help_heading = "Regularization")]
     pub regularize_energy: Option<bool>,

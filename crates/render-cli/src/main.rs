@@ -146,8 +146,9 @@ fn run(cli: &Cli) -> Result<ExitCode, Error> {
         if cli.explain {
             print_explanation(cli, &renderer, &settings, &outputs);
         }
-        let mut film = renderer.new_film();
         let first = settings.first_iteration;
+        prepare_energy_tables(&renderer, first);
+        let mut film = renderer.new_film();
         let outcome = render::progressive(&renderer, &mut film, settings.budget.value, first);
         let invalid = renderer.invalid_samples();
         if invalid > 0 {
@@ -193,6 +194,23 @@ fn run(cli: &Cli) -> Result<ExitCode, Error> {
     } else {
         ExitCode::SUCCESS
     })
+}
+
+/// Builds the energy-compensation tables that the first iteration will read
+/// (`Renderer::reads_energy_tables`) now, in parallel and outside the render
+/// loop, so that a `--time` budget measures rendering alone; says so on
+/// stderr, since it takes seconds.
+fn prepare_energy_tables(renderer: &Renderer, first: u64) {
+    if !renderer.reads_energy_tables(first) {
+        return;
+    }
+    let start = std::time::Instant::now();
+    let tables = renderer.prepare_energy_tables();
+    eprintln!(
+        "energy compensation: {tables} tables ready in {:.1} s (once per run; \
+         `--regularize-energy off` renders without them)",
+        start.elapsed().as_secs_f64()
+    );
 }
 
 /// `scene::load` without the panic hook's message: the loaders turn a panic

@@ -79,6 +79,35 @@ fn renders_the_cornell_box_to_exr_and_png() {
     assert!(mean > 0.0, "black image");
 }
 
+/// The energy tables that the first iteration will read are built before
+/// it, with a line on stderr (glossy-caustic: PT, selective, a GGX
+/// conductor); not without compensation, and not where the rule may widen
+/// nothing (caustic-glass's VCM under `unsampleable`).
+#[test]
+fn energy_tables_are_announced_when_the_render_reads_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("out.exr");
+    let cases = [
+        ("glossy-caustic", &[][..], true),
+        ("glossy-caustic", &["--regularize-energy", "off"][..], false),
+        ("caustic-glass", &[][..], false),
+    ];
+    for (scene, extra, announced) in cases {
+        let scene = bundled(scene);
+        let mut args = vec![scene.to_str().unwrap(), "-o", exr.to_str().unwrap()];
+        args.extend(TINY);
+        args.extend(extra);
+        let output = render_cli(&args);
+        let err = stderr(&output);
+        assert!(output.status.success(), "{args:?}: {err}");
+        assert_eq!(
+            err.lines().any(|l| l.starts_with("energy compensation: ")),
+            announced,
+            "{args:?}: {err}"
+        );
+    }
+}
+
 #[test]
 fn a_missing_scene_is_one_line_naming_it() {
     let dir = tempfile::tempdir().unwrap();
