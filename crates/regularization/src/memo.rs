@@ -1,7 +1,7 @@
 //! A memo of recently widened lobes, for callers that regularize the same
 //! few lobes again and again.
 //!
-//! [`regularize`] is a pure function of (lobe, tau, energy), and through
+//! [`regularize`](crate::regularize) is a pure function of (lobe, tau, energy), and through
 //! alpha-hat of (lobe, alpha-hat, energy). Widening a lobe with
 //! `Energy::Preserved` builds its compensation (`microfacet::energy`,
 //! `microfacet::dielectric_energy`: the deficit's average over both sides'
@@ -9,16 +9,13 @@
 //! lobes: one alpha-hat per material in uniform mode (tau_N is fixed within
 //! an iteration), one per material and rho in selective modes (SPEC §5;
 //! rho takes the scene's few alphas). The memo keeps the last
-//! [`MEMO_ENTRIES`] widened lobes and returns what [`regularize`] would,
+//! [`MEMO_ENTRIES`] widened lobes and returns what `regularize` would,
 //! bit for bit.
 
 use microfacet::Bsdf;
 
 use crate::selective::Energy;
 use crate::tau::{AlphaHat, bsdf_alpha_hat, widen};
-
-#[cfg(doc)]
-use crate::tau::regularize;
 
 /// Widened lobes a memo keeps: a scene's glossy and specular materials
 /// times the few alpha-hat of one iteration, for one worker thread.
@@ -47,7 +44,7 @@ impl RegularizationMemo {
         Self::default()
     }
 
-    /// [`regularize`]`(bsdf, tau, energy)`, from the memo when the same lobe
+    /// [`regularize`](crate::regularize)`(bsdf, tau, energy)`, from the memo when the same lobe
     /// was widened to the same alpha-hat with the same `energy` (alpha-hat
     /// compared bit for bit; a lobe holding a NaN never matches and is
     /// widened anew).
