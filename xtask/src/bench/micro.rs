@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use serde_json::{Value, json};
 
 /// Crates with criterion benchmarks, in layer order.
-const BENCHED_CRATES: &[&str] = &["microfacet"];
+const BENCHED_CRATES: &[&str] = &["microfacet", "regularization"];
 
 /// One benchmark result: criterion's mean with its 95 % confidence interval.
 struct Row {
