@@ -1,7 +1,7 @@
 //! A memo of recently widened lobes, for callers that regularize the same
 //! few lobes again and again.
 //!
-//! [`regularize`](crate::regularize) is a pure function of (lobe, tau, energy), and through
+//! [`regularize`] is a pure function of (lobe, tau, energy), and through
 //! alpha-hat of (lobe, alpha-hat, energy). Widening a lobe with
 //! `Energy::Preserved` builds its compensation (`microfacet::energy`,
 //! `microfacet::dielectric_energy`: the deficit's average over both sides'
@@ -15,64 +15,73 @@
 use microfacet::Bsdf;
 
 use crate::selective::Energy;
-use crate::tau::{AlphaHat, bsdf_alpha_hat, widen};
+use crate::tau::{AlphaHat, bsdf_alpha_hat, regularize};
 
 /// Widened lobes a memo keeps: a scene's glossy and specular materials
 /// times the few alpha-hat of one iteration, for one worker thread.
 pub const MEMO_ENTRIES: usize = 8;
 
-/// The last `MEMO_ENTRIES` lobes widened by [`RegularizationMemo::regularize`],
-/// replaced in turn. Pure data: a multithreaded caller keeps one per thread.
-#[derive(Clone, Debug, Default)]
+/// The last `MEMO_ENTRIES` lobes widened with their energy compensation by
+/// [`RegularizationMemo::regularize`], replaced in turn. Pure data: a
+/// multithreaded caller keeps one per thread.
+#[derive(Clone, Debug)]
 pub struct RegularizationMemo {
     entries: [Option<Entry>; MEMO_ENTRIES],
     next: usize,
 }
 
-/// One widened lobe: the key (original lobe, alpha-hat, energy) and the result.
+/// One widened lobe: the key (original lobe, alpha-hat) and the result.
 #[derive(Clone, Copy, Debug)]
 struct Entry {
     original: Bsdf,
     alpha_hat: f32,
-    energy: Energy,
     widened: Bsdf,
 }
 
+impl Default for RegularizationMemo {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 impl RegularizationMemo {
-    /// An empty memo.
-    pub fn new() -> Self {
-        Self::default()
+    /// An empty memo (`const`: a `thread_local!` of it needs no lazy
+    /// initialisation).
+    pub const fn new() -> Self {
+        Self {
+            entries: [None; MEMO_ENTRIES],
+            next: 0,
+        }
     }
 
-    /// [`regularize`](crate::regularize)`(bsdf, tau, energy)`, from the memo when the same lobe
-    /// was widened to the same alpha-hat with the same `energy` (alpha-hat
-    /// compared bit for bit; a lobe holding a NaN never matches and is
-    /// widened anew).
+    /// [`regularize`]`(bsdf, tau, energy)`, from the memo when the same lobe
+    /// was widened to the same alpha-hat with its energy compensation
+    /// (alpha-hat compared bit for bit; a lobe holding a NaN never matches
+    /// and is widened anew). `Energy::Lost` widens in nanoseconds and is
+    /// not kept.
     pub fn regularize(
         &mut self,
         bsdf: &Bsdf,
         tau: f64,
         energy: Energy,
     ) -> (Bsdf, Option<AlphaHat>) {
+        if energy == Energy::Lost {
+            return regularize(bsdf, tau, energy);
+        }
         let Some(hat) = bsdf_alpha_hat(bsdf, tau) else {
             return (*bsdf, None);
         };
         if bsdf.alpha() == Some(hat.alpha) {
             return (*bsdf, Some(hat));
         }
-        let same = |e: &&Entry| {
-            e.alpha_hat.to_bits() == hat.alpha.to_bits()
-                && e.energy == energy
-                && e.original == *bsdf
-        };
+        let same = |e: &&Entry| e.alpha_hat.to_bits() == hat.alpha.to_bits() && e.original == *bsdf;
         if let Some(entry) = self.entries.iter().flatten().find(same) {
             return (entry.widened, Some(hat));
         }
-        let widened = widen(bsdf, hat.alpha, energy);
+        let widened = bsdf.regularized(hat.alpha);
         self.entries[self.next] = Some(Entry {
             original: *bsdf,
             alpha_hat: hat.alpha,
-            energy,
             widened,
         });
         self.next = (self.next + 1) % MEMO_ENTRIES;
@@ -83,7 +92,6 @@ impl RegularizationMemo {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tau::regularize;
     use glam::Vec3;
     use microfacet::{Conductor, Dielectric, Fresnel, MicrofacetModel, NdfKind, Shadowing};
 

@@ -207,6 +207,12 @@ impl PathRegularization {
         }
     }
 
+    /// True when `regularize` may widen a lobe with its energy
+    /// compensation, the only widening worth a memo (`regularize_with`).
+    pub fn compensates(&self) -> bool {
+        self.mode != Mode::Off && self.energy == Energy::Preserved
+    }
+
     /// `regularize`, with the widened lobe from `memo` when it holds it
     /// (bit for bit the same result).
     pub fn regularize_with(

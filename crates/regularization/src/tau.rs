@@ -272,18 +272,12 @@ pub fn regularize(bsdf: &Bsdf, tau: f64, energy: Energy) -> (Bsdf, Option<AlphaH
     let regularized = if bsdf.alpha() == Some(hat.alpha) {
         *bsdf
     } else {
-        widen(bsdf, hat.alpha, energy)
+        match energy {
+            Energy::Preserved => bsdf.regularized(hat.alpha),
+            Energy::Lost => bsdf.with_alpha(hat.alpha),
+        }
     };
     (regularized, Some(hat))
-}
-
-/// `bsdf` at `alpha_hat`, with the compensation that keeps its albedo
-/// (`Energy::Preserved`, `Bsdf::regularized`) or without (`Energy::Lost`).
-pub(crate) fn widen(bsdf: &Bsdf, alpha_hat: f32, energy: Energy) -> Bsdf {
-    match energy {
-        Energy::Preserved => bsdf.regularized(alpha_hat),
-        Energy::Lost => bsdf.with_alpha(alpha_hat),
-    }
 }
 
 /// alpha-hat of the microfacet part of `bsdf` under tau (`None` for a lobe
