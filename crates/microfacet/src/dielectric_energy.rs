@@ -913,9 +913,18 @@ impl DielectricCompensation {
         if self.deficit_average[side] == 0.0 {
             return 0.0;
         }
-        let table = dielectric_albedo_table(model.ndf.kind(), model.shadowing);
-        let [e, e_hat] = table.albedos(mu, [self.alpha, model.alpha()], seen(eta, side));
+        let [e, e_hat] = self.albedos(model, eta, side, mu);
         (e - e_hat).max(0.0)
+    }
+
+    /// E_s(mu) at alpha and at alpha-hat (the regularized `model`) on
+    /// `side`, from one lookup of both.
+    fn albedos(&self, model: &MicrofacetModel, eta: f32, side: usize, mu: f32) -> [f32; 2] {
+        dielectric_albedo_table(model.ndf.kind(), model.shadowing).albedos(
+            mu,
+            [self.alpha, model.alpha()],
+            seen(eta, side),
+        )
     }
 
     /// E_s(mu) at alpha-hat (white, Importance mode) on `side`.
@@ -961,15 +970,21 @@ impl DielectricCompensation {
         if !self.scaled {
             return (self.deficit(model, eta, side, mu), 1.0);
         }
-        let (kind, shadowing, eta) = (model.ndf.kind(), model.shadowing, seen(eta, side));
-        let table = dielectric_albedo_table(kind, shadowing);
-        let [e, e_hat] = table.albedos(mu, [self.alpha, model.alpha()], eta);
+        let [e, e_hat] = self.albedos(model, eta, side, mu);
         let deficit = if self.deficit_average[side] == 0.0 {
             0.0
         } else {
             (e - e_hat).max(0.0)
         };
-        let mean = dielectric_mean_scale(kind, shadowing, self.alpha, model.alpha(), eta, mu);
+        let (kind, shadowing) = (model.ndf.kind(), model.shadowing);
+        let mean = dielectric_mean_scale(
+            kind,
+            shadowing,
+            self.alpha,
+            model.alpha(),
+            seen(eta, side),
+            mu,
+        );
         (deficit, kept_share(e, e_hat) / mean)
     }
 
@@ -1048,8 +1063,7 @@ impl DielectricCompensation {
             return 0.0;
         }
         // `deficit` and `regularized_albedo`, from one lookup of both albedos.
-        let table = dielectric_albedo_table(model.ndf.kind(), model.shadowing);
-        let [e, e_hat] = table.albedos(mu, [self.alpha, model.alpha()], seen(eta, s));
+        let [e, e_hat] = self.albedos(model, eta, s, mu);
         let deficit = (e - e_hat).max(0.0);
         let total = deficit + e_hat;
         if deficit > 0.0 && total > 0.0 {
