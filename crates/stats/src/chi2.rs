@@ -35,6 +35,14 @@ pub struct SphericalChi2 {
     /// Number of samples drawn.
     pub sample_count: usize,
     /// Absolute error allowed when integrating the pdf over one cell.
+    ///
+    /// An error delta in a cell's probability moves its expected count by
+    /// `delta * sample_count`, and the statistic by about that over the
+    /// expected count. The default, 1e-7 at 200,000 samples, is 0.02 counts:
+    /// about 0.004 per cell of `MIN_EXPECTED_COUNT`, against the
+    /// statistic's own spread of sqrt(2 dof). Tighter costs time for nothing:
+    /// at 1e-9 microfacet's chi-square tests took 2.1x as long, and their
+    /// 300 statistics moved by at most 1.0.
     pub integration_eps: f64,
     /// Refinement limits of the adaptive quadrature (per dimension and cell).
     /// The minimum must resolve the narrowest lobe tested: 2^min intervals per
@@ -48,7 +56,7 @@ impl Default for SphericalChi2 {
             theta_res: 20,
             phi_res: 40,
             sample_count: 200_000,
-            integration_eps: 1e-9,
+            integration_eps: 1e-7,
             integration_depth: Depth { min: 3, max: 10 },
         }
     }
