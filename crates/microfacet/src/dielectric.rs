@@ -162,11 +162,7 @@ impl Dielectric {
         let Some(c) = self.compensation else {
             return p_lobe;
         };
-        let p_c = c.probability(&self.model, self.eta, wi);
-        if p_c == 0.0 || wi.z == 0.0 || wo.z == 0.0 {
-            return p_lobe;
-        }
-        (1.0 - p_c) * p_lobe + p_c * c.sampling_pdf(wi, wo)
+        c.mixture_pdf(c.probability(&self.model, self.eta, wi), wi, wo, p_lobe)
     }
 
     /// Samples reflection or refraction through a sampled microfacet normal
@@ -189,7 +185,8 @@ impl Dielectric {
     /// probability P_c(mu_i), then (rescaled) transmission with probability
     /// t_s and a cosine-weighted direction on the chosen side; otherwise the
     /// microfacet lobe (`uc` rescaled for its sampler). Value and both
-    /// densities are those of the mixture, `eval` and `pdf`.
+    /// densities are those of the mixture, `eval`, `pdf` and `pdf` reversed,
+    /// from one albedo lookup at wi and one at wo.
     fn sample_compensated(
         &self,
         c: &DielectricCompensation,
@@ -201,7 +198,8 @@ impl Dielectric {
         if wi.z == 0.0 {
             return None;
         }
-        let p_c = c.probability(&self.model, self.eta, wi);
+        let at_i = c.lookup(&self.model, self.eta, wi);
+        let p_c = c.probability_at(&at_i);
         let wo = if uc < p_c {
             let side = crate::dielectric_energy::side(wi);
             let transmitted = uc / p_c < c.transmitted_share(side);
@@ -211,9 +209,20 @@ impl Dielectric {
             let uc = ((uc - p_c) / (1.0 - p_c)).min(ONE_MINUS_EPSILON);
             self.sample_lobe(wi, uc, u, mode)?.wo
         };
-        let (pdf, pdf_reverse) = (self.pdf(wi, wo), self.pdf(wo, wi));
-        let f = self.eval(wi, wo, mode);
+        let at_o = c.lookup(&self.model, self.eta, wo);
+        // The lobe's pdf does not depend on the mode; its reverse density is
+        // `pdf`'s own query from wo.
+        let (lobe_f, lobe_pdf) = self
+            .evaluate(wi, wo, mode)
+            .map_or((0.0, 0.0), |t| (t.f, t.pdf));
+        let lobe_pdf_reverse = self
+            .evaluate(wo, wi, TransportMode::Radiance)
+            .map_or(0.0, |t| t.pdf);
+        let pdf = c.mixture_pdf(p_c, wi, wo, lobe_pdf);
+        let pdf_reverse = c.mixture_pdf(c.probability_at(&at_o), wo, wi, lobe_pdf_reverse);
+        let (scale, compensation) = c.terms_at(&self.model, self.eta, &at_i, &at_o, mode);
         let refracted = wi.z * wo.z < 0.0;
+        let f = self.colour(scale * lobe_f + compensation, refracted);
         let eta = if !refracted {
             1.0
         } else if wi.z > 0.0 {

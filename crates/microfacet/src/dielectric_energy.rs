@@ -874,6 +874,18 @@ pub struct DielectricCompensation {
     pub scaled: bool,
 }
 
+/// E and E-hat (white, Importance mode) at one direction of a query, with
+/// its side and cosine: the one table lookup that the deficit, P_c and the
+/// gain scale of that direction share (`DielectricCompensation::lookup`).
+/// A sample reads them at wi and wo only, for its value and both densities.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct AlbedoLookup {
+    side: usize,
+    mu: f32,
+    /// [E, E-hat], or `None` where no term reads them.
+    albedos: Option<[f32; 2]>,
+}
+
 impl DielectricCompensation {
     /// The compensation of `model` (at alpha-hat) for an interface of width
     /// `alpha` and index ratio `eta`, or `None` when it would carry nothing
@@ -956,36 +968,8 @@ impl DielectricCompensation {
     /// (`crate::dielectric_gain`), m = min(1, E_alpha / E_alpha-hat);
     /// exactly 1 unless it gains.
     pub fn scale(&self, model: &MicrofacetModel, eta: f32, side: usize, mu: f32) -> f32 {
-        self.deficit_and_scale(model, eta, side, mu).1
-    }
-
-    /// (dE_s(mu), s_s(mu)), from one lookup of each albedo.
-    fn deficit_and_scale(
-        &self,
-        model: &MicrofacetModel,
-        eta: f32,
-        side: usize,
-        mu: f32,
-    ) -> (f32, f32) {
-        if !self.scaled {
-            return (self.deficit(model, eta, side, mu), 1.0);
-        }
-        let [e, e_hat] = self.albedos(model, eta, side, mu);
-        let deficit = if self.deficit_average[side] == 0.0 {
-            0.0
-        } else {
-            (e - e_hat).max(0.0)
-        };
-        let (kind, shadowing) = (model.ndf.kind(), model.shadowing);
-        let mean = dielectric_mean_scale(
-            kind,
-            shadowing,
-            self.alpha,
-            model.alpha(),
-            seen(eta, side),
-            mu,
-        );
-        (deficit, kept_share(e, e_hat) / mean)
+        let albedos = self.scaled.then(|| self.albedos(model, eta, side, mu));
+        self.scale_at(model, eta, &AlbedoLookup { side, mu, albedos })
     }
 
     /// (s(wi) s(wo), the compensation value), sharing the albedo lookups:
@@ -998,18 +982,67 @@ impl DielectricCompensation {
         wo: Vec3,
         mode: TransportMode,
     ) -> (f32, f32) {
-        if !self.scaled {
-            return (1.0, self.value(model, eta, wi, wo, mode));
+        let at_i = self.lookup(model, eta, wi);
+        let at_o = self.lookup(model, eta, wo);
+        self.terms_at(model, eta, &at_i, &at_o, mode)
+    }
+
+    /// What the compensation reads at direction `w`: E and E-hat there,
+    /// looked up once when a term needs them (the deficit of a side that
+    /// has one, or the gain scale), for `terms_at` and `probability_at`.
+    pub(crate) fn lookup(&self, model: &MicrofacetModel, eta: f32, w: Vec3) -> AlbedoLookup {
+        let (side, mu) = (side(w), w.z.abs());
+        let needed = self.deficit_average[side] != 0.0 || self.scaled;
+        AlbedoLookup {
+            side,
+            mu,
+            albedos: needed.then(|| self.albedos(model, eta, side, mu)),
         }
-        let (s_i, s_o) = (side(wi), side(wo));
-        let (d_i, scale_i) = self.deficit_and_scale(model, eta, s_i, wi.z.abs());
-        let (d_o, scale_o) = self.deficit_and_scale(model, eta, s_o, wo.z.abs());
-        let value = if wi.z == 0.0 || wo.z == 0.0 || d_i == 0.0 {
+    }
+
+    /// `terms` from the lookups at wi and wo.
+    pub(crate) fn terms_at(
+        &self,
+        model: &MicrofacetModel,
+        eta: f32,
+        at_i: &AlbedoLookup,
+        at_o: &AlbedoLookup,
+        mode: TransportMode,
+    ) -> (f32, f32) {
+        let scale = self.scale_at(model, eta, at_i) * self.scale_at(model, eta, at_o);
+        let d_i = self.deficit_at(at_i);
+        let value = if at_i.mu == 0.0 || at_o.mu == 0.0 || d_i == 0.0 {
             0.0
         } else {
-            self.value_of_deficits(eta, (s_i, d_i), (s_o, d_o), mode)
+            let d_o = self.deficit_at(at_o);
+            self.value_of_deficits(eta, (at_i.side, d_i), (at_o.side, d_o), mode)
         };
-        (scale_i * scale_o, value)
+        (scale, value)
+    }
+
+    /// dE_s(mu) from a lookup (`deficit`).
+    fn deficit_at(&self, at: &AlbedoLookup) -> f32 {
+        match at.albedos {
+            Some([e, e_hat]) if self.deficit_average[at.side] != 0.0 => (e - e_hat).max(0.0),
+            _ => 0.0,
+        }
+    }
+
+    /// s_s(mu) from a lookup (`scale`): 1 unless the lobe gains.
+    fn scale_at(&self, model: &MicrofacetModel, eta: f32, at: &AlbedoLookup) -> f32 {
+        let Some([e, e_hat]) = at.albedos.filter(|_| self.scaled) else {
+            return 1.0;
+        };
+        let (kind, shadowing) = (model.ndf.kind(), model.shadowing);
+        let mean = dielectric_mean_scale(
+            kind,
+            shadowing,
+            self.alpha,
+            model.alpha(),
+            seen(eta, at.side),
+            at.mu,
+        );
+        kept_share(e, e_hat) / mean
     }
 
     /// The compensation value for `wi`, `wo` (untinted), in `mode`: f_R on
@@ -1058,19 +1091,35 @@ impl DielectricCompensation {
     /// P_c(mu_i) = dE_s / (E_hat,s + dE_s): the probability of sampling the
     /// compensation lobe for a query from `wi`, its share of the energy albedo.
     pub fn probability(&self, model: &MicrofacetModel, eta: f32, wi: Vec3) -> f32 {
-        let (s, mu) = (side(wi), wi.z.abs());
-        if self.deficit_average[s] == 0.0 {
+        let (side, mu) = (side(wi), wi.z.abs());
+        if self.deficit_average[side] == 0.0 {
             return 0.0;
         }
-        // `deficit` and `regularized_albedo`, from one lookup of both albedos.
-        let [e, e_hat] = self.albedos(model, eta, s, mu);
-        let deficit = (e - e_hat).max(0.0);
+        let albedos = Some(self.albedos(model, eta, side, mu));
+        self.probability_at(&AlbedoLookup { side, mu, albedos })
+    }
+
+    /// `probability` from the lookup at wi.
+    pub(crate) fn probability_at(&self, at_i: &AlbedoLookup) -> f32 {
+        let deficit = self.deficit_at(at_i);
+        let Some([_, e_hat]) = at_i.albedos else {
+            return 0.0;
+        };
         let total = deficit + e_hat;
         if deficit > 0.0 && total > 0.0 {
             (deficit / total).clamp(0.0, 1.0)
         } else {
             0.0
         }
+    }
+
+    /// The mixture density (1 - `p_c`) `p_lobe` + `p_c` p_c(wi, wo), with
+    /// `p_c` = P_c(mu_i) (`probability`).
+    pub(crate) fn mixture_pdf(&self, p_c: f32, wi: Vec3, wo: Vec3, p_lobe: f32) -> f32 {
+        if p_c == 0.0 || wi.z == 0.0 || wo.z == 0.0 {
+            return p_lobe;
+        }
+        (1.0 - p_c) * p_lobe + p_c * self.sampling_pdf(wi, wo)
     }
 
     /// Density of the compensation lobe's sampler: cosine on the side that
