@@ -10,9 +10,10 @@
 
 use glam::{Vec2, Vec3};
 
+use crate::energy::Compensation;
 use crate::frame::{cosine_hemisphere, reflect, same_hemisphere};
 use crate::fresnel::Fresnel;
-use crate::model::MicrofacetModel;
+use crate::model::{MicrofacetModel, mixture_pdf};
 use crate::sample::{BsdfSample, ONE_MINUS_EPSILON};
 
 /// A conductor lobe.
@@ -35,7 +36,11 @@ impl Conductor {
     /// plus the compensation lobe (module docs). 0 for opposite sides,
     /// grazing directions, or a mirror.
     pub fn eval(&self, wi: Vec3, wo: Vec3) -> Vec3 {
-        let (scale, compensation) = self.model.compensation_terms(wi, wo);
+        self.value(wi, wo, self.model.compensation_terms(wi, wo))
+    }
+
+    /// `eval` from the compensation's (scale, value) of the pair.
+    fn value(&self, wi: Vec3, wo: Vec3, (scale, compensation): (f32, Vec3)) -> Vec3 {
         let specular = match self.configuration(wi, wo) {
             Some((wi, wo, h)) => {
                 let t = self.model.facet_terms(wi, wo, h);
@@ -49,11 +54,16 @@ impl Conductor {
     /// pdf(wo) = pdf_h(wi, h) / (4 <wo,h>) (SPEC §3); with compensation the
     /// mixture of the module docs.
     pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        let specular = match self.configuration(wi, wo) {
+        self.model
+            .with_compensation_pdf(wi, wo, self.specular_pdf(wi, wo))
+    }
+
+    /// The microfacet lobe's own density (`pdf` without compensation).
+    fn specular_pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
+        match self.configuration(wi, wo) {
             Some((wi, _, h)) => self.model.pdf_h(wi, h) / (4.0 * wi.dot(h)),
             None => 0.0,
-        };
-        self.model.with_compensation_pdf(wi, wo, specular)
+        }
     }
 
     /// Samples a microfacet normal and reflects wi about it.
@@ -74,8 +84,8 @@ impl Conductor {
                 is_specular: true,
             });
         }
-        if self.model.compensation.is_some() {
-            return self.sample_compensated(wi, uc, u).map(|s| BsdfSample {
+        if let Some(c) = self.model.compensation {
+            return self.sample_compensated(&c, wi, uc, u).map(|s| BsdfSample {
                 wo: s.wo * side,
                 ..s
             });
@@ -100,9 +110,17 @@ impl Conductor {
     /// Sampling with a compensation lobe (wi above the surface): the coin
     /// `uc` picks it with probability P_c(mu_i) (a cosine-weighted
     /// direction) or the microfacet lobe (`uc` rescaled for its sampler);
-    /// value and both densities are those of the mixture, `eval` and `pdf`.
-    fn sample_compensated(&self, wi: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
-        let p_c = self.model.compensation_probability(wi.z);
+    /// value and both densities are those of the mixture, `eval`, `pdf` and
+    /// `pdf` reversed, from one albedo lookup at mu_i and one at mu_o.
+    fn sample_compensated(
+        &self,
+        c: &Compensation,
+        wi: Vec3,
+        uc: f32,
+        u: Vec2,
+    ) -> Option<BsdfSample> {
+        let at_i = c.lookup(&self.model, wi.z);
+        let p_c = c.probability_at(&at_i);
         let wo = if uc < p_c {
             cosine_hemisphere(u)?
         } else {
@@ -114,8 +132,17 @@ impl Conductor {
             }
             wo
         };
-        let (pdf, pdf_reverse) = (self.pdf(wi, wo), self.pdf(wo, wi));
-        let f = self.eval(wi, wo);
+        let at_o = c.lookup(&self.model, wo.z.abs());
+        let pdf = mixture_pdf(p_c, wi, wo, self.specular_pdf(wi, wo));
+        let p_c_reverse = c.probability_at(&at_o);
+        let pdf_reverse = mixture_pdf(p_c_reverse, wo, wi, self.specular_pdf(wo, wi));
+        let terms = if same_hemisphere(wi, wo) {
+            let (scale, value) = c.terms_at(&self.model, &at_i, &at_o);
+            (scale, c.tint * value)
+        } else {
+            (1.0, Vec3::ZERO)
+        };
+        let f = self.value(wi, wo, terms);
         (pdf > 0.0 && f.is_finite()).then_some(BsdfSample {
             wo,
             f,

@@ -366,26 +366,40 @@ impl Compensation {
     /// s(mu) = m(mu) / s-bar(mu) of the widened lobe (`crate::gain`),
     /// m = min(1, E_alpha / E_alpha-hat); exactly 1 unless it gains.
     pub fn scale(&self, model: &MicrofacetModel, mu: f32) -> f32 {
-        self.deficit_and_scale(model, mu).1
+        let albedos = self.scaled.then(|| self.albedos(model, mu));
+        self.scale_at(model, &AlbedoLookup { mu, albedos })
     }
 
-    /// (dE(mu), s(mu)), from one lookup of each albedo.
-    fn deficit_and_scale(&self, model: &MicrofacetModel, mu: f32) -> (f32, f32) {
-        if !self.scaled {
-            return (self.deficit(model, mu), 1.0);
+    /// What the compensation reads at cosine `mu`: E and E-hat there,
+    /// looked up once when a term needs them (the deficit, or the gain
+    /// scale), for `terms_at` and `probability_at`.
+    pub(crate) fn lookup(&self, model: &MicrofacetModel, mu: f32) -> AlbedoLookup {
+        let needed = self.has_lobe() || self.scaled;
+        AlbedoLookup {
+            mu,
+            albedos: needed.then(|| self.albedos(model, mu)),
         }
-        let (e, e_hat) = self.albedos(model, mu);
-        let deficit = if self.has_lobe() {
-            (e - e_hat).max(0.0)
-        } else {
-            0.0
+    }
+
+    /// dE(mu) from a lookup (`deficit`).
+    fn deficit_at(&self, at: &AlbedoLookup) -> f32 {
+        match at.albedos {
+            Some((e, e_hat)) if self.has_lobe() => (e - e_hat).max(0.0),
+            _ => 0.0,
+        }
+    }
+
+    /// s(mu) from a lookup (`scale`).
+    fn scale_at(&self, model: &MicrofacetModel, at: &AlbedoLookup) -> f32 {
+        let Some((e, e_hat)) = at.albedos.filter(|_| self.scaled) else {
+            return 1.0;
         };
         let mean = mean_scale_table(model.ndf.kind(), model.shadowing).mean_scale(
             self.alpha,
             model.alpha(),
-            mu,
+            at.mu,
         );
-        (deficit, kept_share(e, e_hat) / mean)
+        kept_share(e, e_hat) / mean
     }
 
     /// (E_alpha(mu), E_alpha-hat(mu)) (white) of the regularized `model`.
@@ -411,14 +425,23 @@ impl Compensation {
     /// (s(mu_i) s(mu_o), f_c(wi, wo) untinted): the scaling of the widened
     /// lobe and the compensation lobe's value, sharing the albedo lookups.
     pub fn terms(&self, model: &MicrofacetModel, mu_i: f32, mu_o: f32) -> (f32, f32) {
-        let (deficit_i, scale_i) = self.deficit_and_scale(model, mu_i);
-        let (deficit_o, scale_o) = self.deficit_and_scale(model, mu_o);
+        self.terms_at(model, &self.lookup(model, mu_i), &self.lookup(model, mu_o))
+    }
+
+    /// `terms` from the lookups at mu_i and mu_o.
+    pub(crate) fn terms_at(
+        &self,
+        model: &MicrofacetModel,
+        at_i: &AlbedoLookup,
+        at_o: &AlbedoLookup,
+    ) -> (f32, f32) {
+        let scale = self.scale_at(model, at_i) * self.scale_at(model, at_o);
         let value = if self.has_lobe() {
-            deficit_i * deficit_o * FRAC_1_PI / self.deficit_average
+            self.deficit_at(at_i) * self.deficit_at(at_o) * FRAC_1_PI / self.deficit_average
         } else {
             0.0
         };
-        (scale_i * scale_o, value)
+        (scale, value)
     }
 
     /// The probability of sampling the compensation lobe for a query at
@@ -427,9 +450,15 @@ impl Compensation {
         if !self.has_lobe() {
             return 0.0;
         }
-        // `deficit` and `regularized_albedo`, from one lookup of each albedo.
-        let (e, e_hat) = self.albedos(model, mu_i);
-        let deficit = (e - e_hat).max(0.0);
+        self.probability_at(&self.lookup(model, mu_i))
+    }
+
+    /// `probability` from the lookup at mu_i.
+    pub(crate) fn probability_at(&self, at_i: &AlbedoLookup) -> f32 {
+        let deficit = self.deficit_at(at_i);
+        let Some((_, e_hat)) = at_i.albedos.filter(|_| self.has_lobe()) else {
+            return 0.0;
+        };
         let total = deficit + e_hat;
         if total > 0.0 {
             (deficit / total).clamp(0.0, 1.0)
@@ -437,6 +466,17 @@ impl Compensation {
             0.0
         }
     }
+}
+
+/// E and E-hat (white) at one cosine: the one lookup of both albedos that
+/// the deficit, P_c and the gain scale at that cosine share
+/// (`Compensation::lookup`). A sample reads them at mu_i and mu_o only,
+/// for its value and both densities.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct AlbedoLookup {
+    mu: f32,
+    /// (E, E-hat), or `None` where no term reads them.
+    albedos: Option<(f32, f32)>,
 }
 
 /// 2 int_0^1 max(0, y) mu dmu for y the Catmull-Rom cubic in s = sqrt(mu)

@@ -430,6 +430,16 @@ fn compensated_lobes_are_reciprocal() {
                             s.wo,
                             s.pdf_reverse
                         );
+                        // The conductor's sampler shares one albedo lookup
+                        // per direction among these: they are the queries'
+                        // own, bit for bit.
+                        if let Bsdf::Conductor(_) = bsdf {
+                            assert_eq!(
+                                (s.f, s.pdf, s.pdf_reverse),
+                                (a, pdf, reverse),
+                                "{case}: conductor sample vs eval and pdfs"
+                            );
+                        }
                     }
                 }
             }
