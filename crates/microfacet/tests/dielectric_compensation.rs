@@ -17,7 +17,7 @@ use microfacet::dielectric_energy::{
     ABOVE, BELOW, dielectric_albedo_quadrature, dielectric_albedo_table,
 };
 use microfacet::dielectric_gain::scaled_dielectric_albedo_quadrature;
-use microfacet::{Bsdf, MicrofacetModel, NdfKind, Shadowing, TransportMode};
+use microfacet::{Bsdf, Dielectric, MicrofacetModel, NdfKind, Shadowing, TransportMode};
 use stats::Pcg32;
 use stats::chi2::sidak;
 
@@ -472,6 +472,32 @@ fn compensated_dielectric_sampling_matches_its_pdf() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+/// The compensated interfaces of the reciprocity and sampling tests, with
+/// their eta: into and out of glass, a lobe that loses energy (0.02 -> 0.5)
+/// and one that also gains and is scaled (0.03 -> 0.15).
+fn compensated_interfaces(kind: NdfKind, shadowing: Shadowing) -> Vec<(f32, Dielectric)> {
+    [1.5f32, 1.0 / 2.2]
+        .into_iter()
+        .flat_map(|eta| [(eta, (0.02, 0.5)), (eta, (0.03, 0.15))])
+        .map(|(eta, (alpha, alpha_hat))| {
+            let Bsdf::Dielectric(d) = interface(kind, shadowing, alpha, eta).regularized(alpha_hat)
+            else {
+                unreachable!()
+            };
+            (eta, d)
+        })
+        .collect()
+}
+
+/// A direction on a random side, cosine uniform in [0.02, 1).
+fn random_direction(rng: &mut Pcg32) -> Vec3 {
+    let side = if rng.uniform_f32() < 0.5 { 1.0 } else { -1.0 };
+    direction(
+        rng.range_f64(0.02, 1.0) as f32,
+        rng.uniform_f32() * std::f32::consts::TAU,
+    ) * Vec3::new(1.0, 1.0, side)
+}
+
 /// Reciprocity of the compensated interface: f(wi, wo) = f(wo, wi) for
 /// reflection (either mode), and the generalized reciprocity of refraction,
 /// f_Radiance(wi, wo) = f_Importance(wo, wi) (Veach 1997, eq. 5.14; SPEC §0);
@@ -483,22 +509,12 @@ fn compensated_dielectric_is_reciprocal() {
     let mut rng = Pcg32::new(7, 7);
     let (mut reflections, mut refractions, mut scaled) = (0, 0, 0);
     for (kind, shadowing) in TESTED {
-        for (eta, (alpha, alpha_hat)) in [1.5f32, 1.0 / 2.2]
-            .into_iter()
-            .flat_map(|eta| [(eta, (0.02, 0.5)), (eta, (0.03, 0.15))])
-        {
-            let bsdf = interface(kind, shadowing, alpha, eta).regularized(alpha_hat);
-            let Bsdf::Dielectric(d) = bsdf else {
-                unreachable!()
-            };
+        for (eta, d) in compensated_interfaces(kind, shadowing) {
+            let bsdf = Bsdf::Dielectric(d);
             let c = d.compensation.expect("compensated");
             scaled += usize::from(c.scaled);
             for _ in 0..200 {
-                let side = if rng.uniform_f32() < 0.5 { 1.0 } else { -1.0 };
-                let wi = direction(
-                    rng.range_f64(0.02, 1.0) as f32,
-                    rng.uniform_f32() * std::f32::consts::TAU,
-                ) * Vec3::new(1.0, 1.0, side);
+                let wi = random_direction(&mut rng);
                 let Some(s) = bsdf.sample(
                     wi,
                     rng.uniform_f32(),
@@ -564,23 +580,13 @@ fn compensated_samples_carry_eval_and_both_pdfs() {
     let mut rng = Pcg32::new(11, 3);
     let (mut compensation_samples, mut scaled) = (0, 0);
     for (kind, shadowing) in TESTED {
-        for (eta, (alpha, alpha_hat)) in [1.5f32, 1.0 / 2.2]
-            .into_iter()
-            .flat_map(|eta| [(eta, (0.02, 0.5)), (eta, (0.03, 0.15))])
-        {
-            let bsdf = interface(kind, shadowing, alpha, eta).regularized(alpha_hat);
-            let Bsdf::Dielectric(d) = bsdf else {
-                unreachable!()
-            };
+        for (eta, d) in compensated_interfaces(kind, shadowing) {
+            let bsdf = Bsdf::Dielectric(d);
             let c = d.compensation.expect("compensated");
             scaled += usize::from(c.scaled);
             for mode in [TransportMode::Radiance, TransportMode::Importance] {
                 for _ in 0..200 {
-                    let side = if rng.uniform_f32() < 0.5 { 1.0 } else { -1.0 };
-                    let wi = direction(
-                        rng.range_f64(0.02, 1.0) as f32,
-                        rng.uniform_f32() * std::f32::consts::TAU,
-                    ) * Vec3::new(1.0, 1.0, side);
+                    let wi = random_direction(&mut rng);
                     let uc = rng.uniform_f32();
                     let Some(s) = bsdf.sample(wi, uc, rng.uniform_vec2(), mode) else {
                         continue;
