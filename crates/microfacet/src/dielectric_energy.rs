@@ -1055,16 +1055,7 @@ impl DielectricCompensation {
         wo: Vec3,
         mode: TransportMode,
     ) -> f32 {
-        if wi.z == 0.0 || wo.z == 0.0 {
-            return 0.0;
-        }
-        let (s_i, s_o) = (side(wi), side(wo));
-        let d_i = self.deficit(model, eta, s_i, wi.z.abs());
-        if d_i == 0.0 {
-            return 0.0;
-        }
-        let d_o = self.deficit(model, eta, s_o, wo.z.abs());
-        self.value_of_deficits(eta, (s_i, d_i), (s_o, d_o), mode)
+        self.terms(model, eta, wi, wo, mode).1
     }
 
     /// `value` from the sides and deficits of wi and wo.
