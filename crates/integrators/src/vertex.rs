@@ -10,7 +10,7 @@ use std::cell::RefCell;
 
 use glam::{Vec2, Vec3};
 use microfacet::{Bsdf, TransportMode};
-use regularization::{AlphaHat, PathRegularization, RegularizationMemo, p_hat};
+use regularization::{AlphaHat, PathRegularization, RegularizationMemo, p_hat, p_hat_of_sample};
 use scene::Scene;
 
 use crate::geometry::{Frame, SurfacePoint};
@@ -281,10 +281,7 @@ impl PathVertex {
             return None;
         }
         let (mis_pdf, mis_pdf_rev) = match self.alpha_hat {
-            Some(_) if !s.is_specular => (
-                p_hat(&self.bsdf_original, &self.bsdf, wi_l, s.wo),
-                p_hat(&self.bsdf_original, &self.bsdf, s.wo, wi_l),
-            ),
+            Some(_) if !s.is_specular => p_hat_of_sample(&self.bsdf_original, &self.bsdf, wi_l, &s),
             _ => (s.pdf, s.pdf_reverse),
         };
         Some(VertexSample {

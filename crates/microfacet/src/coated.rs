@@ -267,6 +267,7 @@ impl Coated {
             pdf_reverse: t.pdf_reverse,
             eta: 1.0,
             is_specular: false,
+            compensated: None,
         })
     }
 
@@ -281,6 +282,7 @@ impl Coated {
             pdf_reverse: p_specular,
             eta: 1.0,
             is_specular: true,
+            compensated: None,
         }
     }
 

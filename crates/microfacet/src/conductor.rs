@@ -82,6 +82,7 @@ impl Conductor {
                 pdf_reverse: 1.0,
                 eta: 1.0,
                 is_specular: true,
+                compensated: None,
             });
         }
         if let Some(c) = self.model.compensation {
@@ -104,6 +105,7 @@ impl Conductor {
             pdf_reverse: t.pdf_h_wo / (4.0 * wi_h),
             eta: 1.0,
             is_specular: false,
+            compensated: None,
         })
     }
 
@@ -133,9 +135,11 @@ impl Conductor {
             wo
         };
         let at_o = c.lookup(&self.model, wo.z.abs());
-        let pdf = mixture_pdf(p_c, wi, wo, self.specular_pdf(wi, wo));
-        let p_c_reverse = c.probability_at(&at_o);
-        let pdf_reverse = mixture_pdf(p_c_reverse, wo, wi, self.specular_pdf(wo, wi));
+        let mixture = [
+            mixture_pdf(p_c, wi, wo, self.specular_pdf(wi, wo)),
+            mixture_pdf(c.probability_at(&at_o), wo, wi, self.specular_pdf(wo, wi)),
+        ];
+        let [pdf, pdf_reverse] = mixture.map(|m| m.pdf());
         let terms = if same_hemisphere(wi, wo) {
             let (scale, value) = c.terms_at(&self.model, &at_i, &at_o);
             (scale, c.tint * value)
@@ -150,6 +154,7 @@ impl Conductor {
             pdf_reverse,
             eta: 1.0,
             is_specular: false,
+            compensated: Some(mixture),
         })
     }
 

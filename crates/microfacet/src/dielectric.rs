@@ -163,6 +163,7 @@ impl Dielectric {
             return p_lobe;
         };
         c.mixture_pdf(c.probability(&self.model, self.eta, wi), wi, wo, p_lobe)
+            .pdf()
     }
 
     /// Samples reflection or refraction through a sampled microfacet normal
@@ -218,8 +219,11 @@ impl Dielectric {
         let lobe_pdf_reverse = self
             .evaluate(wo, wi, TransportMode::Radiance)
             .map_or(0.0, |t| t.pdf);
-        let pdf = c.mixture_pdf(p_c, wi, wo, lobe_pdf);
-        let pdf_reverse = c.mixture_pdf(c.probability_at(&at_o), wo, wi, lobe_pdf_reverse);
+        let mixture = [
+            c.mixture_pdf(p_c, wi, wo, lobe_pdf),
+            c.mixture_pdf(c.probability_at(&at_o), wo, wi, lobe_pdf_reverse),
+        ];
+        let [pdf, pdf_reverse] = mixture.map(|m| m.pdf());
         let (scale, compensation) = c.terms_at(&self.model, self.eta, &at_i, &at_o, mode);
         let refracted = wi.z * wo.z < 0.0;
         let f = self.colour(scale * lobe_f + compensation, refracted);
@@ -238,6 +242,7 @@ impl Dielectric {
                 pdf_reverse,
                 eta,
                 is_specular: false,
+                compensated: Some(mixture),
             },
         )
     }
@@ -289,6 +294,7 @@ impl Dielectric {
             pdf_reverse: t.pdf_reverse,
             eta: if reflected { 1.0 } else { eta as f32 },
             is_specular: false,
+            compensated: None,
         })
     }
 
@@ -316,6 +322,7 @@ impl Dielectric {
                 pdf_reverse: f,
                 eta: 1.0,
                 is_specular: true,
+                compensated: None,
             });
         }
         let wo = refract_f64(wi, Vec3::Z, eta)?;
@@ -331,6 +338,7 @@ impl Dielectric {
             pdf_reverse: t,
             eta,
             is_specular: true,
+            compensated: None,
         })
     }
 

@@ -121,7 +121,7 @@ use crate::gain::{Kernel, MIN_GAIN, kept_share};
 use crate::model::MicrofacetModel;
 use crate::ndf::NdfKind;
 use crate::quadrature::{SmithG1Table, SplitQuadrature, gauss_legendre};
-use crate::sample::TransportMode;
+use crate::sample::{MixturePdf, TransportMode};
 use crate::shadowing::Shadowing;
 
 /// Largest index ratio of the tables (and 1/`ETA_MAX` the smallest): glass
@@ -1105,12 +1105,19 @@ impl DielectricCompensation {
     }
 
     /// The mixture density (1 - `p_c`) `p_lobe` + `p_c` p_c(wi, wo), with
-    /// `p_c` = P_c(mu_i) (`probability`).
-    pub(crate) fn mixture_pdf(&self, p_c: f32, wi: Vec3, wo: Vec3, p_lobe: f32) -> f32 {
-        if p_c == 0.0 || wi.z == 0.0 || wo.z == 0.0 {
-            return p_lobe;
+    /// `p_c` = P_c(mu_i) (`probability`), in its parts; `p_lobe` alone
+    /// (`p_c` taken as 0) for a direction in the interface's plane.
+    pub(crate) fn mixture_pdf(&self, p_c: f32, wi: Vec3, wo: Vec3, p_lobe: f32) -> MixturePdf {
+        let in_plane = wi.z == 0.0 || wo.z == 0.0;
+        MixturePdf {
+            p_c: if in_plane { 0.0 } else { p_c },
+            p_compensation: if in_plane {
+                0.0
+            } else {
+                self.sampling_pdf(wi, wo)
+            },
+            p_lobe,
         }
-        (1.0 - p_c) * p_lobe + p_c * self.sampling_pdf(wi, wo)
     }
 
     /// Density of the compensation lobe's sampler: cosine on the side that

@@ -54,6 +54,7 @@ impl Lambertian {
             pdf_reverse: wi.z.abs() * FRAC_1_PI,
             eta: 1.0,
             is_specular: false,
+            compensated: None,
         })
     }
 }

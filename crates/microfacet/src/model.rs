@@ -6,6 +6,7 @@ use glam::{Vec2, Vec3};
 use crate::energy::Compensation;
 use crate::frame::same_hemisphere;
 use crate::ndf::{Ndf, NdfKind};
+use crate::sample::MixturePdf;
 use crate::shadowing::{Shadowing, g1_vcavity};
 use crate::vndf;
 
@@ -126,7 +127,7 @@ impl MicrofacetModel {
     /// The mixture density (1 - P_c(mu_i)) `p_lobe` + P_c(mu_i) mu_o/pi of a
     /// reflection lobe with compensation (`p_lobe` unchanged without it).
     pub fn with_compensation_pdf(&self, wi: Vec3, wo: Vec3, p_lobe: f32) -> f32 {
-        mixture_pdf(self.compensation_probability(wi.z.abs()), wi, wo, p_lobe)
+        mixture_pdf(self.compensation_probability(wi.z.abs()), wi, wo, p_lobe).pdf()
     }
 
     /// True when lobes built on this model are deltas (alpha < `SMOOTH_ALPHA`).
@@ -239,15 +240,16 @@ impl MicrofacetModel {
 
 /// The mixture density (1 - `p_c`) `p_lobe` + `p_c` mu_o/pi of a reflection
 /// lobe with compensation, `p_c` = P_c(mu_i) (module docs of
-/// `crate::conductor`): the cosine lobe only on wi's side.
-pub(crate) fn mixture_pdf(p_c: f32, wi: Vec3, wo: Vec3, p_lobe: f32) -> f32 {
-    if p_c == 0.0 {
-        return p_lobe;
-    }
-    let cosine = if same_hemisphere(wi, wo) {
+/// `crate::conductor`), in its parts: the cosine lobe only on wi's side.
+pub(crate) fn mixture_pdf(p_c: f32, wi: Vec3, wo: Vec3, p_lobe: f32) -> MixturePdf {
+    let p_compensation = if same_hemisphere(wi, wo) {
         wo.z.abs() * std::f32::consts::FRAC_1_PI
     } else {
         0.0
     };
-    (1.0 - p_c) * p_lobe + p_c * cosine
+    MixturePdf {
+        p_c,
+        p_compensation,
+        p_lobe,
+    }
 }

@@ -37,4 +37,40 @@ pub struct BsdfSample {
     pub eta: f32,
     /// True when `wo` came from a delta lobe.
     pub is_specular: bool,
+    /// `pdf` and `pdf_reverse` split into their parts, for a conductor or
+    /// dielectric lobe with energy compensation (`crate::energy`,
+    /// `crate::dielectric_energy`); `None` for every other sample.
+    pub compensated: Option<[MixturePdf; 2]>,
+}
+
+/// The density of a lobe with energy compensation, in its parts:
+/// (1 - `p_c`) `p_lobe` + `p_c` `p_compensation`, P_c of the query
+/// direction (module docs of `crate::energy` and `crate::dielectric_energy`).
+/// A sample carries it so that a density which changes only the microfacet
+/// lobe's part (p-hat of a regularized vertex, paper eq. 13) needs no
+/// second albedo lookup: `with_lobe`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MixturePdf {
+    /// P_c: the probability of sampling the compensation lobe.
+    pub p_c: f32,
+    /// The compensation lobe's density of the direction.
+    pub p_compensation: f32,
+    /// The microfacet lobe's density of the direction.
+    pub p_lobe: f32,
+}
+
+impl MixturePdf {
+    /// The mixture density.
+    pub fn pdf(&self) -> f32 {
+        self.with_lobe(self.p_lobe)
+    }
+
+    /// The mixture density with `p_lobe` in place of the microfacet lobe's.
+    pub fn with_lobe(&self, p_lobe: f32) -> f32 {
+        if self.p_c == 0.0 {
+            p_lobe
+        } else {
+            (1.0 - self.p_c) * p_lobe + self.p_c * self.p_compensation
+        }
+    }
 }

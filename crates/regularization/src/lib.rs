@@ -24,7 +24,7 @@ pub mod selective;
 pub mod tau;
 
 pub use memo::RegularizationMemo;
-pub use pdf::p_hat;
+pub use pdf::{p_hat, p_hat_of_sample};
 pub use schedule::{
     DEFAULT_SCHEDULE_EXPONENT, MAX_SCHEDULE_EXPONENT, Schedule, ScheduleError, cone_of_tau,
     tau_of_cone,

@@ -6,6 +6,7 @@
 //! heuristic compares like with like.
 
 use glam::Vec3;
+use microfacet::sample::BsdfSample;
 use microfacet::{Bsdf, MicrofacetModel, Shadowing};
 
 /// p-hat for sampling `wo` from `wi` at a vertex whose BSDF `bsdf` (original
@@ -56,6 +57,32 @@ pub fn p_hat(bsdf: &Bsdf, regularized: &Bsdf, wi: Vec3, wo: Vec3) -> f32 {
         // Lambertian, and (never produced by regularization) a lobe kind
         // changed by `regularized`: the plain density.
         _ => regularized.pdf(wi, wo),
+    }
+}
+
+/// [`p_hat`] of a direction sampled from the regularized BSDF, and of its
+/// reverse: (p-hat(wi -> s.wo), p-hat(s.wo -> wi)). A compensated conductor
+/// or dielectric sample carries its densities in parts
+/// (`BsdfSample::compensated`: P_c and the compensation lobe's density at
+/// either end, the microfacet lobe's at alpha-hat), so that only the lobe's
+/// part is rescaled here, with the same values `p_hat` computes and without
+/// a second albedo lookup or lobe evaluation; other samples go through
+/// `p_hat`.
+pub fn p_hat_of_sample(bsdf: &Bsdf, regularized: &Bsdf, wi: Vec3, s: &BsdfSample) -> (f32, f32) {
+    let model = match bsdf {
+        Bsdf::Conductor(c) => Some(&c.model),
+        Bsdf::Dielectric(d) => Some(&d.model),
+        _ => None,
+    };
+    match (model, regularized.alpha(), s.compensated) {
+        (Some(model), Some(alpha_hat), Some([forward, reverse])) => (
+            forward.with_lobe(forward.p_lobe * shadowing_ratio(model, alpha_hat, wi, s.wo)),
+            reverse.with_lobe(reverse.p_lobe * shadowing_ratio(model, alpha_hat, s.wo, wi)),
+        ),
+        _ => (
+            p_hat(bsdf, regularized, wi, s.wo),
+            p_hat(bsdf, regularized, s.wo, wi),
+        ),
     }
 }
 

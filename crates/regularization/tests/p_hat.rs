@@ -7,7 +7,7 @@ use microfacet::{
     Bsdf, Coated, Conductor, Dielectric, Fresnel, MicrofacetModel, NdfKind, Shadowing,
     TransportMode,
 };
-use regularization::p_hat;
+use regularization::{p_hat, p_hat_of_sample};
 use stats::Pcg32;
 
 const REL: f32 = 1e-4;
@@ -117,4 +117,58 @@ fn smith_needs_the_g1_ratio() {
         worst > 100.0 * REL,
         "p(wo | alpha-hat) matches p-hat to {worst}"
     );
+}
+
+/// A compensated lobe's sample carries its densities in parts, and
+/// `p_hat_of_sample` rescales only the microfacet lobe's part: the pair it
+/// returns is `p_hat` of (wi, wo) and of (wo, wi), bit for bit, in both
+/// transport modes (other samples take `p_hat` itself). Conductors with
+/// both shadowing models; a dielectric with Smith (with V-cavity its
+/// p-hat is the regularized lobe's pdf whatever the path), whose table is
+/// the cheaper one to build.
+#[test]
+fn sampled_p_hat_is_p_hat() {
+    let mut rng = Pcg32::new(70, 0);
+    let mut compensated = 0;
+    for (kind, shadowing) in [
+        (NdfKind::Ggx, Shadowing::Smith),
+        (NdfKind::Beckmann, Shadowing::VCavity),
+    ] {
+        for _ in 0..100 {
+            let alpha = rng.log_uniform(1e-2, 0.3) as f32;
+            let alpha_hat = (alpha * (1.0 + rng.log_uniform(0.1, 10.0) as f32)).min(1.0);
+            let model = MicrofacetModel::new(kind, alpha, shadowing);
+            let conductor = lobes(model)[1];
+            let dielectric = Bsdf::Dielectric(Dielectric::new(model, 1.5));
+            let bsdfs = if shadowing == Shadowing::Smith {
+                vec![conductor, dielectric]
+            } else {
+                vec![conductor]
+            };
+            for bsdf in bsdfs {
+                let regularized = bsdf.regularized(alpha_hat);
+                let wi = random_direction(&mut rng);
+                for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                    let Some(s) =
+                        regularized.sample(wi, rng.uniform_f32(), rng.uniform_vec2(), mode)
+                    else {
+                        continue;
+                    };
+                    compensated += usize::from(s.compensated.is_some());
+                    let (forward, reverse) = p_hat_of_sample(&bsdf, &regularized, wi, &s);
+                    let expected = (
+                        p_hat(&bsdf, &regularized, wi, s.wo),
+                        p_hat(&bsdf, &regularized, s.wo, wi),
+                    );
+                    assert_eq!(
+                        (forward.to_bits(), reverse.to_bits()),
+                        (expected.0.to_bits(), expected.1.to_bits()),
+                        "{bsdf:?} -> {alpha_hat}, {wi} -> {}: {forward}, {reverse} vs {expected:?}",
+                        s.wo
+                    );
+                }
+            }
+        }
+    }
+    assert!(compensated > 300, "only {compensated} compensated samples");
 }
