@@ -9,9 +9,9 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use glam::Vec3;
 use microfacet::dielectric_energy::{DielectricAlbedoTable, dielectric_albedo_table};
-use microfacet::dielectric_gain::{mean_scale_slice, slices_read};
-use microfacet::energy::albedo_table;
-use microfacet::gain::mean_scale_table;
+use microfacet::dielectric_gain::{mean_scale_slice, mean_scale_slice_is_built, slices_read};
+use microfacet::energy::{albedo_table, albedo_table_is_built};
+use microfacet::gain::{mean_scale_table, mean_scale_table_is_built};
 use microfacet::{NdfKind, Shadowing};
 use mis::Techniques;
 use rayon::prelude::*;
@@ -254,11 +254,35 @@ impl Renderer {
     /// process. Returns the number of tables (or slices) it asked for,
     /// built now or before.
     pub fn prepare_energy_tables(&self) -> usize {
+        let [albedos, gains] = self.energy_tables();
+        let count = albedos.len() + gains.len();
+        // The albedo tables first, the gain scalings (which read them) next.
+        for tables in [albedos, gains] {
+            tables.into_par_iter().for_each(Table::build);
+        }
+        count
+    }
+
+    /// How many of the tables that `prepare_energy_tables` would build are
+    /// built now (by it, or at first use in an iteration): a caller compares
+    /// before and after a render whose tables were left to first use
+    /// (`reads_energy_tables` false), to say where their time went.
+    pub fn energy_tables_built(&self) -> usize {
+        self.energy_tables()
+            .iter()
+            .flatten()
+            .filter(|table| table.is_built())
+            .count()
+    }
+
+    /// The energy-compensation tables of every lobe of the scene that
+    /// regularization may widen, [albedos, gain scalings]; none when it is
+    /// off or loses energy.
+    fn energy_tables(&self) -> [Vec<Table>; 2] {
         let regularization = &self.ctx.config.regularization;
         if regularization.mode == Mode::Off || regularization.energy == Energy::Lost {
-            return 0;
+            return [Vec::new(), Vec::new()];
         }
-        // The albedo tables first, the gain scalings (which read them) next.
         let (mut albedos, mut gains) = (Vec::new(), Vec::new());
         for material in &self.ctx.scene.materials {
             let surface = &material.surface;
@@ -284,11 +308,7 @@ impl Renderer {
                 }
             }
         }
-        let count = albedos.len() + gains.len();
-        for tables in [albedos, gains] {
-            tables.into_par_iter().for_each(Table::build);
-        }
-        count
+        [albedos, gains]
     }
 
     /// Number of samples so far that were NaN or infinite and were replaced
@@ -336,6 +356,20 @@ impl Table {
             }
             Self::DielectricMeanScale((kind, shadowing), i) => {
                 mean_scale_slice(kind, shadowing, i);
+            }
+        }
+    }
+
+    /// True once the table is built (never builds it).
+    fn is_built(self) -> bool {
+        match self {
+            Self::Albedo((kind, shadowing)) => albedo_table_is_built(kind, shadowing),
+            Self::MeanScale((kind, shadowing)) => mean_scale_table_is_built(kind, shadowing),
+            Self::DielectricAlbedo((kind, shadowing), i) => {
+                dielectric_albedo_table(kind, shadowing).node_is_built(i)
+            }
+            Self::DielectricMeanScale((kind, shadowing), i) => {
+                mean_scale_slice_is_built(kind, shadowing, i)
             }
         }
     }

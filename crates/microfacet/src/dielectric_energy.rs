@@ -547,6 +547,12 @@ impl DielectricAlbedoTable {
         self.slice(i);
     }
 
+    /// True once the slice of critical-cosine node `i` has been computed
+    /// (never computes it).
+    pub fn node_is_built(&self, i: usize) -> bool {
+        self.slices[i].get().is_some()
+    }
+
     /// The critical-cosine nodes that queries at index ratio `eta` read,
     /// from either side of the interface (the Catmull-Rom support in c).
     pub fn nodes_read(eta: f32) -> impl Iterator<Item = usize> {

@@ -198,11 +198,17 @@ impl MeanScaleSlice {
 /// The shared slice of critical-cosine node `i` of `kind` with `shadowing`,
 /// computed at first use.
 pub fn mean_scale_slice(kind: NdfKind, shadowing: Shadowing, i: usize) -> &'static MeanScaleSlice {
-    static SLICES: [[OnceLock<MeanScaleSlice>; TABLE_CRITICAL]; MODELS] =
-        [const { [const { OnceLock::new() }; TABLE_CRITICAL] }; MODELS];
     SLICES[model_index(kind, shadowing)][i]
         .get_or_init(|| MeanScaleSlice::compute(kind, shadowing, i).0)
 }
+
+/// True once `mean_scale_slice(kind, shadowing, i)` has been computed (never computes it).
+pub fn mean_scale_slice_is_built(kind: NdfKind, shadowing: Shadowing, i: usize) -> bool {
+    SLICES[model_index(kind, shadowing)][i].get().is_some()
+}
+
+static SLICES: [[OnceLock<MeanScaleSlice>; TABLE_CRITICAL]; MODELS] =
+    [const { [const { OnceLock::new() }; TABLE_CRITICAL] }; MODELS];
 
 /// The slices an interface of index ratio `eta` reads, from either side
 /// (those of the critical-cosine cell of its c): for callers that compute

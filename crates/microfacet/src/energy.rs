@@ -185,9 +185,16 @@ impl AlbedoTable {
 
 /// The shared table of `kind` with `shadowing`, computed at first use.
 pub fn albedo_table(kind: NdfKind, shadowing: Shadowing) -> &'static AlbedoTable {
-    static TABLES: [OnceLock<AlbedoTable>; MODELS] = [const { OnceLock::new() }; MODELS];
-    TABLES[model_index(kind, shadowing)].get_or_init(|| AlbedoTable::compute(kind, shadowing))
+    ALBEDO_TABLES[model_index(kind, shadowing)]
+        .get_or_init(|| AlbedoTable::compute(kind, shadowing))
 }
+
+/// True once `albedo_table(kind, shadowing)` has been computed (never computes it).
+pub fn albedo_table_is_built(kind: NdfKind, shadowing: Shadowing) -> bool {
+    ALBEDO_TABLES[model_index(kind, shadowing)].get().is_some()
+}
+
+static ALBEDO_TABLES: [OnceLock<AlbedoTable>; MODELS] = [const { OnceLock::new() }; MODELS];
 
 /// NDF x shadowing combinations, one table each.
 pub(crate) const MODELS: usize = 6;

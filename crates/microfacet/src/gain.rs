@@ -276,9 +276,18 @@ impl BalanceStatistics {
 /// The shared table of `kind` with `shadowing`, computed at first use
 /// (serially; after the albedo table it reads).
 pub fn mean_scale_table(kind: NdfKind, shadowing: Shadowing) -> &'static MeanScaleTable {
-    static TABLES: [OnceLock<MeanScaleTable>; MODELS] = [const { OnceLock::new() }; MODELS];
-    TABLES[model_index(kind, shadowing)].get_or_init(|| MeanScaleTable::compute(kind, shadowing))
+    MEAN_SCALE_TABLES[model_index(kind, shadowing)]
+        .get_or_init(|| MeanScaleTable::compute(kind, shadowing))
 }
+
+/// True once `mean_scale_table(kind, shadowing)` has been computed (never computes it).
+pub fn mean_scale_table_is_built(kind: NdfKind, shadowing: Shadowing) -> bool {
+    MEAN_SCALE_TABLES[model_index(kind, shadowing)]
+        .get()
+        .is_some()
+}
+
+static MEAN_SCALE_TABLES: [OnceLock<MeanScaleTable>; MODELS] = [const { OnceLock::new() }; MODELS];
 
 /// mu of kernel bin b (uniform in sqrt(mu), every `SUBDIVISIONS`-th a
 /// table node).

@@ -147,9 +147,17 @@ fn run(cli: &Cli) -> Result<ExitCode, Error> {
             print_explanation(cli, &renderer, &settings, &outputs);
         }
         let first = settings.first_iteration;
-        prepare_energy_tables(&renderer, first);
+        let prepared = prepare_energy_tables(&renderer, first);
         let mut film = renderer.new_film();
         let outcome = render::progressive(&renderer, &mut film, settings.budget.value, first);
+        let built_in_render = renderer.energy_tables_built() - prepared;
+        if built_in_render > 0 {
+            eprintln!(
+                "energy compensation: {built_in_render} tables were built at first use, during \
+                 the render, whose time and rate include them (`unsampleable` widens a lobe \
+                 only on paths that no technique samples, found while rendering)"
+            );
+        }
         let invalid = renderer.invalid_samples();
         if invalid > 0 {
             eprintln!("warning: {invalid} samples were NaN or infinite and were replaced by 0");
@@ -199,10 +207,13 @@ fn run(cli: &Cli) -> Result<ExitCode, Error> {
 /// Builds the energy-compensation tables that the first iteration will read
 /// (`Renderer::reads_energy_tables`) now, in parallel and outside the render
 /// loop, so that a `--time` budget measures rendering alone; says so on
-/// stderr, since it takes seconds.
-fn prepare_energy_tables(renderer: &Renderer, first: u64) {
+/// stderr, since it takes seconds. Returns how many of the scene's tables
+/// are built before the render (`Renderer::energy_tables_built`): the
+/// others are left to first use, inside an iteration, which the caller
+/// reports after the render.
+fn prepare_energy_tables(renderer: &Renderer, first: u64) -> usize {
     if !renderer.reads_energy_tables(first) {
-        return;
+        return renderer.energy_tables_built();
     }
     let start = std::time::Instant::now();
     let tables = renderer.prepare_energy_tables();
@@ -211,6 +222,7 @@ fn prepare_energy_tables(renderer: &Renderer, first: u64) {
          `--regularize-energy off` renders without them)",
         start.elapsed().as_secs_f64()
     );
+    tables
 }
 
 /// `scene::load` without the panic hook's message: the loaders turn a panic
