@@ -65,9 +65,10 @@ use std::f32::consts::FRAC_1_PI;
 
 use glam::{Vec2, Vec3};
 
+use crate::energy::AlbedoLookup;
 use crate::frame::{cosine_hemisphere, reflect, same_hemisphere};
 use crate::fresnel::{schlick, schlick_average};
-use crate::model::MicrofacetModel;
+use crate::model::{MicrofacetModel, mixture_pdf};
 use crate::sample::{BsdfSample, ONE_MINUS_EPSILON};
 
 /// Smallest probability of either lobe when both can reflect. The coin's
@@ -231,9 +232,11 @@ impl Coated {
     /// Picks a lobe with `uc` (specular with probability P_s(mu_i)), then
     /// samples it: a microfacet normal reflected about (or the mirror
     /// direction for a smooth coat), or a cosine-weighted direction. The
-    /// returned value and densities of a non-delta sample are exactly
-    /// `eval`, `pdf` and `pdf(wo, wi)` of the returned direction. `None` for
-    /// degenerate input and for directions whose `pdf` is 0.
+    /// returned value and density of a non-delta sample are exactly `eval`
+    /// and `pdf` of the returned direction, its reverse density `pdf(wo, wi)`
+    /// to rounding (through the pair's half vector), all from one albedo
+    /// lookup per direction. `None` for degenerate input and for directions
+    /// whose `pdf` is 0.
     pub fn sample(&self, wi: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
         if wi.z == 0.0 {
             return None;
@@ -241,6 +244,7 @@ impl Coated {
         let side = wi.z.signum();
         let wi = wi * side;
         let p_specular = self.specular_probability(wi.z);
+        let at_i = self.model.compensation_lookup(wi.z);
         let wo = if uc < p_specular {
             if self.model.is_smooth() {
                 return Some(self.sample_mirror(wi, p_specular, side));
@@ -248,7 +252,7 @@ impl Coated {
             // The coin's uniform, rescaled to [0, 1), for samplers that need one.
             let uc = (uc / p_specular).min(ONE_MINUS_EPSILON);
             // A regularized coat's compensation lobe, with its share P_c.
-            let p_c = self.model.compensation_probability(wi.z);
+            let p_c = self.model.compensation_probability_at(at_i.as_ref());
             if uc < p_c {
                 cosine_hemisphere(u)?
             } else {
@@ -259,7 +263,10 @@ impl Coated {
         } else {
             cosine_hemisphere(u)?
         };
-        let t = self.evaluate(wi, wo)?;
+        if !same_hemisphere(wi, wo) {
+            return None;
+        }
+        let t = self.evaluate_oriented(wi, wo, at_i)?;
         (t.pdf > 0.0).then_some(BsdfSample {
             wo: wo * side,
             f: t.f,
@@ -293,6 +300,16 @@ impl Coated {
         }
         let side = wi.z.signum();
         let (wi, wo) = (wi * side, wo * side);
+        self.evaluate_oriented(wi, wo, self.model.compensation_lookup(wi.z))
+    }
+
+    /// `evaluate` of a pair above the surface, with the compensation's
+    /// lookup at wi (`at_i`, which a sampler has already made for its
+    /// coin): with the one at wo, all that the value and both densities
+    /// read of the tables.
+    fn evaluate_oriented(&self, wi: Vec3, wo: Vec3, at_i: Option<AlbedoLookup>) -> Option<Terms> {
+        let at_o = self.model.compensation_lookup(wo.z);
+        let (at_i, at_o) = (at_i.as_ref(), at_o.as_ref());
         let (p_i, p_o) = (
             self.specular_probability(wi.z),
             self.specular_probability(wo.z),
@@ -314,7 +331,7 @@ impl Coated {
         // the widened coat gains energy (`crate::gain`; exactly 1
         // otherwise), and the compensation lobe belongs to it: its value is
         // added and its density shares the specular coin.
-        let (scale, compensation) = self.model.compensation_terms(wi, wo);
+        let (scale, compensation) = self.model.compensation_terms_at(at_i, at_o);
         let (specular_pdf, specular_pdf_reverse) = match self.configuration(wi, wo) {
             Some((wi, wo, h)) if !self.model.is_smooth() => {
                 let facet = self.model.facet_terms(wi, wo, h);
@@ -327,11 +344,9 @@ impl Coated {
             _ => (0.0, 0.0),
         };
         terms.f += compensation;
-        terms.pdf += p_i * self.model.with_compensation_pdf(wi, wo, specular_pdf);
-        terms.pdf_reverse += p_o
-            * self
-                .model
-                .with_compensation_pdf(wo, wi, specular_pdf_reverse);
+        let [p_c_i, p_c_o] = [at_i, at_o].map(|at| self.model.compensation_probability_at(at));
+        terms.pdf += p_i * mixture_pdf(p_c_i, wi, wo, specular_pdf).pdf();
+        terms.pdf_reverse += p_o * mixture_pdf(p_c_o, wo, wi, specular_pdf_reverse).pdf();
         (terms.f.is_finite() && terms.pdf.is_finite() && terms.pdf_reverse.is_finite())
             .then_some(terms)
     }

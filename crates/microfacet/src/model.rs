@@ -3,7 +3,7 @@
 
 use glam::{Vec2, Vec3};
 
-use crate::energy::Compensation;
+use crate::energy::{AlbedoLookup, Compensation};
 use crate::frame::same_hemisphere;
 use crate::ndf::{Ndf, NdfKind};
 use crate::sample::MixturePdf;
@@ -118,6 +118,37 @@ impl MicrofacetModel {
         match self.compensation {
             Some(c) if same_hemisphere(wi, wo) => {
                 let (scale, value) = c.terms(self, wi.z.abs(), wo.z.abs());
+                (scale, c.tint * value)
+            }
+            _ => (1.0, Vec3::ZERO),
+        }
+    }
+
+    /// The compensation's albedo lookup at macro cosine `mu` (`None`
+    /// without compensation), which `compensation_probability_at` and
+    /// `compensation_terms_at` share: one per direction of a query.
+    pub(crate) fn compensation_lookup(&self, mu: f32) -> Option<AlbedoLookup> {
+        self.compensation.map(|c| c.lookup(self, mu))
+    }
+
+    /// `compensation_probability` from the lookup at mu_i.
+    pub(crate) fn compensation_probability_at(&self, at_i: Option<&AlbedoLookup>) -> f32 {
+        match (self.compensation, at_i) {
+            (Some(c), Some(at_i)) => c.probability_at(at_i),
+            _ => 0.0,
+        }
+    }
+
+    /// `compensation_terms` of a pair on the same side from the lookups at
+    /// its two cosines.
+    pub(crate) fn compensation_terms_at(
+        &self,
+        at_i: Option<&AlbedoLookup>,
+        at_o: Option<&AlbedoLookup>,
+    ) -> (f32, Vec3) {
+        match (self.compensation, at_i, at_o) {
+            (Some(c), Some(at_i), Some(at_o)) => {
+                let (scale, value) = c.terms_at(self, at_i, at_o);
                 (scale, c.tint * value)
             }
             _ => (1.0, Vec3::ZERO),
