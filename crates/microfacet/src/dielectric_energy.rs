@@ -1114,14 +1114,15 @@ impl DielectricCompensation {
     /// `p_c` = P_c(mu_i) (`probability`), in its parts; `p_lobe` alone
     /// (`p_c` taken as 0) for a direction in the interface's plane.
     pub(crate) fn mixture_pdf(&self, p_c: f32, wi: Vec3, wo: Vec3, p_lobe: f32) -> MixturePdf {
-        let in_plane = wi.z == 0.0 || wo.z == 0.0;
+        let p_c = if wi.z == 0.0 || wo.z == 0.0 { 0.0 } else { p_c };
+        let p_compensation = if p_c == 0.0 {
+            0.0
+        } else {
+            self.sampling_pdf(wi, wo)
+        };
         MixturePdf {
-            p_c: if in_plane { 0.0 } else { p_c },
-            p_compensation: if in_plane {
-                0.0
-            } else {
-                self.sampling_pdf(wi, wo)
-            },
+            p_c,
+            p_compensation,
             p_lobe,
         }
     }
