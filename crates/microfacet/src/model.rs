@@ -115,13 +115,11 @@ impl MicrofacetModel {
     /// lookups: what a lobe's value needs of the compensation; (1, 0)
     /// without it and for directions on opposite sides.
     pub fn compensation_terms(&self, wi: Vec3, wo: Vec3) -> (f32, Vec3) {
-        match self.compensation {
-            Some(c) if same_hemisphere(wi, wo) => {
-                let (scale, value) = c.terms(self, wi.z.abs(), wo.z.abs());
-                (scale, c.tint * value)
-            }
-            _ => (1.0, Vec3::ZERO),
+        if !same_hemisphere(wi, wo) {
+            return (1.0, Vec3::ZERO);
         }
+        let [at_i, at_o] = [wi, wo].map(|w| self.compensation_lookup(w.z.abs()));
+        self.compensation_terms_at(at_i.as_ref(), at_o.as_ref())
     }
 
     /// The compensation's albedo lookup at macro cosine `mu` (`None`
