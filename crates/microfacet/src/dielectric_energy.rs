@@ -65,7 +65,7 @@
 //!
 //! Accuracy (against fine quadrature, originals alpha 0 to 0.3 widened to
 //! 0.15 to 1, eta in [1.05, 2.2] and its inverse; a sweep of mu in steps of
-//! 0.01, of which `tests/dielectric_compensation.rs` checks ten cosines): the
+//! 0.01, of which `tests/microfacet/dielectric_compensation.rs` checks ten cosines): the
 //! compensated albedo E(alpha-hat) + dE is within 1e-3 of E(alpha)
 //! - GGX/Smith from both sides for mu >= 0.01: 6.9e-4 from the rare side,
 //!   8.0e-4 from the dense side (1.8e-3 at mu 0.01 before the first alpha

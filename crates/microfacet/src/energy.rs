@@ -29,7 +29,7 @@
 //! interpolated dE (4e-8 by a midpoint rule). The table against quadrature: within 1.7e-4 for mu >= 0.1, 8.1e-4
 //! for mu >= 0.04; a cell is finer than a narrow lobe's bend only above
 //! that (2.7e-3 at alpha 0.002, mu 0.012). Compensated against the
-//! original's albedo, without noise (`tests/energy_compensation.rs`,
+//! original's albedo, without noise (`tests/microfacet/energy_compensation.rs`,
 //! originals 0 to 0.3, alpha-hat to 1): within 4.2e-4 for mu >= 0.04,
 //! where widening gains energy too (below: "Gains").
 //!
@@ -96,7 +96,7 @@ pub const TABLE_ALPHA_MAX: f32 = 1.0;
 pub(crate) const GRAZING_MU: f64 = 1e-3;
 /// (radial, azimuthal) Gauss-Legendre nodes per piece of the tables'
 /// quadrature (`SplitQuadrature`): within 5e-5 of 64 x 64 for every NDF
-/// and shadowing model (`tests/energy_compensation.rs`, `REFERENCE`).
+/// and shadowing model (`tests/microfacet/energy_compensation.rs`, `REFERENCE`).
 const QUADRATURE: (usize, usize) = (16, 16);
 /// Below this dE_avg the compensation carries nothing a renderer could see
 /// (1e-6 of the energy) and is left out, so dE(mu)/dE_avg never divides by

@@ -61,7 +61,7 @@
 //! when its own pair gains (`energy::Compensation::scaled`); every other
 //! lobe is unchanged bit for bit.
 //!
-//! **Accuracy** (`tests/energy_compensation.rs`, quadrature truth with s
+//! **Accuracy** (`tests/microfacet/energy_compensation.rs`, quadrature truth with s
 //! at every quadrature direction, originals 0 to 0.3, alpha-hat to 1, every
 //! NDF and shadowing model): the compensated albedo is within 4.2e-4 of the
 //! original's for mu >= 0.04 and 9.2e-4 at mu 0.02, gains included (up to
