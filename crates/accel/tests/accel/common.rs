@@ -1,7 +1,5 @@
 //! Meshes, random directions and an f64 brute-force reference for the tests.
 
-#![allow(dead_code)]
-
 use std::collections::HashMap;
 
 use glam::{DVec3, Vec3};
@@ -407,8 +405,4 @@ pub fn reference_occluded(reference: Option<(u32, f64, f64, f64)>, t_max: f32) -
             }
         }
     }
-}
-
-pub fn dvec(v: Vec3) -> DVec3 {
-    v.as_dvec3()
 }

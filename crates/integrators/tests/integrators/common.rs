@@ -1,6 +1,5 @@
 //! Shared helpers of the integrator tests: scene loading at test size and
 //! statistical comparison of films from their measured variance.
-#![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
 

@@ -1,8 +1,6 @@
 //! The integrators' integration tests, in one binary: estimators against each other and
 //! against closed forms on small scenes.
-//! One binary per crate: one link instead of one per file, tables and
-//! fixtures built once and shared, and the long tests run beside the short
-//! ones rather than after them.
+//! One binary per crate (ARCHITECTURE.md, "Tests are statistical").
 
 mod absorption;
 mod bidir;

@@ -1,7 +1,6 @@
 //! Shared fixtures of the microfacet integration tests: every NDF x shadowing
 //! combination, the alphas and incident directions the issue asks for, and
 //! lossless lobes for energy tests.
-#![allow(dead_code)]
 
 use glam::{Vec2, Vec3};
 use microfacet::{

@@ -1,8 +1,6 @@
 //! The microfacet crate's integration tests, in one binary: sampling against densities,
 //! energy and its compensation, reciprocity, and numerical edges.
-//! One binary per crate: one link instead of one per file, tables and
-//! fixtures built once and shared, and the long tests run beside the short
-//! ones rather than after them.
+//! One binary per crate (ARCHITECTURE.md, "Tests are statistical").
 
 mod bounds;
 mod chi2;

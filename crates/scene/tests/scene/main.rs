@@ -1,8 +1,6 @@
 //! The scene crate's loader tests, in one binary: real third-party files, the
 //! manifest, maps, environments, and malformed and hostile input.
-//! One binary per crate: one link instead of one per file, tables and
-//! fixtures built once and shared, and the long tests run beside the short
-//! ones rather than after them.
+//! One binary per crate (ARCHITECTURE.md, "Tests are statistical").
 
 mod environment;
 mod external;
