@@ -102,6 +102,18 @@ pub fn p_value(z: f64) -> f64 {
     chi2_survival(z * z, 1)
 }
 
+/// Two-sided p-value of a difference `diff` with standard error `sd`; with
+/// no variance, 1 for an exact match and 0 otherwise.
+pub fn difference_p_value(diff: f64, sd: f64) -> f64 {
+    if sd > 0.0 {
+        p_value(diff / sd)
+    } else if diff == 0.0 {
+        1.0
+    } else {
+        0.0
+    }
+}
+
 /// Asserts that every channel of every block (and of the whole image) of
 /// `a` and `b` agree: each difference, over its standard error, has a
 /// two-sided p-value above the Sidak-corrected significance 0.01. Returns
@@ -116,13 +128,7 @@ pub fn assert_films_agree(a: &Film, b: &Film, blocks: u32, what: &str) -> f64 {
         for c in 0..3 {
             let sd = (va[c] + vb[c]).sqrt();
             let diff = ma[c] - mb[c];
-            let p = if sd > 0.0 {
-                p_value(diff / sd)
-            } else if diff == 0.0 {
-                1.0
-            } else {
-                0.0
-            };
+            let p = difference_p_value(diff, sd);
             smallest = smallest.min(p);
             assert!(
                 p > threshold,

@@ -303,13 +303,7 @@ fn assert_mixture(film: &Film, a: &Film, b: &Film, w: f64, blocks: u32) -> f64 {
         let var: DVec3 = *vf + w * w * *va + (1.0 - w) * (1.0 - w) * *vb;
         for c in 0..3 {
             let diff = mf[c] - expected[c];
-            let p = if var[c] > 0.0 {
-                common::p_value(diff / var[c].sqrt())
-            } else if diff == 0.0 {
-                1.0
-            } else {
-                0.0
-            };
+            let p = common::difference_p_value(diff, var[c].sqrt());
             smallest = smallest.min(p);
             assert!(
                 p > threshold,
