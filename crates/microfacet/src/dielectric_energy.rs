@@ -40,7 +40,8 @@
 //!
 //! **Tables** E(mu, alpha, eta) per NDF x shadowing and per medium of the
 //! query (`RARE`: the index ratio seen is >= 1; `DENSE`: < 1), on
-//! `TABLE_CRITICAL` x `TABLE_ALPHA` x `TABLE_MU_DIELECTRIC` nodes. The index
+//! `TABLE_CRITICAL` x `TABLE_ALPHA` x `table_mu_nodes` nodes (64 in mu with
+//! Smith shadowing, 88 with V-cavity's: `MuGrid`). The index
 //! ratio enters through the cosine of the critical angle,
 //! c = sqrt(1 - 1/max(eta, 1/eta)^2) on [0, c(`ETA_MAX`)]: from the dense
 //! side total internal reflection sets in at mu = c, which is a node of
@@ -59,20 +60,25 @@
 //! `crate::quadrature::SplitQuadrature`, split at the total-internal-reflection
 //! curve, from the dense side), serially, one critical-cosine node at its
 //! first use: an interface reads four of the 41 (release build, one core,
-//! eta 1.5: 1.5-2.6 s for Beckmann/Smith, 2.7-3.3 s for GGX/Smith, 6-10 s
-//! for GGX/V-cavity, about 1.5x the former 21 x 44-node grid's, measured
-//! side by side).
+//! eta 1.5: 1.5-2.6 s for Beckmann/Smith, 2.7-3.3 s for GGX/Smith, about
+//! 1.5x the former 21 x 44-node grid's, measured side by side; 6-10 s for
+//! GGX/V-cavity with 64 nodes in mu, 1.44x that with its 88, 4.4 s against
+//! 6.4 s side by side on an idle host).
 //!
 //! Accuracy (against fine quadrature, originals alpha 0 to 0.3 widened to
 //! 0.15 to 1, eta in [1.05, 2.2] and its inverse; a sweep of mu in steps of
-//! 0.01, of which `tests/microfacet/dielectric_compensation.rs` checks ten cosines): the
+//! 0.01, of which `tests/microfacet/dielectric_compensation.rs` checks twelve cosines): the
 //! compensated albedo E(alpha-hat) + dE is within 1e-3 of E(alpha)
 //! - GGX/Smith from both sides for mu >= 0.01: 6.9e-4 from the rare side,
 //!   8.0e-4 from the dense side (1.8e-3 at mu 0.01 before the first alpha
 //!   cell was made linear in alpha^2, `crate::energy::alpha_weights`);
-//! - Beckmann/V-cavity from the rare side for mu >= 0.04 (3.9e-4 for mu >=
-//!   0.1, 4.6e-4 at 0.04). From the dense side 1.75e-3 (kinks of its min(),
-//!   `MuGrid`; 8.5e-4 at the test's cosines).
+//! - Beckmann/V-cavity from both sides for mu >= 0.04: from the rare side
+//!   3.9e-4 for mu >= 0.1, 4.6e-4 at 0.04; from the dense side 9.1e-4 (eta
+//!   1/2, mu 0.46, where off-plane normals round off the onset of
+//!   transmission; GGX/V-cavity 9.0e-4), with its rows split at the onsets
+//!   of transmission and of full visibility (`MuGrid`,
+//!   `crate::vcavity_onsets`; 1.75e-3 in one segment below the kink, with
+//!   64 nodes).
 //!
 //! Beyond the tested ratios, GGX/Smith: 3.2e-4 at eta 2.6, 8.7e-4 at
 //! 1/2.6; from the dense side of nearly index-matched interfaces 4.7e-4 at
@@ -135,16 +141,46 @@ pub const ETA_MAX: f32 = 3.0;
 /// interpolation in c missed it by up to 1.6e-3 (GGX/Smith, eta 1/1.5,
 /// alpha 1, mu 0.66; 6.0e-4 at a node), with 41 by 5.5e-4.
 pub const TABLE_CRITICAL: usize = 41;
-/// Table nodes in mu per row (`MuGrid`). More than the conductor tables'
-/// `TABLE_MU`: from the dense side narrow lobes fall over a cosine of the
-/// order of alpha just below the kink at mu = c; with 44 nodes (22 below
-/// the kink, uniform in sqrt(mu/c)) the compensated albedo missed it by up
-/// to 1.3e-3 (GGX/Smith, eta 1/2.2, 0.03 -> 0.15, mu 0.86), with 64 by
-/// 7.1e-4.
+/// Table nodes in mu per row with Smith shadowing (`MuGrid`). More than the
+/// conductor tables' `TABLE_MU`: from the dense side narrow lobes fall over
+/// a cosine of the order of alpha just below the kink at mu = c; with 44
+/// nodes (22 below the kink, uniform in sqrt(mu/c)) the compensated albedo
+/// missed it by up to 1.3e-3 (GGX/Smith, eta 1/2.2, 0.03 -> 0.15, mu 0.86),
+/// with 64 by 7.1e-4.
 pub const TABLE_MU_DIELECTRIC: usize = 64;
-/// mu cells of a dense-side row below its critical cosine (`MuGrid::Dense`);
-/// the other `TABLE_MU_DIELECTRIC` - 1 - `DENSE_LOWER_CELLS` cells lie above it.
+/// mu cells of a Smith dense-side row below its critical cosine
+/// (`Lower::Whole`); the other `UPPER_CELLS` lie above it.
 const DENSE_LOWER_CELLS: usize = 32;
+/// mu cells of every dense-side row above its critical cosine (`UPPER`).
+const UPPER_CELLS: usize = TABLE_MU_DIELECTRIC - 1 - DENSE_LOWER_CELLS;
+/// mu cells of a V-cavity dense-side row below its critical cosine, in its
+/// three segments (`Lower::Split`): up to the onset of transmission, up to
+/// that of full visibility, up to the critical cosine. Against 32 cells in
+/// one segment, the sweep of the compensated albedo (mu 0.04 to 1 in steps
+/// of 0.01, originals 0-0.3 widened to 0.15-1, eta 1/1.05-1/2.4) fell from
+/// 1.75e-3 to 9.1e-4 for Beckmann (from 1.0e-3 to 9.0e-4 for GGX). With
+/// 32 cells split (8 + 16 + 8, four spacings tried) the error of a single
+/// row at a table node stayed at 0.9-1.4e-3, next to x1 (whose kink the
+/// cubics round off over 0.02 on both sides) and to the critical cosine.
+const VCAVITY_LOWER_CELLS: [usize; 3] = [16, 24, 16];
+/// Table nodes in mu per row with V-cavity shadowing: every row of a table
+/// has the same length, so its rare side has them too (uniform in sqrt(mu)).
+/// A V-cavity interface's tables take 1.4x (albedo) and 1.6-1.7x (gain
+/// slices, `crate::dielectric_gain`) the time they took with 64 (eta 1.5,
+/// one core: 4.4 -> 6.4 s and 3.2 -> 5.1 s for GGX, 3.2 -> 4.7 s and 4.1 ->
+/// 6.9 s for Beckmann).
+pub const TABLE_MU_VCAVITY: usize =
+    VCAVITY_LOWER_CELLS[0] + VCAVITY_LOWER_CELLS[1] + VCAVITY_LOWER_CELLS[2] + UPPER_CELLS + 1;
+/// The longest row (for arrays on the stack).
+const MAX_MU_NODES: usize = TABLE_MU_VCAVITY;
+
+/// Table nodes in mu per row of `shadowing`'s tables.
+pub fn table_mu_nodes(shadowing: Shadowing) -> usize {
+    match shadowing {
+        Shadowing::Smith => TABLE_MU_DIELECTRIC,
+        Shadowing::VCavity => TABLE_MU_VCAVITY,
+    }
+}
 /// (radial Gauss-Legendre, half-azimuth midpoint) nodes of the quadrature
 /// for queries from the rare side (eta >= 1). With Smith shadowing the
 /// integrand is smooth there and 32 x 32 nodes agree with 256 x 256 to
@@ -234,59 +270,179 @@ pub(crate) fn critical_cell(c: f32) -> (usize, f32) {
     (i, s - i as f32)
 }
 
-/// The `TABLE_MU_DIELECTRIC` nodes in mu of one table row.
+/// The nodes in mu of one table row (`table_mu_nodes` of its shadowing).
 ///
 /// - `Rare`: uniform in sqrt(mu), as the conductor tables (`crate::energy`):
 ///   the albedo changes fastest near grazing.
-/// - `Dense { critical: c }`: two segments that meet at the kink mu = c (total
-///   internal reflection of the smooth interface), a node at every eta:
-///   `DENSE_LOWER_CELLS` cells in x = mu/c below it, the rest above it in the
-///   refracted cosine t = sqrt((mu^2 - c^2)/(1 - c^2)) = cos theta_t, in which
-///   the smooth interface's transmittance starts linearly (1 - F ~ cos theta_t,
-///   while it has an infinite slope in mu). Rows of neighbouring c are
-///   interpolated at equal (x, t), kink to kink. Each segment's nodes cluster
-///   at both its ends (`Segment`): grazing incidence; just below the
-///   kink, where narrow lobes fall over a cosine of the order of alpha; just
-///   above it, where the albedo of nearly index-matched interfaces climbs
-///   steeply over a cosine of the order of alpha; and normal incidence, where
-///   their wide lobes' feature at mu = eta lies. Against nodes uniform in
-///   sqrt(mu/c) and in t, a sweep of the compensated albedo (mu in steps of
-///   0.01, originals 0-0.3 widened to 0.15-1 in ten steps) fell from 4.6e-3 to
-///   1.75e-3 for Beckmann/V-cavity at eta 1/1.05-1/2.4 (kinks of its min(),
-///   near mu = 0.54 c and 0.86 c at the three eta examined, which cubics round
-///   off) and, for GGX/Smith, from 1.8e-3 to 7.2e-4 at eta 1/1.0056 and from
-///   4.3e-3 to 1.8e-3 at 1/1.0017, while it stayed within 8.0e-4 elsewhere
-///   (7.6e-4 before).
+/// - `Dense { critical: c, lower }`: segments that meet at the kink mu = c
+///   (total internal reflection of the smooth interface), a node at every
+///   eta: below it cells in x = mu/c (`Lower`), above it `UPPER_CELLS` cells
+///   in the refracted cosine t = sqrt((mu^2 - c^2)/(1 - c^2)) = cos theta_t,
+///   in which the smooth interface's transmittance starts linearly (1 - F ~
+///   cos theta_t, while it has an infinite slope in mu). Rows of
+///   neighbouring c are interpolated at equal (x, t), kink to kink. The
+///   nodes cluster at the ends of the segments (`Segment`): grazing
+///   incidence; just below the kink, where narrow lobes fall over a cosine
+///   of the order of alpha; just above it, where the albedo of nearly
+///   index-matched interfaces climbs steeply over a cosine of the order of
+///   alpha; and normal incidence, where their wide lobes' feature at mu =
+///   eta lies. Against nodes uniform in sqrt(mu/c) and in t, a sweep of the
+///   compensated albedo (mu in steps of 0.01, originals 0-0.3 widened to
+///   0.15-1 in ten steps) fell, for GGX/Smith, from 1.8e-3 to 7.2e-4 at eta
+///   1/1.0056 and from 4.3e-3 to 1.8e-3 at 1/1.0017, while it stayed within
+///   8.0e-4 elsewhere (7.6e-4 before); for Beckmann/V-cavity at eta
+///   1/1.05-1/2.4 from 4.6e-3 to 1.75e-3, and to 9.1e-4 with its rows split
+///   at its onsets (`Lower::Split`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum MuGrid {
-    Rare,
-    Dense { critical: f32 },
+    Rare { shadowing: Shadowing },
+    Dense { critical: f32, lower: Lower },
 }
 
-impl MuGrid {
-    pub(crate) fn of(medium: usize, critical: f32) -> Self {
-        if medium == RARE {
-            Self::Rare
-        } else {
-            Self::Dense { critical }
+/// The cells of a dense-side row below its kink, in x = mu / c.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Lower {
+    /// Smith: one segment of `DENSE_LOWER_CELLS` cells (`LOWER`).
+    Whole,
+    /// V-cavity: three segments of `VCAVITY_LOWER_CELLS` cells, split at
+    /// the onsets [x0, x1] of transmission and of full visibility, where
+    /// the albedo has kinks (`crate::vcavity_onsets`; at c, `onsets_at`).
+    /// The first segment's cells grow from grazing (`Spacing::Start`), the
+    /// others cluster at both ends (`Spacing::BothEnds`), at the onsets and
+    /// at the critical cosine.
+    Split([f64; 2]),
+}
+
+impl Lower {
+    /// Its cells.
+    fn cells(self) -> usize {
+        match self {
+            Self::Whole => DENSE_LOWER_CELLS,
+            Self::Split(_) => VCAVITY_LOWER_CELLS.iter().sum(),
         }
     }
 
-    /// Cells above the dense side's kink.
-    const UPPER_CELLS: usize = TABLE_MU_DIELECTRIC - 1 - DENSE_LOWER_CELLS;
+    /// Its segments.
+    fn segments(self) -> usize {
+        match self {
+            Self::Whole => 1,
+            Self::Split(_) => VCAVITY_LOWER_CELLS.len(),
+        }
+    }
+
+    /// The shadowing whose rows it divides.
+    fn shadowing(self) -> Shadowing {
+        match self {
+            Self::Whole => Shadowing::Smith,
+            Self::Split(_) => Shadowing::VCavity,
+        }
+    }
+
+    /// (first node, x of the first node, x-length) of segment s.
+    fn segment_bounds(self, s: usize) -> (usize, f64, f64) {
+        match self {
+            Self::Whole => (0, 0.0, 1.0),
+            Self::Split([x0, x1]) => {
+                let [a, b, _] = VCAVITY_LOWER_CELLS;
+                [(0, 0.0, x0), (a, x0, x1 - x0), (a + b, x1, 1.0 - x1)][s]
+            }
+        }
+    }
+
+    /// The segment of cell j (< `cells`).
+    fn segment_of(self, j: usize) -> usize {
+        match self {
+            Self::Whole => 0,
+            Self::Split(_) => {
+                let [a, b, _] = VCAVITY_LOWER_CELLS;
+                usize::from(j >= a) + usize::from(j >= a + b)
+            }
+        }
+    }
+
+    /// The nodes of segment s in its own coordinate, 0 to 1.
+    fn unit_nodes(self, s: usize) -> &'static [f64] {
+        match (self, s) {
+            (Self::Whole, _) => &LOWER.x,
+            (Self::Split(_), 0) => &GRAZING_SEGMENT.x,
+            (Self::Split(_), 1) => &ONSETS_SEGMENT.x,
+            (Self::Split(_), _) => &VISIBLE_SEGMENT.x,
+        }
+    }
+
+    /// (x, x) of the ends of cell j in its segment's coordinate.
+    fn unit_cell(self, j: usize) -> (f64, f64) {
+        let s = self.segment_of(j);
+        let nodes = self.unit_nodes(s);
+        let k = j - self.segment_bounds(s).0;
+        (nodes[k], nodes[k + 1])
+    }
+
+    /// x of node j (<= `cells`).
+    fn x(self, j: usize) -> f64 {
+        let s = self.segment_of(j.min(self.cells() - 1));
+        let (first, start, length) = self.segment_bounds(s);
+        start + length * self.unit_nodes(s)[j - first]
+    }
+
+    /// (cell, fraction linear in x) of x in [0, 1].
+    fn cell(self, x: f64) -> (usize, f32) {
+        match self {
+            Self::Whole => LOWER.cell(x),
+            Self::Split([x0, x1]) => {
+                let s = usize::from(x >= x0) + usize::from(x >= x1);
+                let (first, start, length) = self.segment_bounds(s);
+                let unit = (x - start) / length;
+                let (k, fraction) = match s {
+                    0 => GRAZING_SEGMENT.cell(unit),
+                    1 => ONSETS_SEGMENT.cell(unit),
+                    _ => VISIBLE_SEGMENT.cell(unit),
+                };
+                (first + k, fraction)
+            }
+        }
+    }
+
+    /// The nodes `first..=last` of the segment of cell j.
+    fn segment(self, j: usize) -> (usize, usize) {
+        let s = self.segment_of(j);
+        let first = self.segment_bounds(s).0;
+        (first, first + self.unit_nodes(s).len() - 1)
+    }
+}
+
+impl MuGrid {
+    /// The grid of `shadowing`'s rows queried from `medium` of an interface
+    /// with critical cosine `critical`.
+    pub(crate) fn of(shadowing: Shadowing, medium: usize, critical: f32) -> Self {
+        if medium == RARE {
+            return Self::Rare { shadowing };
+        }
+        let lower = match shadowing {
+            Shadowing::Smith => Lower::Whole,
+            Shadowing::VCavity => Lower::Split(onsets_at(critical)),
+        };
+        Self::Dense { critical, lower }
+    }
+
+    /// Its nodes.
+    pub(crate) fn len(self) -> usize {
+        match self {
+            Self::Rare { shadowing } => table_mu_nodes(shadowing),
+            Self::Dense { lower, .. } => lower.cells() + UPPER_CELLS + 1,
+        }
+    }
 
     /// mu of node j (at least `GRAZING_MU`, as the conductor tables).
     fn node(self, j: usize) -> f64 {
         match self {
-            Self::Rare => (j as f64 / (TABLE_MU_DIELECTRIC - 1) as f64)
-                .powi(2)
-                .max(GRAZING_MU),
-            Self::Dense { critical } => {
+            Self::Rare { .. } => (j as f64 / (self.len() - 1) as f64).powi(2).max(GRAZING_MU),
+            Self::Dense { critical, lower } => {
                 let c = f64::from(critical);
-                let mu = if j <= DENSE_LOWER_CELLS {
-                    c * LOWER.x[j]
+                let mu = if j <= lower.cells() {
+                    c * lower.x(j)
                 } else {
-                    let t = UPPER.x[j - DENSE_LOWER_CELLS];
+                    let t = UPPER.x[j - lower.cells()];
                     (c * c + (1.0 - c * c) * t * t).sqrt()
                 };
                 mu.clamp(GRAZING_MU, 1.0)
@@ -297,16 +453,16 @@ impl MuGrid {
     /// (cell index, fraction in the cell) of `mu`.
     pub(crate) fn cell(self, mu: f32) -> (usize, f32) {
         match self {
-            Self::Rare => cell(mu, TABLE_MU_DIELECTRIC, 1.0),
-            Self::Dense { critical: c } => {
+            Self::Rare { .. } => cell(mu, self.len(), 1.0),
+            Self::Dense { critical: c, lower } => {
                 let (mu, c) = (f64::from(mu.clamp(0.0, 1.0)), f64::from(c));
                 if mu < c {
-                    LOWER.cell(mu / c)
+                    lower.cell(mu / c)
                 } else {
                     // In f64: mu^2 - c^2 cancels just above the kink.
                     let t = ((mu * mu - c * c) / (1.0 - c * c)).max(0.0).sqrt();
                     let (k, fraction) = UPPER.cell(t);
-                    (DENSE_LOWER_CELLS + k, fraction)
+                    (lower.cells() + k, fraction)
                 }
             }
         }
@@ -316,22 +472,22 @@ impl MuGrid {
     /// cosine-weighted average, a polynomial of degree at most 3 in tau.
     fn measure(self, j: usize, tau: f64) -> f64 {
         match self {
-            Self::Rare => {
+            Self::Rare { .. } => {
                 // mu = s^2, s = (j + tau) h: mu^2 = s^4.
-                let h = 1.0 / (TABLE_MU_DIELECTRIC - 1) as f64;
+                let h = 1.0 / (self.len() - 1) as f64;
                 let s = (j as f64 + tau) * h;
                 4.0 * s.powi(3) * h
             }
-            Self::Dense { critical } => {
+            Self::Dense { critical, lower } => {
                 // mu^2 = c^2 x^2 below the kink, c^2 + (1 - c^2) x^2
                 // above it, x = mu / c or t linear in the cell.
                 let c2 = f64::from(critical).powi(2);
-                let (scale, nodes, k) = if j < DENSE_LOWER_CELLS {
-                    (c2, &LOWER.x[..], j)
+                let (scale, x0, x1) = if j < lower.cells() {
+                    (c2, lower.x(j), lower.x(j + 1))
                 } else {
-                    (1.0 - c2, &UPPER.x[..], j - DENSE_LOWER_CELLS)
+                    let k = j - lower.cells();
+                    (1.0 - c2, UPPER.x[k], UPPER.x[k + 1])
                 };
-                let (x0, x1) = (nodes[k], nodes[k + 1]);
                 2.0 * scale * (x0 + (x1 - x0) * tau) * (x1 - x0)
             }
         }
@@ -348,12 +504,13 @@ impl MuGrid {
 
     /// The nodes `first..=last` of the segment of cell j, inside which the
     /// table is one cubic spline (`catmull_rom_cubic`): the whole row from
-    /// the rare side; from the dense side below and above the kink at c.
+    /// the rare side; from the dense side those below the kink at c
+    /// (`Lower::segment`) and those above it.
     pub(crate) fn segment(self, j: usize) -> (usize, usize) {
         match self {
-            Self::Dense { .. } if j < DENSE_LOWER_CELLS => (0, DENSE_LOWER_CELLS),
-            Self::Dense { .. } => (DENSE_LOWER_CELLS, TABLE_MU_DIELECTRIC - 1),
-            Self::Rare => (0, TABLE_MU_DIELECTRIC - 1),
+            Self::Dense { lower, .. } if j < lower.cells() => lower.segment(j),
+            Self::Dense { lower, .. } => (lower.cells(), self.len() - 1),
+            Self::Rare { .. } => (0, self.len() - 1),
         }
     }
 
@@ -363,53 +520,140 @@ impl MuGrid {
     /// measure is a cubic in each cell's fraction). So dE_avg is the moment
     /// of the very dE that `DielectricCompensation::deficit` interpolates,
     /// and the furnace identity holds for the interpolated dE.
-    fn positive_part_moment(self, nodes: &[f32; TABLE_MU_DIELECTRIC]) -> f64 {
+    fn positive_part_moment(self, nodes: &[f32]) -> f64 {
         let weights = self.moment_weights();
         spline_positive_moment(
             nodes,
-            &weights,
+            &weights[..self.len()],
             |j| self.segment(j),
             |j, t| self.measure(j, t),
         )
     }
 
-    /// The moment weights of the grid's nodes (`spline_moment_weights`). The
-    /// dense side's measure is c^2 times that of c = 1 below the kink and
-    /// 1 - c^2 times that of c = 0 above it, so its weights are the same
-    /// blend of two fixed sets.
-    fn moment_weights(self) -> [f64; TABLE_MU_DIELECTRIC] {
-        static FIXED: OnceLock<[Vec<f64>; 3]> = OnceLock::new();
-        let [rare, lower, upper] = FIXED.get_or_init(|| {
-            [
-                Self::Rare,
-                Self::Dense { critical: 1.0 },
-                Self::Dense { critical: 0.0 },
-            ]
-            .map(|g| {
-                spline_moment_weights(
-                    TABLE_MU_DIELECTRIC,
-                    |j| g.segment(j),
-                    |j, t| g.measure(j, t),
-                )
-            })
-        });
+    /// The moment weights of the grid's nodes (`spline_moment_weights`),
+    /// from fixed parts (`MomentParts`): below the kink a segment from
+    /// x = p of length L has the measure c^2 (p L 2 dv + L^2 2 v dv) in its
+    /// own coordinate v (x = p + L v), above it the measure is (1 - c^2)
+    /// that of c = 0.
+    fn moment_weights(self) -> [f64; MAX_MU_NODES] {
+        let mut weights = [0.0; MAX_MU_NODES];
         match self {
-            Self::Rare => std::array::from_fn(|i| rare[i]),
-            Self::Dense { critical } => {
+            Self::Rare { shadowing } => {
+                let parts = MomentParts::of(shadowing);
+                weights[..parts.rare.len()].copy_from_slice(&parts.rare);
+            }
+            Self::Dense { critical, lower } => {
+                let parts = MomentParts::of(lower.shadowing());
                 let c2 = f64::from(critical).powi(2);
-                std::array::from_fn(|i| c2 * lower[i] + (1.0 - c2) * upper[i])
+                for (i, weight) in weights.iter_mut().enumerate().take(self.len()) {
+                    let below: f64 = (0..lower.segments())
+                        .map(|s| {
+                            let (_, p, length) = lower.segment_bounds(s);
+                            p * length * parts.offset[s][i] + length * length * parts.span[s][i]
+                        })
+                        .sum();
+                    *weight = c2 * below + (1.0 - c2) * parts.upper[i];
+                }
             }
         }
+        weights
     }
 }
 
-/// The nodes of a dense-side `MuGrid` segment of N - 1 cells in x = mu/c
-/// below the kink or the refracted cosine t above it, and for the search
-/// of `cell` the cell that holds the start of each of `SEGMENT_BINS` equal
-/// bins of x.
+/// The parts of the moment weights of one shadowing's grids that do not
+/// depend on c or the onsets (`MuGrid::moment_weights`): of the rare side;
+/// of each segment below the kink, for the measures 2 dv (`offset`) and
+/// 2 v dv (`span`) in its own coordinate; and above the kink at c = 0.
+struct MomentParts {
+    rare: Vec<f64>,
+    offset: Vec<Vec<f64>>,
+    span: Vec<Vec<f64>>,
+    upper: Vec<f64>,
+}
+
+impl MomentParts {
+    fn of(shadowing: Shadowing) -> &'static Self {
+        static PARTS: [OnceLock<MomentParts>; 2] = [const { OnceLock::new() }; 2];
+        let (slot, lower) = match shadowing {
+            Shadowing::Smith => (0, Lower::Whole),
+            // Any onsets: the parts are in the segments' own coordinates.
+            Shadowing::VCavity => (1, Lower::Split([0.5, 0.75])),
+        };
+        PARTS[slot].get_or_init(|| {
+            let rare = MuGrid::Rare { shadowing };
+            let dense = MuGrid::Dense {
+                critical: 0.0,
+                lower,
+            };
+            let n = rare.len();
+            let of = |grid: MuGrid, measure: &dyn Fn(usize, f64) -> f64| {
+                spline_moment_weights(n, |j| grid.segment(j), measure)
+            };
+            // A measure in the segment's own coordinate on segment s, 0 elsewhere.
+            let on_segment = |s: usize, measure: fn(f64, f64, f64) -> f64| {
+                of(dense, &move |j, t| {
+                    if j < lower.cells() && lower.segment_of(j) == s {
+                        let (v0, v1) = lower.unit_cell(j);
+                        measure(v0, v1, t)
+                    } else {
+                        0.0
+                    }
+                })
+            };
+            Self {
+                rare: of(rare, &|j, t| rare.measure(j, t)),
+                offset: (0..lower.segments())
+                    .map(|s| on_segment(s, |v0, v1, _| 2.0 * (v1 - v0)))
+                    .collect(),
+                span: (0..lower.segments())
+                    .map(|s| on_segment(s, |v0, v1, t| 2.0 * (v0 + (v1 - v0) * t) * (v1 - v0)))
+                    .collect(),
+                // c = 0: only the cells above the kink have a measure.
+                upper: of(dense, &|j, t| dense.measure(j, t)),
+            }
+        })
+    }
+}
+
+/// The onsets of V-cavity transmission (`crate::vcavity_onsets::onsets`)
+/// for critical cosine `c`: the Catmull-Rom interpolation in c of those of
+/// the critical-cosine nodes (`critical_weights`, as the rows'), so that a
+/// node's row splits at its own onsets and neighbouring rows are read at
+/// the same position relative to theirs.
+fn onsets_at(c: f32) -> [f64; 2] {
+    static NODES: OnceLock<[[f64; 2]; TABLE_CRITICAL]> = OnceLock::new();
+    let nodes = NODES.get_or_init(|| {
+        std::array::from_fn(|i| crate::vcavity_onsets::onsets(f64::from(critical_node(i))))
+    });
+    critical_weights(c)
+        .iter()
+        .fold([0.0; 2], |[x0, x1], &(i, w)| {
+            let w = f64::from(w);
+            [x0 + w * nodes[i][0], x1 + w * nodes[i][1]]
+        })
+}
+
+/// The nodes of a dense-side `MuGrid` segment of N - 1 cells, from 0 to 1
+/// in its own coordinate (x = mu/c below the kink or the refracted cosine t
+/// above it, or a part of x between onsets), and for the search of `cell`
+/// the cell that holds the start of each of `SEGMENT_BINS` equal bins.
 struct Segment<const N: usize> {
     x: [f64; N],
     bin_cell: [u8; SEGMENT_BINS],
+}
+
+/// How the nodes of a `Segment` are spaced, in u = k / (N - 1).
+#[derive(Clone, Copy)]
+enum Spacing {
+    /// x = u^2 (3 + 2u - 3u^2) / 2: increasing on [0, 1] and clustered at
+    /// both ends, as u^2 at x = 0 and as (1 - u)^2 at x = 1.
+    BothEnds,
+    /// x = u (1 + u) / 2: cells that grow threefold from x = 0, with x''' =
+    /// 0. The cubics are splines in the node index, so a map with a large
+    /// x''' bends them: 16 cells spaced `BothEnds` (x''' up to 30) missed a
+    /// smooth albedo below the onset of V-cavity transmission by 2.8e-3,
+    /// spaced thus by 4e-4 at most (eta 1/1.5 and 1/2, alpha 0.03-1).
+    Start,
 }
 
 /// Bins of `Segment::cell`'s search: narrower than every cell but the
@@ -417,10 +661,8 @@ struct Segment<const N: usize> {
 const SEGMENT_BINS: usize = 256;
 
 impl<const N: usize> Segment<N> {
-    /// x = u^2 (3 + 2u - 3u^2) / 2 at u = k / (N - 1): increasing on
-    /// [0, 1] and clustered at both ends, as u^2 at x = 0 and as (1 - u)^2
-    /// at x = 1.
-    const fn new() -> Self {
+    /// The segment of N nodes spaced `spacing`.
+    const fn new(spacing: Spacing) -> Self {
         assert!(
             N >= 3 && N - 1 <= u8::MAX as usize,
             "cells must fit bin_cell"
@@ -429,7 +671,10 @@ impl<const N: usize> Segment<N> {
         let mut k = 0;
         while k < N {
             let u = k as f64 / (N - 1) as f64;
-            x[k] = 0.5 * u * u * (3.0 + u * (2.0 - 3.0 * u));
+            x[k] = match spacing {
+                Spacing::BothEnds => 0.5 * u * u * (3.0 + u * (2.0 - 3.0 * u)),
+                Spacing::Start => 0.5 * u * (1.0 + u),
+            };
             k += 1;
         }
         let mut bin_cell = [0; SEGMENT_BINS];
@@ -458,14 +703,22 @@ impl<const N: usize> Segment<N> {
     }
 }
 
-/// The segment below the dense side's kink.
-const LOWER: Segment<{ DENSE_LOWER_CELLS + 1 }> = Segment::new();
-/// The segment above it.
-const UPPER: Segment<{ MuGrid::UPPER_CELLS + 1 }> = Segment::new();
+/// The segment below a Smith dense-side row's kink (`Lower::Whole`).
+const LOWER: Segment<{ DENSE_LOWER_CELLS + 1 }> = Segment::new(Spacing::BothEnds);
+/// The segment above every dense-side row's kink.
+const UPPER: Segment<{ UPPER_CELLS + 1 }> = Segment::new(Spacing::BothEnds);
+/// The segments of a V-cavity dense-side row below its kink (`Lower::Split`):
+/// from grazing to the onset of transmission, to that of full visibility,
+/// to the critical cosine.
+const GRAZING_SEGMENT: Segment<{ VCAVITY_LOWER_CELLS[0] + 1 }> = Segment::new(Spacing::Start);
+/// See [`GRAZING_SEGMENT`].
+const ONSETS_SEGMENT: Segment<{ VCAVITY_LOWER_CELLS[1] + 1 }> = Segment::new(Spacing::BothEnds);
+/// See [`GRAZING_SEGMENT`].
+const VISIBLE_SEGMENT: Segment<{ VCAVITY_LOWER_CELLS[2] + 1 }> = Segment::new(Spacing::BothEnds);
 
 /// Energy albedo E(mu, alpha, eta) of a white rough dielectric (module
 /// docs): per medium of the query ([`RARE`], [`DENSE`]), `TABLE_CRITICAL`
-/// x `TABLE_ALPHA` x `TABLE_MU_DIELECTRIC` nodes in (c, alpha, `MuGrid` of c),
+/// x `TABLE_ALPHA` x `table_mu_nodes` nodes in (c, alpha, `MuGrid` of c),
 /// each critical-cosine node's slice computed at first use: an interface
 /// reads the four nodes around its own c (`nodes_read`), so a scene of one
 /// glass computes 4 of the 41.
@@ -476,19 +729,21 @@ pub struct DielectricAlbedoTable {
     slices: [OnceLock<CriticalSlice>; TABLE_CRITICAL],
 }
 
-/// The table at one critical-cosine node c_i: `e[medium][k *
-/// TABLE_MU_DIELECTRIC + j]` = E(mu_j, alpha_k, eta(c_i)), mu_j the node j
-/// of the `MuGrid` of c_i.
+/// The table at one critical-cosine node c_i: `e[medium][k * nodes + j]`
+/// = E(mu_j, alpha_k, eta(c_i)), mu_j the node j of the `MuGrid` of c_i.
 #[derive(Debug)]
 struct CriticalSlice {
     e: [Vec<f32>; 2],
+    /// Nodes per row (`table_mu_nodes`).
+    nodes: usize,
 }
 
 impl CriticalSlice {
     /// The slice of node `i` by quadrature (see [`dielectric_albedo_quadrature`]).
     fn compute(kind: NdfKind, shadowing: Shadowing, i: usize) -> Self {
         let c = critical_node(i);
-        let size = TABLE_ALPHA * TABLE_MU_DIELECTRIC;
+        let nodes = table_mu_nodes(shadowing);
+        let size = TABLE_ALPHA * nodes;
         let mut e = [vec![0.0; size], vec![0.0; size]];
         for k in 0..TABLE_ALPHA {
             let alpha = alpha_node(k);
@@ -501,9 +756,9 @@ impl CriticalSlice {
                 )
             });
             for (medium, row) in e.iter_mut().enumerate() {
-                let grid = MuGrid::of(medium, c);
+                let grid = MuGrid::of(shadowing, medium, c);
                 let eta = f64::from(eta_of(medium, c));
-                let row = &mut row[k * TABLE_MU_DIELECTRIC..(k + 1) * TABLE_MU_DIELECTRIC];
+                let row = &mut row[k * nodes..(k + 1) * nodes];
                 for (j, node) in row.iter_mut().enumerate() {
                     let mu = grid.node(j);
                     *node = rules.as_ref().map_or(1.0, |(rare, dense)| {
@@ -516,12 +771,12 @@ impl CriticalSlice {
                 }
             }
         }
-        Self { e }
+        Self { e, nodes }
     }
 
     /// The row of E over the `MuGrid` nodes at alpha node k.
     fn row(&self, medium: usize, k: usize) -> &[f32] {
-        &self.e[medium][k * TABLE_MU_DIELECTRIC..(k + 1) * TABLE_MU_DIELECTRIC]
+        &self.e[medium][k * self.nodes..(k + 1) * self.nodes]
     }
 }
 
@@ -580,7 +835,7 @@ impl DielectricAlbedoTable {
     /// the slices: the tricubic as a sum of weighted table entries.
     fn albedos<const N: usize>(&self, mu: f32, alphas: [f32; N], eta: f32) -> [f32; N] {
         let (medium, c) = critical_cosine(eta);
-        let in_mu = MuGrid::of(medium, c).weights(mu);
+        let in_mu = MuGrid::of(self.shadowing, medium, c).weights(mu);
         let in_alpha = alphas.map(alpha_weights);
         let mut e = [0.0; N];
         for (slice, wc) in self.slices_at(c) {
@@ -605,7 +860,7 @@ impl DielectricAlbedoTable {
         (j, t): (usize, f64),
     ) -> f64 {
         let row = self.slice(i).row(medium, k);
-        let grid = MuGrid::of(medium, critical_node(i));
+        let grid = MuGrid::of(self.shadowing, medium, critical_node(i));
         cubic_at(
             catmull_rom_cubic(|n| f64::from(row[n]), j, grid.segment(j)),
             t,
@@ -625,7 +880,9 @@ impl DielectricAlbedoTable {
         // Whole rows weighted and summed (contiguous: vectorized), as `row`
         // weights them node by node.
         let in_c = self.slices_at(c);
-        let mut nodes = [0.0; TABLE_MU_DIELECTRIC];
+        let grid = MuGrid::of(self.shadowing, medium, c);
+        let mut nodes = [0.0; MAX_MU_NODES];
+        let nodes = &mut nodes[..grid.len()];
         for (alpha, sign) in [(alpha, 1.0), (alpha_hat, -1.0)] {
             for (k, wa) in alpha_weights(alpha) {
                 for (slice, wc) in in_c {
@@ -637,7 +894,7 @@ impl DielectricAlbedoTable {
             }
         }
         let gains = nodes.iter().any(|&d| d < -MIN_GAIN);
-        (MuGrid::of(medium, c).positive_part_moment(&nodes), gains)
+        (grid.positive_part_moment(nodes), gains)
     }
 }
 
@@ -658,18 +915,19 @@ pub(crate) fn dielectric_kernel(
     let (radial, azimuth) = quadrature_rare(shadowing);
     let rare = Quadrature::new(kind, shadowing, alpha, radial, azimuth);
     let dense = SplitQuadrature::new(kind, shadowing, alpha, QUADRATURE_DENSE);
-    let mut kernel = Kernel::zeros(2, TABLE_MU_DIELECTRIC, subdivisions);
+    let nodes = table_mu_nodes(shadowing);
+    let mut kernel = Kernel::zeros(2, nodes, subdivisions);
     for medium in [RARE, DENSE] {
         let eta = f64::from(eta_of(medium, c));
-        for j in 0..TABLE_MU_DIELECTRIC {
-            let row = medium * TABLE_MU_DIELECTRIC + j;
+        for j in 0..nodes {
+            let row = medium * nodes + j;
             let deposit = |cos_o: f64, share: f64| {
                 let to = if cos_o > 0.0 { medium } else { 1 - medium };
-                let (n, t) = MuGrid::of(to, c).cell(cos_o.abs() as f32);
+                let (n, t) = MuGrid::of(shadowing, to, c).cell(cos_o.abs() as f32);
                 let x = (n as f64 + f64::from(t)) * subdivisions as f64;
                 kernel.deposit(row, to, x, share);
             };
-            let mu = MuGrid::of(medium, c).node(j);
+            let mu = MuGrid::of(shadowing, medium, c).node(j);
             if medium == RARE {
                 rare.albedo_with(mu, eta, deposit);
             } else {
@@ -1164,22 +1422,32 @@ mod tests {
 
     /// Every grid's nodes are increasing, found again by `cell` (to the
     /// resolution of an f32 cosine: just above the kink one ulp of mu moves
-    /// the refracted cosine t by up to 1e-2 of its first cell), and the
-    /// dense grid has its kink mu = c at node `DENSE_LOWER_CELLS`.
+    /// the refracted cosine t by up to 1e-2 of its first cell), the dense
+    /// grids have their kink mu = c at the node after their lower cells, and
+    /// V-cavity's its onsets at the ends of its first segment.
     #[test]
     fn mu_grids_invert_their_nodes() {
-        for grid in [0.0, 0.3, 0.745, CRITICAL_MAX]
-            .map(|critical| MuGrid::Dense { critical })
-            .into_iter()
-            .chain([MuGrid::Rare])
-        {
-            if let MuGrid::Dense { critical } = grid
+        let grids = [Shadowing::Smith, Shadowing::VCavity].map(|shadowing| {
+            [0.0, 0.3, 0.745, CRITICAL_MAX]
+                .map(|c| MuGrid::of(shadowing, DENSE, c))
+                .into_iter()
+                .chain([MuGrid::of(shadowing, RARE, 0.5)])
+        });
+        for grid in grids.into_iter().flatten() {
+            if let MuGrid::Dense { critical, lower } = grid
                 && critical > 0.0
             {
-                let kink = grid.node(DENSE_LOWER_CELLS);
+                let kink = grid.node(lower.cells());
                 assert!((kink - f64::from(critical)).abs() < 1e-6, "{grid:?}");
+                if let Lower::Split([x0, x1]) = lower {
+                    let [a, b, _] = VCAVITY_LOWER_CELLS;
+                    for (j, x) in [(a, x0), (a + b, x1)] {
+                        let onset = f64::from(critical) * x;
+                        assert!((grid.node(j) - onset).abs() < 1e-12, "{grid:?} {j}");
+                    }
+                }
             }
-            for j in 1..TABLE_MU_DIELECTRIC {
+            for j in 1..grid.len() {
                 let (a, b) = (grid.node(j - 1), grid.node(j));
                 assert!(a <= b, "{grid:?} {j}");
                 if a > GRAZING_MU {
@@ -1217,15 +1485,22 @@ mod tests {
         }
         check(&LOWER);
         check(&UPPER);
+        check(&GRAZING_SEGMENT);
+        check(&ONSETS_SEGMENT);
+        check(&VISIBLE_SEGMENT);
     }
 
     /// The moment of a dE interpolated by the grid's splines against a fine
-    /// midpoint rule in mu over the interpolated function.
+    /// midpoint rule in mu over the interpolated function (the V-cavity
+    /// dense grid's moment weights from their fixed parts, at its onsets).
     #[test]
     fn positive_part_moment_matches_the_integral() {
-        for grid in [MuGrid::Rare, MuGrid::Dense { critical: 0.6 }] {
-            let nodes: [f32; TABLE_MU_DIELECTRIC] =
-                std::array::from_fn(|j| (grid.node(j) as f32 * 7.0).sin() - 0.3);
+        let grids = [Shadowing::Smith, Shadowing::VCavity]
+            .map(|shadowing| [RARE, DENSE].map(|medium| MuGrid::of(shadowing, medium, 0.6)));
+        for grid in grids.into_iter().flatten() {
+            let nodes: Vec<f32> = (0..grid.len())
+                .map(|j| (grid.node(j) as f32 * 7.0).sin() - 0.3)
+                .collect();
             let n = 400_000;
             let fine: f64 = (0..n)
                 .map(|m| {

@@ -52,8 +52,9 @@
 use std::sync::OnceLock;
 
 use crate::dielectric_energy::{
-    DENSE, MuGrid, RARE, TABLE_CRITICAL, TABLE_MU_DIELECTRIC, critical_cell, critical_cosine,
+    DENSE, MuGrid, RARE, TABLE_CRITICAL, critical_cell, critical_cosine,
     dielectric_albedo_quadrature_with, dielectric_albedo_table, dielectric_kernel, seen,
+    table_mu_nodes,
 };
 use crate::energy::{MODELS, TABLE_ALPHA, TABLE_ALPHA_MAX, alpha_node, cell, lerp, model_index};
 use crate::gain::{BalanceStatistics, MIN_GAIN, kept_share};
@@ -76,7 +77,7 @@ const SUBDIVISIONS: usize = 8;
 const BALANCE_TOLERANCE: f64 = 1e-6;
 
 /// s-bar of both sides at the `MuGrid` nodes: `[RARE nodes, DENSE nodes]`.
-type Row = [f32; 2 * TABLE_MU_DIELECTRIC];
+type Row = Vec<f32>;
 
 /// `index` value of a pair that keeps s-bar = 1.
 const UNSCALED: u32 = u32::MAX;
@@ -89,6 +90,8 @@ pub struct MeanScaleSlice {
     /// node k in `rows`, or `UNSCALED`.
     index: Vec<u32>,
     rows: Vec<Row>,
+    /// Nodes per side in a row (`table_mu_nodes`).
+    nodes: usize,
 }
 
 impl MeanScaleSlice {
@@ -99,14 +102,16 @@ impl MeanScaleSlice {
         i: usize,
     ) -> (Self, BalanceStatistics) {
         let albedo = dielectric_albedo_table(kind, shadowing);
+        let nodes = table_mu_nodes(shadowing);
         let mut slice = Self {
             index: vec![UNSCALED; TABLE_ALPHA * TABLE_ALPHA],
             rows: Vec::new(),
+            nodes,
         };
         let mut statistics = BalanceStatistics::default();
         let gains = |a: usize, k: usize| {
             [RARE, DENSE].into_iter().any(|medium| {
-                (0..TABLE_MU_DIELECTRIC)
+                (0..nodes)
                     .any(|j| albedo.node(medium, i, k, j) - albedo.node(medium, i, a, j) > MIN_GAIN)
             })
         };
@@ -117,17 +122,13 @@ impl MeanScaleSlice {
             }
             let kernel = dielectric_kernel(kind, shadowing, i, alpha_node(k), SUBDIVISIONS);
             // (medium, MuGrid cell, fraction) of every bin.
-            let per_block = (TABLE_MU_DIELECTRIC - 1) * SUBDIVISIONS + 1;
+            let per_block = (nodes - 1) * SUBDIVISIONS + 1;
             let bins: Vec<(usize, (usize, f64))> = (0..kernel.bins())
                 .map(|b| {
                     let (medium, x) = (b / per_block, b % per_block);
                     let (j, r) = (x / SUBDIVISIONS, x % SUBDIVISIONS);
                     let t = r as f64 / SUBDIVISIONS as f64;
-                    let at = if j == TABLE_MU_DIELECTRIC - 1 {
-                        (j - 1, 1.0)
-                    } else {
-                        (j, t)
-                    };
+                    let at = if j == nodes - 1 { (j - 1, 1.0) } else { (j, t) };
                     (medium, at)
                 })
                 .collect();
@@ -150,14 +151,14 @@ impl MeanScaleSlice {
                     .collect();
                 let means =
                     statistics.balance(&kernel, &kept, previous.as_deref(), BALANCE_TOLERANCE);
-                slice.push(a, k, std::array::from_fn(|n| means[n] as f32));
+                slice.push(a, k, means.iter().map(|&mean| mean as f32).collect());
                 previous = Some(means);
             }
         }
         // The odd continuation below the diagonal (`crate::gain`).
         for k in 0..TABLE_ALPHA - 1 {
             if let Some(upper) = slice.row(k, k + 1) {
-                let lower = upper.map(|mean| 2.0 - mean);
+                let lower = upper.iter().map(|mean| 2.0 - mean).collect();
                 slice.push(k + 1, k, lower);
             }
         }
@@ -183,7 +184,7 @@ impl MeanScaleSlice {
         let (k, tk) = cell(alpha_hat, TABLE_ALPHA, TABLE_ALPHA_MAX);
         let at = |a: usize, k: usize| {
             self.row(a, k).map_or(1.0, |row| {
-                let n = medium * TABLE_MU_DIELECTRIC + j;
+                let n = medium * self.nodes + j;
                 lerp(row[n], row[n + 1], t)
             })
         };
@@ -230,7 +231,7 @@ pub fn dielectric_mean_scale(
     mu: f32,
 ) -> f32 {
     let (medium, c) = critical_cosine(eta);
-    let at = MuGrid::of(medium, c).cell(mu);
+    let at = MuGrid::of(shadowing, medium, c).cell(mu);
     let (i, r) = critical_cell(c);
     let mean = |i| mean_scale_slice(kind, shadowing, i).mean_scale(medium, alpha, alpha_hat, at);
     lerp(mean(i), mean(i + 1), r)
@@ -312,9 +313,10 @@ mod tests {
         for (i, k) in [(3, 9), (14, 25)] {
             let kernel = dielectric_kernel(kind, shadowing, i, alpha_node(k), SUBDIVISIONS);
             for medium in [RARE, DENSE] {
-                for j in 0..TABLE_MU_DIELECTRIC {
+                let nodes = table_mu_nodes(shadowing);
+                for j in 0..nodes {
                     let e = f64::from(table.node(medium, i, k, j));
-                    let sum = kernel.row_sum(medium * TABLE_MU_DIELECTRIC + j);
+                    let sum = kernel.row_sum(medium * nodes + j);
                     assert!((sum - e).abs() < 1e-6, "{i} {k} {medium} {j}: {sum} vs {e}");
                 }
             }

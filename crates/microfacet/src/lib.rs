@@ -49,6 +49,7 @@ mod quadrature;
 pub mod sample;
 pub mod shadowing;
 pub mod special;
+mod vcavity_onsets;
 pub mod vndf;
 
 pub use bsdf::Bsdf;

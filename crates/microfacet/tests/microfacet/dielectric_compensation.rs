@@ -35,24 +35,6 @@ const TOLERANCE: f64 = 1e-3;
 /// probability 2e-5: 0.03 false failures in ~1500 comparisons), and counts
 /// as resolving the tolerance only where `SIGMAS` standard errors are below it.
 const SIGMAS: f64 = 5.0;
-/// V-cavity's G is a min() of three terms, whose kinks in a refraction the
-/// table's cubics round off: from the dense side a sweep in mu (steps of
-/// 0.01 from 0.04, originals 0-0.3 widened to 0.15-1 in ten steps, eta
-/// 1/1.05 to 1/2.4) measured up to 1.75e-3 (eta 1/1.44, 0 -> 0.4, mu 0.61),
-/// 8.5e-4 at this test's cosines. From the rare side V-cavity is held to
-/// 1e-3, as Smith is from both sides.
-const VCAVITY_DENSE_TOLERANCE: f64 = 2e-3;
-
-/// The tolerance of a table or furnace value for a query seeing the index
-/// ratio `eta`, at every cosine down to 0.04: the issue's 1e-3, except for
-/// V-cavity from the dense side (above).
-fn tolerance(eta: f32, shadowing: Shadowing) -> f64 {
-    if shadowing == Shadowing::VCavity && eta < 1.0 {
-        VCAVITY_DENSE_TOLERANCE
-    } else {
-        TOLERANCE
-    }
-}
 
 /// (mean, standard error) of the energy albedo of `bsdf` (red channel) for
 /// a query from `wi`.
@@ -130,15 +112,14 @@ fn dielectric_tables_match_brute_force() {
                     let (mean, se) = albedo(&bsdf, direction(mu, 0.4), seed);
                     let table = f64::from(table.albedo(mu, alpha, eta));
                     let error = (table - mean).abs();
-                    let allowed = tolerance(eta, shadowing);
-                    if allowed == TOLERANCE && SIGMAS * se < TOLERANCE && error > worst {
+                    if SIGMAS * se < TOLERANCE && error > worst {
                         worst = error;
                         worst_case = format!(
                             "{kind:?}/{shadowing:?} eta {eta} alpha {alpha} mu {mu}: \
                              {table} vs {mean} +- {se}"
                         );
                     }
-                    if error > allowed + SIGMAS * se {
+                    if error > TOLERANCE + SIGMAS * se {
                         failures.push(format!(
                             "{kind:?}/{shadowing:?} eta {eta} alpha {alpha} mu {mu}: \
                              table {table}, brute force {mean} +- {se}"
@@ -160,7 +141,7 @@ const COSINES: [f32; 5] = [1.0, 0.6, 0.25, 0.12, 0.04];
 
 /// White furnace, end to end: a clear dielectric regularized with
 /// compensation, integrated with its own sampler, value and pdf, has the
-/// energy albedo of the original within `tolerance` plus five standard
+/// energy albedo of the original within `TOLERANCE` plus five standard
 /// errors, from both sides, at glass (1.5), diamond (2.4) and near
 /// index-matched interfaces (1.1), down to grazing. The estimates
 /// resolve 1e-3 only in part (the compensated mixture's standard error is
@@ -208,7 +189,7 @@ fn compensated_dielectric_keeps_the_original_albedo() {
                             }
                         }
                         let difference = (e_hat - e).abs();
-                        let allowed = tolerance(seen, shadowing);
+                        let allowed = TOLERANCE;
                         // The largest difference where the estimates resolve the tolerance.
                         if SIGMAS * se < allowed {
                             resolved += 1;
@@ -252,7 +233,7 @@ const REFERENCE_DENSE: (usize, usize) = (32, 32);
 /// so its difference from the original's E(alpha) is the tables' error in
 /// dE. Here E is a fine quadrature and dE the lobe's own, over originals
 /// alpha (smooth to 0.3), alpha-hat (to 1), cosines, index ratios near and
-/// far from 1, both sides: within 1e-3 (`tolerance`). Where the wider lobe
+/// far from 1, both sides: within 1e-3 (`TOLERANCE`). Where the wider lobe
 /// gains energy, E(alpha-hat) is that of the scaled lobe, by the same
 /// quadrature with s at every direction (`microfacet::dielectric_gain`).
 #[test]
@@ -260,14 +241,17 @@ fn compensated_albedo_matches_the_original_by_quadrature() {
     let originals = [0.0f32, 0.03, 0.1, 0.3];
     let widened = [0.15f32, 0.45, 0.75, 1.0];
     // 0.72 and 0.87 lie just below the total-internal-reflection kinks of
-    // eta 1/1.5 and 1/2.2 (mu = c = 0.745, 0.891), where narrow lobes change fastest.
-    let cosines = [0.04f32, 0.1, 0.2, 0.3, 0.45, 0.65, 0.72, 0.85, 0.87, 1.0];
+    // eta 1/1.5 and 1/2.2 (mu = c = 0.745, 0.891), where narrow lobes change
+    // fastest; 0.26 and 0.61 just below V-cavity's onset of full visibility
+    // for eta 1/1.05 and 1/1.5 (mu = 0.264, 0.633), where rows of one
+    // segment below the kink missed it by up to 1.09e-3 and 1.36e-3 (7
+    // cases beyond 1e-3); split there (`MuGrid`), 6.2e-4 is the largest.
+    let cosines = [
+        0.04f32, 0.1, 0.2, 0.26, 0.3, 0.45, 0.61, 0.65, 0.72, 0.85, 0.87, 1.0,
+    ];
     let etas = [1.05f32, 1.1, 1.5, 2.2];
     let mut failures = Vec::new();
-    // Largest error held to 1e-3, and to V-cavity's dense-side bound.
-    let mut worst = [(0.0f64, String::new()), (0.0, String::new())];
-    // Cases held to the wider bound: [beyond 1e-3, within it].
-    let mut within = [0, 0];
+    let mut worst = (0.0f64, String::new());
     // Largest gain of a widened lobe, and the largest error/tolerance where it gains.
     let (mut gained, mut worst_gaining): (f64, f64) = (0.0, 0.0);
     for (kind, shadowing) in TESTED {
@@ -321,27 +305,21 @@ fn compensated_albedo_matches_the_original_by_quadrature() {
                             let name = format!(
                                 "{kind:?}/{shadowing:?} eta {seen} {alpha} -> {alpha_hat} mu {mu}"
                             );
-                            let allowed = tolerance(seen, shadowing);
                             let error = (scaled + deficit - original).abs();
                             if widened > original {
-                                worst_gaining = worst_gaining.max(error / allowed);
+                                worst_gaining = worst_gaining.max(error / TOLERANCE);
                             }
-                            let case = format!(
-                                "{name}: original {original:.5}, widened {widened:.5}, \
-                                 scaled {scaled:.5}, dE {deficit:.5}"
-                            );
-                            let wider = allowed != TOLERANCE;
-                            if wider {
-                                within[usize::from(error <= TOLERANCE)] += 1;
+                            if error > worst.0 {
+                                let case = format!(
+                                    "{name}: original {original:.5}, widened {widened:.5}, \
+                                     scaled {scaled:.5}, dE {deficit:.5}"
+                                );
+                                worst = (error, case);
                             }
-                            let class = &mut worst[usize::from(wider)];
-                            if error > class.0 {
-                                *class = (error, case);
-                            }
-                            if error > allowed {
+                            if error > TOLERANCE {
                                 failures.push(format!(
                                     "{name}: original {original}, widened {widened} + dE {deficit} \
-                                     (error {error:.2e}, tolerance {allowed:.0e})"
+                                     (error {error:.2e})"
                                 ));
                             }
                         }
@@ -350,17 +328,11 @@ fn compensated_albedo_matches_the_original_by_quadrature() {
             }
         }
     }
-    let [(error, case), (wider_error, wider_case)] = worst;
-    println!("largest |compensated - original| held to 1e-3: {error:.2e} ({case})");
+    let (error, case) = worst;
+    println!("largest |compensated - original|: {error:.2e} ({case})");
     println!(
         "  largest gain of a widened lobe {gained:.3}; where it gains (scaled), largest \
          error/tolerance {worst_gaining:.2}"
-    );
-    println!("  held to {VCAVITY_DENSE_TOLERANCE:.1e}: {wider_error:.2e} ({wider_case})");
-    println!(
-        "  of the cases held to it, {} of {} are within 1e-3",
-        within[1],
-        within[0] + within[1]
     );
     assert!(
         failures.is_empty(),
