@@ -75,14 +75,19 @@
 //! - Beckmann/V-cavity from both sides for mu >= 0.04: from the rare side
 //!   3.9e-4 for mu >= 0.1, 4.6e-4 at 0.04; from the dense side 9.1e-4 (eta
 //!   1/2, mu 0.46, where off-plane normals round off the onset of
-//!   transmission; GGX/V-cavity 9.0e-4), with its rows split at the onsets
-//!   of transmission and of full visibility (`MuGrid`,
-//!   `crate::vcavity_onsets`; 1.75e-3 in one segment below the kink, with
-//!   64 nodes).
+//!   transmission; GGX/V-cavity 9.0e-4, Blinn-Phong/V-cavity 9.7e-4), with
+//!   its rows split at the onsets of transmission and of full visibility
+//!   (`MuGrid`, `crate::vcavity_onsets`; 1.75e-3 in one segment below the
+//!   kink, with 64 nodes).
 //!
 //! Beyond the tested ratios, GGX/Smith: 3.2e-4 at eta 2.6, 8.7e-4 at
 //! 1/2.6; from the dense side of nearly index-matched interfaces 4.7e-4 at
-//! eta 1/1.012, 1.0e-3 at 1/1.0034, 1.8e-3 at 1/1.0017 (`MuGrid`).
+//! eta 1/1.012, 1.0e-3 at 1/1.0034, 1.8e-3 at 1/1.0017, just above the
+//! kink (mu = 0.11 at 1/1.0017), where cos theta_t = t bends sharply at t
+//! ~ c, in cells of the order of c: rows in sqrt(mu - c) instead of t cut
+//! that to 9.1e-4 at 1/1.0034 but left 1.65e-3 at 1/1.0017 (below the kink,
+//! between critical-cosine nodes) and raised normal incidence (V-cavity
+//! 1.04e-3 at 1/1.25), so t stays.
 //!
 //! **Sampling.** The compensation is chosen with probability
 //! P_c = dE_s / (E-hat_s + dE_s), then transmission with probability t_s,
@@ -158,7 +163,8 @@ const UPPER_CELLS: usize = TABLE_MU_DIELECTRIC - 1 - DENSE_LOWER_CELLS;
 /// that of full visibility, up to the critical cosine. Against 32 cells in
 /// one segment, the sweep of the compensated albedo (mu 0.04 to 1 in steps
 /// of 0.01, originals 0-0.3 widened to 0.15-1, eta 1/1.05-1/2.4) fell from
-/// 1.75e-3 to 9.1e-4 for Beckmann (from 1.0e-3 to 9.0e-4 for GGX). With
+/// 1.75e-3 to 9.1e-4 for Beckmann (from 1.0e-3 to 9.0e-4 for GGX; 9.7e-4
+/// for Blinn-Phong). With
 /// 32 cells split (8 + 16 + 8, four spacings tried) the error of a single
 /// row at a table node stayed at 0.9-1.4e-3, next to x1 (whose kink the
 /// cubics round off over 0.02 on both sides) and to the critical cosine.

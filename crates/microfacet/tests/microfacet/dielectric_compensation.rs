@@ -189,18 +189,17 @@ fn compensated_dielectric_keeps_the_original_albedo() {
                             }
                         }
                         let difference = (e_hat - e).abs();
-                        let allowed = TOLERANCE;
                         // The largest difference where the estimates resolve the tolerance.
-                        if SIGMAS * se < allowed {
+                        if SIGMAS * se < TOLERANCE {
                             resolved += 1;
-                            if difference / allowed > worst {
-                                worst = difference / allowed;
+                            if difference / TOLERANCE > worst {
+                                worst = difference / TOLERANCE;
                                 worst_case = format!("{name}: {e} vs {e_hat} +- {se}");
                             }
                         }
                         worst_at_tolerance =
-                            f64::max(worst_at_tolerance, (difference - SIGMAS * se) / allowed);
-                        if difference > allowed + SIGMAS * se {
+                            f64::max(worst_at_tolerance, (difference - SIGMAS * se) / TOLERANCE);
+                        if difference > TOLERANCE + SIGMAS * se {
                             failures.push(format!(
                                 "{name}: original {e} +- {se}, compensated {e_hat} +- {se_hat}"
                             ));
