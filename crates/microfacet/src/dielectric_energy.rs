@@ -551,11 +551,17 @@ impl MuGrid {
             Self::Dense { critical, lower } => {
                 let parts = MomentParts::of(lower.shadowing());
                 let c2 = f64::from(critical).powi(2);
+                // (p L, L^2) of each segment, hoisted out of the node loop.
+                let scales: [(f64, f64); VCAVITY_LOWER_CELLS.len()] = std::array::from_fn(|s| {
+                    let (_, p, length) = lower.segment_bounds(s.min(lower.segments() - 1));
+                    (p * length, length * length)
+                });
                 for (i, weight) in weights.iter_mut().enumerate().take(self.len()) {
-                    let below: f64 = (0..lower.segments())
-                        .map(|s| {
-                            let (_, p, length) = lower.segment_bounds(s);
-                            p * length * parts.offset[s][i] + length * length * parts.span[s][i]
+                    let below: f64 = scales[..lower.segments()]
+                        .iter()
+                        .enumerate()
+                        .map(|(s, (offset, span))| {
+                            offset * parts.offset[s][i] + span * parts.span[s][i]
                         })
                         .sum();
                     *weight = c2 * below + (1.0 - c2) * parts.upper[i];
