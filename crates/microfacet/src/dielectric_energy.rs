@@ -41,7 +41,7 @@
 //! **Tables** E(mu, alpha, eta) per NDF x shadowing and per medium of the
 //! query (`RARE`: the index ratio seen is >= 1; `DENSE`: < 1), on
 //! `TABLE_CRITICAL` x `TABLE_ALPHA` x `table_mu_nodes` nodes (64 in mu with
-//! Smith shadowing, 88 with V-cavity's: `MuGrid`). The index
+//! Smith shadowing, 104 with V-cavity's: `MuGrid`). The index
 //! ratio enters through the cosine of the critical angle,
 //! c = sqrt(1 - 1/max(eta, 1/eta)^2) on [0, c(`ETA_MAX`)]: from the dense
 //! side total internal reflection sets in at mu = c, which is a node of
@@ -49,9 +49,9 @@
 //! refracts to the cosine c, so the albedo is smooth in c where it was not in
 //! eta near 1 (`critical_cosine`). Rows of neighbouring c are interpolated at
 //! the same position relative to their kink; bicubic (Catmull-Rom) in
-//! sqrt(alpha) (`crate::energy::alpha_weights`) and c, and cubic in mu
-//! inside each segment of the `MuGrid` (the dense side's kink ends one),
-//! with dE_avg the exact moment of the interpolated dE
+//! sqrt(alpha) (`crate::energy::alpha_weights`) and c, and cubic in the
+//! node index inside each segment of the `MuGrid` (the dense side's kink
+//! ends one), with dE_avg the exact moment of the interpolated dE
 //! (`MuGrid::positive_part_moment`). An interface outside [1/`ETA_MAX`,
 //! `ETA_MAX`] is compensated as if its eta were clamped to it: its energy is
 //! then restored only approximately (the table's error grows with the
@@ -59,35 +59,42 @@
 //! microfacet normals (`Quadrature` from the rare side,
 //! `crate::quadrature::SplitQuadrature`, split at the total-internal-reflection
 //! curve, from the dense side), serially, one critical-cosine node at its
-//! first use: an interface reads four of the 41 (release build, one core,
+//! first use: an interface reads four of the 61 (release build, one core,
 //! eta 1.5: 1.5-2.6 s for Beckmann/Smith, 2.7-3.3 s for GGX/Smith, about
-//! 1.5x the former 21 x 44-node grid's, measured side by side; 6-10 s for
-//! GGX/V-cavity with 64 nodes in mu, 1.44x that with its 88, 4.4 s against
-//! 6.4 s side by side on an idle host).
+//! 1.5x the former 21 x 44-node grid's, measured side by side; 6.6-8.8 s
+//! for GGX/V-cavity with its 104 nodes in mu at eta 1.001-2.4 on an idle
+//! host, 1.2x what its former 88 took: `TABLE_MU_VCAVITY`).
 //!
 //! Accuracy (against fine quadrature, originals alpha 0 to 0.3 widened to
-//! 0.15 to 1, eta in [1.05, 2.2] and its inverse; a sweep of mu in steps of
-//! 0.01, of which `tests/microfacet/dielectric_compensation.rs` checks twelve cosines): the
-//! compensated albedo E(alpha-hat) + dE is within 1e-3 of E(alpha)
-//! - GGX/Smith from both sides for mu >= 0.01: 6.9e-4 from the rare side,
-//!   8.0e-4 from the dense side (1.8e-3 at mu 0.01 before the first alpha
-//!   cell was made linear in alpha^2, `crate::energy::alpha_weights`);
-//! - Beckmann/V-cavity from both sides for mu >= 0.04: from the rare side
-//!   3.9e-4 for mu >= 0.1, 4.6e-4 at 0.04; from the dense side 9.1e-4 (eta
-//!   1/2, mu 0.46, where off-plane normals round off the onset of
-//!   transmission; GGX/V-cavity 9.0e-4, Blinn-Phong/V-cavity 9.7e-4), with
-//!   its rows split at the onsets of transmission and of full visibility
-//!   (`MuGrid`, `crate::vcavity_onsets`; 1.75e-3 in one segment below the
-//!   kink, with 64 nodes).
+//! 0.15 to 1; a sweep of mu in steps of 0.01, of which
+//! `tests/microfacet/dielectric_compensation.rs` checks twelve cosines at
+//! eta 1.05-2.2 and eight at 1.001 and 1.0017): the compensated albedo
+//! E(alpha-hat) + dE is within 1e-3 of E(alpha) from both sides of the
+//! interfaces that regularization widens (|eta - 1| >= 1e-3,
+//! `crate::dielectric::INDEX_MATCH_EPSILON`):
+//! - GGX/Smith for mu >= 0.01 up to eta 3: 7.8e-4 from the rare side (eta
+//!   3, normal incidence; 5.8e-4 up to 2.4), 6.3e-4 from the dense side
+//!   (1/2.4; 4.6e-4 for 1/1.05 to 1/2.2, 5.2e-4 for 1/1.001 to 1/1.02);
+//!   1.8e-3 at mu 0.01 before the first alpha cell was made linear in
+//!   alpha^2 (`crate::energy::alpha_weights`);
+//! - V-cavity for mu >= 0.04 up to eta 2.4, its dense rows split at the
+//!   onsets of transmission and of full visibility (`MuGrid`,
+//!   `crate::vcavity_onsets`; 1.75e-3 in one segment below the kink):
+//!   Beckmann 4.0e-4 from the rare side and 7.6e-4 from the dense side
+//!   (eta 1/1.001; 7.2e-4 at 1/2, where off-plane normals round off the
+//!   onset of transmission), Blinn-Phong 7.9e-4 (1/2.4) and GGX 7.6e-4
+//!   (1/2.4) from the dense side, except GGX near index matching: 1.29e-3
+//!   at eta 1/1.0013, 1.09e-3 at 1/1.0017, within 1e-3 from 1/1.0025. That
+//!   is the tables' own rule (`QUADRATURE_DENSE`): at mu 0.12 it is 6e-4
+//!   off 64 x 64 nodes per piece at alpha 0.2 and at 0.75, with opposite
+//!   signs.
 //!
-//! Beyond the tested ratios, GGX/Smith: 3.2e-4 at eta 2.6, 8.7e-4 at
-//! 1/2.6; from the dense side of nearly index-matched interfaces 4.7e-4 at
-//! eta 1/1.012, 1.0e-3 at 1/1.0034, 1.8e-3 at 1/1.0017, just above the
-//! kink (mu = 0.11 at 1/1.0017), where cos theta_t = t bends sharply at t
-//! ~ c, in cells of the order of c: rows in sqrt(mu - c) instead of t cut
-//! that to 9.1e-4 at 1/1.0034 but left 1.65e-3 at 1/1.0017 (below the kink,
-//! between critical-cosine nodes) and raised normal incidence (V-cavity
-//! 1.04e-3 at 1/1.25), so t stays.
+//! The same sweep gave GGX/Smith 6.9e-4 and 8.0e-4 for eta 1.05-2.2 but
+//! 1.84e-3 at 1/1.0017, and Beckmann/V-cavity 9.1e-4 (Blinn-Phong 9.7e-4)
+//! but 4.1e-3 at 1/1.0017, when the rows were read at a fraction of the
+//! cell linear in x or t instead of the node index (`Segment::cell`), the
+//! critical-cosine nodes were uniform (41, `TABLE_CRITICAL`) and
+//! V-cavity's had Smith's 31 cells above the kink (`VCAVITY_UPPER_CELLS`).
 //!
 //! **Sampling.** The compensation is chosen with probability
 //! P_c = dE_s / (E-hat_s + dE_s), then transmission with probability t_s,
@@ -131,21 +138,27 @@ use crate::fresnel;
 use crate::gain::{Kernel, MIN_GAIN, kept_share};
 use crate::model::MicrofacetModel;
 use crate::ndf::NdfKind;
-use crate::quadrature::{SmithG1Table, SplitQuadrature, gauss_legendre};
+use crate::quadrature::{SmithG1Table, SplitQuadrature, gauss_legendre, gauss_legendre_8};
 use crate::sample::{MixturePdf, TransportMode};
 use crate::shadowing::Shadowing;
 
 /// Largest index ratio of the tables (and 1/`ETA_MAX` the smallest): glass
 /// 1.5, diamond 2.42, rutile 2.9 are inside.
 pub const ETA_MAX: f32 = 3.0;
-/// Table nodes per side in the interface's critical cosine c (`critical_cosine`),
-/// uniform on [0, c(`ETA_MAX`)]; node 0 is the index-matched eta = 1. From
-/// the dense side wide lobes have a feature at mu = eta (where the circle of
-/// total internal reflection around wi reaches the horizon of the normals),
-/// which moves across the rows' `MuGrid` as c changes: with 21 nodes
+/// Table nodes per side in the interface's critical cosine c (`critical_cosine`)
+/// on [0, c(`ETA_MAX`)], spaced from 0.0079 at c = 0 to 0.0236 at the end
+/// (`critical_node`); node 0 is the index-matched eta = 1. From the dense
+/// side wide lobes have a feature at mu = eta (where the circle of total
+/// internal reflection around wi reaches the horizon of the normals), which
+/// moves across the rows' `MuGrid` as c changes: with 21 uniform nodes
 /// interpolation in c missed it by up to 1.6e-3 (GGX/Smith, eta 1/1.5,
-/// alpha 1, mu 0.66; 6.0e-4 at a node), with 41 by 5.5e-4.
-pub const TABLE_CRITICAL: usize = 41;
+/// alpha 1, mu 0.66; 6.0e-4 at a node), with 41 (0.0236 apart) by 5.5e-4.
+/// Near index matching narrow lobes change on the scale of c itself, and
+/// the rows below the kink (in x = mu/c) with it: 41 uniform nodes missed
+/// by up to 1.55e-3 (GGX/Smith, eta 1/1.0017, alpha 0.03 widened to 1, mu
+/// 0.05), these 61 by 2.4e-4. An interface reads 4 of them, so their number
+/// costs no build time.
+pub const TABLE_CRITICAL: usize = 61;
 /// Table nodes in mu per row with Smith shadowing (`MuGrid`). More than the
 /// conductor tables' `TABLE_MU`: from the dense side narrow lobes fall over
 /// a cosine of the order of alpha just below the kink at mu = c; with 44
@@ -156,7 +169,7 @@ pub const TABLE_MU_DIELECTRIC: usize = 64;
 /// mu cells of a Smith dense-side row below its critical cosine
 /// (`Lower::Whole`); the other `UPPER_CELLS` lie above it.
 const DENSE_LOWER_CELLS: usize = 32;
-/// mu cells of every dense-side row above its critical cosine (`UPPER`).
+/// mu cells of a Smith dense-side row above its critical cosine (`UPPER`).
 const UPPER_CELLS: usize = TABLE_MU_DIELECTRIC - 1 - DENSE_LOWER_CELLS;
 /// mu cells of a V-cavity dense-side row below its critical cosine, in its
 /// three segments (`Lower::Split`): up to the onset of transmission, up to
@@ -169,14 +182,27 @@ const UPPER_CELLS: usize = TABLE_MU_DIELECTRIC - 1 - DENSE_LOWER_CELLS;
 /// row at a table node stayed at 0.9-1.4e-3, next to x1 (whose kink the
 /// cubics round off over 0.02 on both sides) and to the critical cosine.
 const VCAVITY_LOWER_CELLS: [usize; 3] = [16, 24, 16];
+/// mu cells of a V-cavity dense-side row above its critical cosine
+/// (`VCAVITY_UPPER`). Its albedo has features there that Smith's has not:
+/// where the facets that refract wi stop being fully visible, at cosines of
+/// the order of alpha, which near index matching lie just above the kink.
+/// With Smith's 31 cells the compensated albedo missed them by up to
+/// 1.66e-3 (Beckmann, eta 1/1.001, 0.03 -> 0.6, mu 0.08) and 6.2e-4 at eta
+/// 1/1.05 (GGX, mu 0.96); with 47 by 7.3e-4 and 1.5e-4.
+const VCAVITY_UPPER_CELLS: usize = 47;
 /// Table nodes in mu per row with V-cavity shadowing: every row of a table
 /// has the same length, so its rare side has them too (uniform in sqrt(mu)).
 /// A V-cavity interface's tables take 1.4x (albedo) and 1.6-1.7x (gain
 /// slices, `crate::dielectric_gain`) the time they took with 64 (eta 1.5,
 /// one core: 4.4 -> 6.4 s and 3.2 -> 5.1 s for GGX, 3.2 -> 4.7 s and 4.1 ->
-/// 6.9 s for Beckmann).
-pub const TABLE_MU_VCAVITY: usize =
-    VCAVITY_LOWER_CELLS[0] + VCAVITY_LOWER_CELLS[1] + VCAVITY_LOWER_CELLS[2] + UPPER_CELLS + 1;
+/// 6.9 s for Beckmann) with 88 nodes, and with these 104 1.2x and 1.5x that
+/// (6.4 -> 7.4 s and 5.1 -> 7.5 s for GGX, 4.7 -> 5.5 s and 7.0 -> 10.3 s
+/// for Beckmann; side by side on an idle host).
+pub const TABLE_MU_VCAVITY: usize = VCAVITY_LOWER_CELLS[0]
+    + VCAVITY_LOWER_CELLS[1]
+    + VCAVITY_LOWER_CELLS[2]
+    + VCAVITY_UPPER_CELLS
+    + 1;
 /// The longest row (for arrays on the stack).
 const MAX_MU_NODES: usize = TABLE_MU_VCAVITY;
 
@@ -264,16 +290,29 @@ pub(crate) fn critical_cosine(eta: f32) -> (usize, f32) {
 /// sides' tables (checked against `ETA_MAX` by a unit test).
 const CRITICAL_MAX: f32 = 0.942_809_04;
 
-/// c of table node i.
+/// c of table node i: c = c_max v (s + (1 - s) v), v = i / (`TABLE_CRITICAL` - 1),
+/// s = `CRITICAL_START_SLOPE`.
 pub(crate) fn critical_node(i: usize) -> f32 {
-    CRITICAL_MAX * i as f32 / (TABLE_CRITICAL - 1) as f32
+    let v = i as f64 / (TABLE_CRITICAL - 1) as f64;
+    let s = CRITICAL_START_SLOPE;
+    (f64::from(CRITICAL_MAX) * v * (s + (1.0 - s) * v)) as f32
 }
 
-/// (cell index, fraction) of the critical cosine `c` on the nodes.
+/// dc/dv of the critical-cosine nodes at c = 0 over c_max (`critical_node`;
+/// 2 - s at the end): the nodes are three times as dense near index
+/// matching as at c_max.
+const CRITICAL_START_SLOPE: f64 = 0.5;
+
+/// (cell index, fraction) of the critical cosine `c` on the nodes, the
+/// fraction in v (`critical_node`, inverted in the form that does not
+/// cancel at small c).
 pub(crate) fn critical_cell(c: f32) -> (usize, f32) {
-    let s = (c / CRITICAL_MAX).clamp(0.0, 1.0) * (TABLE_CRITICAL - 1) as f32;
-    let i = (s as usize).min(TABLE_CRITICAL - 2);
-    (i, s - i as f32)
+    let r = f64::from((c / CRITICAL_MAX).clamp(0.0, 1.0));
+    let slope = CRITICAL_START_SLOPE;
+    let v = 2.0 * r / (slope + (slope * slope + 4.0 * (1.0 - slope) * r).sqrt());
+    let position = (v * (TABLE_CRITICAL - 1) as f64) as f32;
+    let i = (position as usize).min(TABLE_CRITICAL - 2);
+    (i, position - i as f32)
 }
 
 /// The nodes in mu of one table row (`table_mu_nodes` of its shadowing).
@@ -282,23 +321,28 @@ pub(crate) fn critical_cell(c: f32) -> (usize, f32) {
 ///   the albedo changes fastest near grazing.
 /// - `Dense { critical: c, lower }`: segments that meet at the kink mu = c
 ///   (total internal reflection of the smooth interface), a node at every
-///   eta: below it cells in x = mu/c (`Lower`), above it `UPPER_CELLS` cells
-///   in the refracted cosine t = sqrt((mu^2 - c^2)/(1 - c^2)) = cos theta_t,
-///   in which the smooth interface's transmittance starts linearly (1 - F ~
-///   cos theta_t, while it has an infinite slope in mu). Rows of
-///   neighbouring c are interpolated at equal (x, t), kink to kink. The
-///   nodes cluster at the ends of the segments (`Segment`): grazing
-///   incidence; just below the kink, where narrow lobes fall over a cosine
-///   of the order of alpha; just above it, where the albedo of nearly
-///   index-matched interfaces climbs steeply over a cosine of the order of
-///   alpha; and normal incidence, where their wide lobes' feature at mu =
-///   eta lies. Against nodes uniform in sqrt(mu/c) and in t, a sweep of the
+///   eta: below it cells in x = mu/c (`Lower`), above it `UPPER_CELLS`
+///   (V-cavity: `VCAVITY_UPPER_CELLS`) cells in the refracted cosine
+///   t = sqrt((mu^2 - c^2)/(1 - c^2)) = cos theta_t, in which the smooth
+///   interface's transmittance starts linearly (1 - F ~ cos theta_t, while
+///   it has an infinite slope in mu). Rows of neighbouring c are
+///   interpolated at equal (x, t), kink to kink. The nodes cluster at the
+///   ends of the segments (`Segment`): grazing incidence; just below the
+///   kink, where narrow lobes fall over a cosine of the order of alpha; just
+///   above it, where the albedo of nearly index-matched interfaces climbs
+///   steeply over a cosine of the order of alpha; and normal incidence,
+///   where their wide lobes' feature at mu = eta lies. The cubics are read
+///   at the fraction of a cell in the node index (`Segment::cell`).
+///   Against nodes uniform in sqrt(mu/c) and in t, a sweep of the
 ///   compensated albedo (mu in steps of 0.01, originals 0-0.3 widened to
 ///   0.15-1 in ten steps) fell, for GGX/Smith, from 1.8e-3 to 7.2e-4 at eta
 ///   1/1.0056 and from 4.3e-3 to 1.8e-3 at 1/1.0017, while it stayed within
 ///   8.0e-4 elsewhere (7.6e-4 before); for Beckmann/V-cavity at eta
 ///   1/1.05-1/2.4 from 4.6e-3 to 1.75e-3, and to 9.1e-4 with its rows split
-///   at its onsets (`Lower::Split`).
+///   at its onsets (`Lower::Split`). Read at the index fraction (and with
+///   critical-cosine nodes denser near 0, `TABLE_CRITICAL`), 3.3e-4 at
+///   1/1.0017 and at most 6.3e-4 elsewhere for GGX/Smith, 7.6e-4 for
+///   Beckmann/V-cavity (with `VCAVITY_UPPER_CELLS`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum MuGrid {
     Rare { shadowing: Shadowing },
@@ -376,12 +420,17 @@ impl Lower {
         }
     }
 
-    /// (x, x) of the ends of cell j in its segment's coordinate.
-    fn unit_cell(self, j: usize) -> (f64, f64) {
+    /// (x, dx/dtau) at fraction tau of cell j (`Segment::unit`), x in its
+    /// segment's own coordinate.
+    fn unit_at(self, j: usize, tau: f64) -> (f64, f64) {
         let s = self.segment_of(j);
-        let nodes = self.unit_nodes(s);
         let k = j - self.segment_bounds(s).0;
-        (nodes[k], nodes[k + 1])
+        match (self, s) {
+            (Self::Whole, _) => LOWER.unit(k, tau),
+            (Self::Split(_), 0) => GRAZING_SEGMENT.unit(k, tau),
+            (Self::Split(_), 1) => ONSETS_SEGMENT.unit(k, tau),
+            (Self::Split(_), _) => VISIBLE_SEGMENT.unit(k, tau),
+        }
     }
 
     /// x of node j (<= `cells`).
@@ -415,6 +464,39 @@ impl Lower {
         let first = self.segment_bounds(s).0;
         (first, first + self.unit_nodes(s).len() - 1)
     }
+
+    /// The cells above the kink of the rows it divides, in t (`UPPER`,
+    /// `VCAVITY_UPPER`).
+    fn upper_cells(self) -> usize {
+        match self {
+            Self::Whole => UPPER_CELLS,
+            Self::Split(_) => VCAVITY_UPPER_CELLS,
+        }
+    }
+
+    /// t of node k above the kink.
+    fn upper_x(self, k: usize) -> f64 {
+        match self {
+            Self::Whole => UPPER.x[k],
+            Self::Split(_) => VCAVITY_UPPER.x[k],
+        }
+    }
+
+    /// (cell, fraction) of t above the kink (`Segment::cell`).
+    fn upper_cell(self, t: f64) -> (usize, f32) {
+        match self {
+            Self::Whole => UPPER.cell(t),
+            Self::Split(_) => VCAVITY_UPPER.cell(t),
+        }
+    }
+
+    /// (t, dt/dtau) at fraction tau of cell k above the kink (`Segment::unit`).
+    fn upper_unit(self, k: usize, tau: f64) -> (f64, f64) {
+        match self {
+            Self::Whole => UPPER.unit(k, tau),
+            Self::Split(_) => VCAVITY_UPPER.unit(k, tau),
+        }
+    }
 }
 
 impl MuGrid {
@@ -435,7 +517,7 @@ impl MuGrid {
     pub(crate) fn len(self) -> usize {
         match self {
             Self::Rare { shadowing } => table_mu_nodes(shadowing),
-            Self::Dense { lower, .. } => lower.cells() + UPPER_CELLS + 1,
+            Self::Dense { lower, .. } => lower.cells() + lower.upper_cells() + 1,
         }
     }
 
@@ -448,7 +530,7 @@ impl MuGrid {
                 let mu = if j <= lower.cells() {
                     c * lower.x(j)
                 } else {
-                    let t = UPPER.x[j - lower.cells()];
+                    let t = lower.upper_x(j - lower.cells());
                     (c * c + (1.0 - c * c) * t * t).sqrt()
                 };
                 mu.clamp(GRAZING_MU, 1.0)
@@ -467,15 +549,17 @@ impl MuGrid {
                 } else {
                     // In f64: mu^2 - c^2 cancels just above the kink.
                     let t = ((mu * mu - c * c) / (1.0 - c * c)).max(0.0).sqrt();
-                    let (k, fraction) = UPPER.cell(t);
+                    let (k, fraction) = lower.upper_cell(t);
                     (lower.cells() + k, fraction)
                 }
             }
         }
     }
 
-    /// d(mu^2)/d tau in cell j at fraction tau: the measure 2 mu dmu of the
-    /// cosine-weighted average, a polynomial of degree at most 3 in tau.
+    /// d(mu^2)/d tau in cell j at fraction tau (`cell`): the measure 2 mu
+    /// dmu of the cosine-weighted average, a polynomial in tau of degree 3
+    /// from the rare side and at most 7 from the dense side (whose
+    /// `Spacing`s are polynomials of degree up to 4 in the node index).
     fn measure(self, j: usize, tau: f64) -> f64 {
         match self {
             Self::Rare { .. } => {
@@ -485,16 +569,17 @@ impl MuGrid {
                 4.0 * s.powi(3) * h
             }
             Self::Dense { critical, lower } => {
-                // mu^2 = c^2 x^2 below the kink, c^2 + (1 - c^2) x^2
-                // above it, x = mu / c or t linear in the cell.
+                // mu^2 = c^2 x^2 below the kink (x = p + L v in a segment
+                // from p of length L), c^2 + (1 - c^2) t^2 above it.
                 let c2 = f64::from(critical).powi(2);
-                let (scale, x0, x1) = if j < lower.cells() {
-                    (c2, lower.x(j), lower.x(j + 1))
+                if j < lower.cells() {
+                    let (_, p, length) = lower.segment_bounds(lower.segment_of(j));
+                    let (v, dv) = lower.unit_at(j, tau);
+                    2.0 * c2 * (p + length * v) * length * dv
                 } else {
-                    let k = j - lower.cells();
-                    (1.0 - c2, UPPER.x[k], UPPER.x[k + 1])
-                };
-                2.0 * scale * (x0 + (x1 - x0) * tau) * (x1 - x0)
+                    let (t, dt) = lower.upper_unit(j - lower.cells(), tau);
+                    2.0 * (1.0 - c2) * t * dt
+                }
             }
         }
     }
@@ -522,8 +607,9 @@ impl MuGrid {
 
     /// 2 int_0^1 max(0, y) mu dmu for y the cubic spline of each segment
     /// through the node values `nodes` (as `DielectricAlbedoTable::albedo`
-    /// interpolates), exact (`crate::energy::spline_positive_moment`; the
-    /// measure is a cubic in each cell's fraction). So dE_avg is the moment
+    /// interpolates), exact (`crate::energy::spline_positive_moment`: the
+    /// integrands, a cubic times `measure`, have degree at most 10, which
+    /// 8-point Gauss-Legendre integrates exactly). So dE_avg is the moment
     /// of the very dE that `DielectricCompensation::deficit` interpolates,
     /// and the furnace identity holds for the interpolated dE.
     fn positive_part_moment(self, nodes: &[f32]) -> f64 {
@@ -533,6 +619,7 @@ impl MuGrid {
             &weights[..self.len()],
             |j| self.segment(j),
             |j, t| self.measure(j, t),
+            gauss_legendre_8(),
         )
     }
 
@@ -599,14 +686,14 @@ impl MomentParts {
             };
             let n = rare.len();
             let of = |grid: MuGrid, measure: &dyn Fn(usize, f64) -> f64| {
-                spline_moment_weights(n, |j| grid.segment(j), measure)
+                spline_moment_weights(n, |j| grid.segment(j), measure, gauss_legendre_8())
             };
             // A measure in the segment's own coordinate on segment s, 0 elsewhere.
-            let on_segment = |s: usize, measure: fn(f64, f64, f64) -> f64| {
+            let on_segment = |s: usize, measure: fn(f64, f64) -> f64| {
                 of(dense, &move |j, t| {
                     if j < lower.cells() && lower.segment_of(j) == s {
-                        let (v0, v1) = lower.unit_cell(j);
-                        measure(v0, v1, t)
+                        let (v, dv) = lower.unit_at(j, t);
+                        measure(v, dv)
                     } else {
                         0.0
                     }
@@ -615,10 +702,10 @@ impl MomentParts {
             Self {
                 rare: of(rare, &|j, t| rare.measure(j, t)),
                 offset: (0..lower.segments())
-                    .map(|s| on_segment(s, |v0, v1, _| 2.0 * (v1 - v0)))
+                    .map(|s| on_segment(s, |_, dv| 2.0 * dv))
                     .collect(),
                 span: (0..lower.segments())
-                    .map(|s| on_segment(s, |v0, v1, t| 2.0 * (v0 + (v1 - v0) * t) * (v1 - v0)))
+                    .map(|s| on_segment(s, |v, dv| 2.0 * v * dv))
                     .collect(),
                 // c = 0: only the cells above the kink have a measure.
                 upper: of(dense, &|j, t| dense.measure(j, t)),
@@ -651,6 +738,7 @@ fn onsets_at(c: f32) -> [f64; 2] {
 /// the cell that holds the start of each of `SEGMENT_BINS` equal bins.
 struct Segment<const N: usize> {
     x: [f64; N],
+    spacing: Spacing,
     bin_cell: [u8; SEGMENT_BINS],
 }
 
@@ -668,8 +756,60 @@ enum Spacing {
     Start,
 }
 
-/// Bins of `Segment::cell`'s search: narrower than every cell but the
-/// first, so that a bin holds at most two nodes.
+impl Spacing {
+    /// x at u.
+    const fn at(self, u: f64) -> f64 {
+        match self {
+            Spacing::BothEnds => 0.5 * u * u * (3.0 + u * (2.0 - 3.0 * u)),
+            Spacing::Start => 0.5 * u * (1.0 + u),
+        }
+    }
+
+    /// dx/du at u.
+    fn slope(self, u: f64) -> f64 {
+        match self {
+            Spacing::BothEnds => 3.0 * u * (1.0 - u) * (1.0 + 2.0 * u),
+            Spacing::Start => 0.5 + u,
+        }
+    }
+
+    /// The u in the cell [lo, hi] where x(u) = `x`: exact for `Start`;
+    /// for `BothEnds` `NEWTON_STEPS` of Newton's method from the chord, or
+    /// in the end cells (where x' vanishes at u = 0 and 1) from the leading
+    /// terms x ~ 3u^2/2 and 1 - x ~ 9(1 - u)^2/2.
+    fn inverse(self, x: f64, (lo, hi): (f64, f64)) -> f64 {
+        match self {
+            // u^2 + u - 2x = 0, in the form that does not cancel at x ~ 0.
+            Spacing::Start => 4.0 * x / (1.0 + (1.0 + 8.0 * x).sqrt()),
+            Spacing::BothEnds => {
+                let mut u = if lo == 0.0 {
+                    (x / 1.5).sqrt()
+                } else if hi == 1.0 {
+                    1.0 - ((1.0 - x) / 4.5).max(0.0).sqrt()
+                } else {
+                    let (x_lo, x_hi) = (self.at(lo), self.at(hi));
+                    lo + (hi - lo) * (x - x_lo) / (x_hi - x_lo)
+                };
+                for _ in 0..NEWTON_STEPS {
+                    let slope = self.slope(u);
+                    if slope > 0.0 {
+                        u -= (self.at(u) - x) / slope;
+                    }
+                }
+                u.clamp(lo, hi)
+            }
+        }
+    }
+}
+
+/// Newton steps of `Spacing::inverse`: from the chord of a cell next to an
+/// end cell (the worst start, 1/12 of a cell off) the error falls to 2e-3,
+/// 2e-6 and 1e-12 of a cell, below the f32 fraction after three.
+const NEWTON_STEPS: usize = 3;
+
+/// Bins of `Segment::cell`'s search: narrower than nearly every cell, so
+/// that a bin holds at most three nodes (`VCAVITY_UPPER`'s first; two
+/// elsewhere).
 const SEGMENT_BINS: usize = 256;
 
 impl<const N: usize> Segment<N> {
@@ -683,10 +823,7 @@ impl<const N: usize> Segment<N> {
         let mut k = 0;
         while k < N {
             let u = k as f64 / (N - 1) as f64;
-            x[k] = match spacing {
-                Spacing::BothEnds => 0.5 * u * u * (3.0 + u * (2.0 - 3.0 * u)),
-                Spacing::Start => 0.5 * u * (1.0 + u),
-            };
+            x[k] = spacing.at(u);
             k += 1;
         }
         let mut bin_cell = [0; SEGMENT_BINS];
@@ -698,11 +835,20 @@ impl<const N: usize> Segment<N> {
             bin_cell[b] = cell as u8;
             b += 1;
         }
-        Self { x, bin_cell }
+        Self {
+            x,
+            spacing,
+            bin_cell,
+        }
     }
 
-    /// (cell, fraction) of x in [0, 1], the fraction linear in x (so that
-    /// `MuGrid::measure` stays a polynomial).
+    /// (cell, fraction) of x in [0, 1], the fraction in the node index u
+    /// (x = x(u)), in which the rows' cubics are splines
+    /// (`catmull_rom_weights`). A fraction linear in x read them at the
+    /// wrong u, by up to 1/(4(2k + 1)) of a cell in cell k from an end where
+    /// the nodes cluster as u^2: near index matching, where the albedo
+    /// climbs by 0.065 per cell just above the kink (GGX/Smith, eta
+    /// 1/1.0013, alpha 0.15, mu 0.075), that missed it by 1.7e-3.
     fn cell(&self, x: f64) -> (usize, f32) {
         let x = x.clamp(0.0, 1.0);
         let bin = ((x * SEGMENT_BINS as f64) as usize).min(SEGMENT_BINS - 1);
@@ -710,15 +856,30 @@ impl<const N: usize> Segment<N> {
         while k + 2 < N && self.x[k + 1] <= x {
             k += 1;
         }
-        let (x0, x1) = (self.x[k], self.x[k + 1]);
-        (k, ((x - x0) / (x1 - x0)).clamp(0.0, 1.0) as f32)
+        let u = self.spacing.inverse(x, Self::bounds(k));
+        (k, (u * (N - 1) as f64 - k as f64).clamp(0.0, 1.0) as f32)
+    }
+
+    /// u at the ends of cell k, as quotients: the last cell ends at exactly 1.
+    fn bounds(k: usize) -> (f64, f64) {
+        let cells = (N - 1) as f64;
+        (k as f64 / cells, (k + 1) as f64 / cells)
+    }
+
+    /// (x, dx/dtau) at fraction tau of cell k (`cell`).
+    fn unit(&self, k: usize, tau: f64) -> (f64, f64) {
+        let h = 1.0 / (N - 1) as f64;
+        let u = (k as f64 + tau) * h;
+        (self.spacing.at(u), self.spacing.slope(u) * h)
     }
 }
 
 /// The segment below a Smith dense-side row's kink (`Lower::Whole`).
 const LOWER: Segment<{ DENSE_LOWER_CELLS + 1 }> = Segment::new(Spacing::BothEnds);
-/// The segment above every dense-side row's kink.
+/// The segment above a Smith dense-side row's kink.
 const UPPER: Segment<{ UPPER_CELLS + 1 }> = Segment::new(Spacing::BothEnds);
+/// The segment above a V-cavity dense-side row's kink.
+const VCAVITY_UPPER: Segment<{ VCAVITY_UPPER_CELLS + 1 }> = Segment::new(Spacing::BothEnds);
 /// The segments of a V-cavity dense-side row below its kink (`Lower::Split`):
 /// from grazing to the onset of transmission, to that of full visibility,
 /// to the critical cosine.
@@ -733,7 +894,7 @@ const VISIBLE_SEGMENT: Segment<{ VCAVITY_LOWER_CELLS[2] + 1 }> = Segment::new(Sp
 /// x `TABLE_ALPHA` x `table_mu_nodes` nodes in (c, alpha, `MuGrid` of c),
 /// each critical-cosine node's slice computed at first use: an interface
 /// reads the four nodes around its own c (`nodes_read`), so a scene of one
-/// glass computes 4 of the 41.
+/// glass computes 4 of the 61.
 #[derive(Debug)]
 pub struct DielectricAlbedoTable {
     kind: NdfKind,
@@ -928,6 +1089,7 @@ pub(crate) fn dielectric_kernel(
     let rare = Quadrature::new(kind, shadowing, alpha, radial, azimuth);
     let dense = SplitQuadrature::new(kind, shadowing, alpha, QUADRATURE_DENSE);
     let nodes = table_mu_nodes(shadowing);
+    let grids = [RARE, DENSE].map(|medium| MuGrid::of(shadowing, medium, c));
     let mut kernel = Kernel::zeros(2, nodes, subdivisions);
     for medium in [RARE, DENSE] {
         let eta = f64::from(eta_of(medium, c));
@@ -935,11 +1097,11 @@ pub(crate) fn dielectric_kernel(
             let row = medium * nodes + j;
             let deposit = |cos_o: f64, share: f64| {
                 let to = if cos_o > 0.0 { medium } else { 1 - medium };
-                let (n, t) = MuGrid::of(shadowing, to, c).cell(cos_o.abs() as f32);
+                let (n, t) = grids[to].cell(cos_o.abs() as f32);
                 let x = (n as f64 + f64::from(t)) * subdivisions as f64;
                 kernel.deposit(row, to, x, share);
             };
-            let mu = MuGrid::of(shadowing, medium, c).node(j);
+            let mu = grids[medium].node(j);
             if medium == RARE {
                 rare.albedo_with(mu, eta, deposit);
             } else {
@@ -1424,6 +1586,11 @@ mod tests {
         assert_eq!(critical_cosine(f32::NAN).1, 0.0);
         assert_eq!(critical_cell(CRITICAL_MAX), (TABLE_CRITICAL - 2, 1.0));
         for i in 0..TABLE_CRITICAL {
+            let (j, fraction) = critical_cell(critical_node(i));
+            assert!(
+                (j as f32 + fraction - i as f32).abs() < 1e-4,
+                "{i}: {j} {fraction}"
+            );
             for medium in [RARE, DENSE] {
                 let (m, c) = critical_cosine(eta_of(medium, critical_node(i)));
                 assert_eq!(m, if i == 0 { RARE } else { medium });
@@ -1480,23 +1647,41 @@ mod tests {
         }
     }
 
-    /// `Segment::cell` finds the cell that holds x, and its fraction, at
-    /// every x (its binned search against the nodes).
+    /// `Segment::cell` finds the cell that holds x, and its fraction in the
+    /// node index, at every x: `Spacing::inverse` against bisection.
     #[test]
     fn segments_find_the_cell_of_every_x() {
         fn check<const N: usize>(segment: &Segment<N>) {
+            let h = 1.0 / (N - 1) as f64;
             let steps = 100_000;
             for m in 0..=steps {
                 let x = m as f64 / steps as f64;
                 let (k, t) = segment.cell(x);
                 let (x0, x1) = (segment.x[k], segment.x[k + 1]);
                 assert!(x0 <= x && (x < x1 || k == N - 2), "{N} {x}: {k}");
-                let back = x0 + f64::from(t) * (x1 - x0);
-                assert!((back - x).abs() < 1e-7, "{N} {x}: {back}");
+                let (mut lo, mut hi) = Segment::<N>::bounds(k);
+                for _ in 0..100 {
+                    let mid = 0.5 * (lo + hi);
+                    if segment.spacing.at(mid) < x {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                    }
+                }
+                let u = segment.spacing.inverse(x, Segment::<N>::bounds(k));
+                // Where x' vanishes (u = 1) bisection stops at x's own resolution.
+                let found = (u - lo).abs() < 1e-9 * h || segment.spacing.at(u) == x;
+                assert!(found, "{N} {x}: {u} vs {lo}");
+                let fraction = f64::from(t);
+                assert!(
+                    (fraction - (lo / h - k as f64)).abs() < 1e-6,
+                    "{N} {x}: {t}"
+                );
             }
         }
         check(&LOWER);
         check(&UPPER);
+        check(&VCAVITY_UPPER);
         check(&GRAZING_SEGMENT);
         check(&ONSETS_SEGMENT);
         check(&VISIBLE_SEGMENT);

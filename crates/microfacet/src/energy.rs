@@ -495,13 +495,16 @@ pub(crate) fn positive_part_moment(nodes: &[f32; TABLE_MU]) -> f64 {
     let segment = |_| (0, TABLE_MU - 1);
     let h = 1.0 / (TABLE_MU - 1) as f64;
     let measure = |j: usize, t: f64| 4.0 * ((j as f64 + t) * h).powi(3) * h;
-    let weights = WEIGHTS.get_or_init(|| spline_moment_weights(TABLE_MU, segment, measure));
-    spline_positive_moment(nodes, weights, segment, measure)
+    let rule = gauss_legendre_4();
+    let weights = WEIGHTS.get_or_init(|| spline_moment_weights(TABLE_MU, segment, measure, rule));
+    spline_positive_moment(nodes, weights, segment, measure, rule)
 }
 
 /// int max(0, y) over a grid of cells of the spline y through `nodes`
 /// (`catmull_rom_cubic`, cells grouped into `segment`s), cell j weighted by
-/// the polynomial `measure(j, t)` (degree <= 3) of its fraction t. The
+/// the polynomial `measure(j, t)` of its fraction t, integrated by the
+/// Gauss-Legendre `rule` (exact when the cubic times the measure has at
+/// most its degree, `positive_part_integral`). The
 /// integral of y itself is linear in the nodes (`weights`, from
 /// `spline_moment_weights`); only cells where y may dip below 0 (a Bernstein
 /// coefficient of the cubic below 0, which bounds it) are integrated exactly
@@ -513,6 +516,7 @@ pub(crate) fn spline_positive_moment(
     weights: &[f64],
     segment: impl Fn(usize) -> (usize, usize),
     measure: impl Fn(usize, f64) -> f64,
+    rule: &[(f64, f64)],
 ) -> f64 {
     let y = |i: usize| f64::from(nodes[i]);
     let whole: f64 = (0..nodes.len()).map(|i| y(i) * weights[i]).sum();
@@ -523,7 +527,7 @@ pub(crate) fn spline_positive_moment(
                 0.0
             } else {
                 let cubic = catmull_rom_cubic(y, j, segment(j));
-                positive_part_integral(cubic.map(|c| -c), |t| measure(j, t))
+                positive_part_integral(cubic.map(|c| -c), |t| measure(j, t), rule)
             }
         })
         .sum();
@@ -531,20 +535,20 @@ pub(crate) fn spline_positive_moment(
 }
 
 /// The moment int y measure of each node's spline basis function (its
-/// value 1, every other node 0), summed over the cells, exact by 4-point
-/// Gauss-Legendre: the linear part of `spline_positive_moment`.
+/// value 1, every other node 0), summed over the cells, by the
+/// Gauss-Legendre `rule`: the linear part of `spline_positive_moment`.
 pub(crate) fn spline_moment_weights(
     n: usize,
     segment: impl Fn(usize) -> (usize, usize),
     measure: impl Fn(usize, f64) -> f64,
+    rule: &[(f64, f64)],
 ) -> Vec<f64> {
     (0..n)
         .map(|i| {
             (0..n - 1)
                 .map(|j| {
                     let basis = catmull_rom_cubic(|k| f64::from(u8::from(k == i)), j, segment(j));
-                    gauss_legendre_4()
-                        .iter()
+                    rule.iter()
                         .map(|&(t, w)| w * cubic_at(basis, t) * measure(j, t))
                         .sum::<f64>()
                 })
@@ -607,12 +611,18 @@ pub(crate) fn cubic_at(c: [f64; 4], t: f64) -> f64 {
 }
 
 /// int_0^1 max(0, y(t)) m(t) dt for the cubic y (`cubic_at`) and a
-/// polynomial m of degree at most 3: [0, 1] is cut where y' = 0 (explicit)
-/// and where y = 0 (bisection inside each monotone piece), and every piece
-/// where y > 0 is integrated by 4-point Gauss-Legendre, exact for y m
-/// (degree 6). So dE_avg is the moment of the very dE the tables
-/// interpolate, and the furnace identity holds for it.
-pub(crate) fn positive_part_integral(y: [f64; 4], m: impl Fn(f64) -> f64) -> f64 {
+/// polynomial m: [0, 1] is cut where y' = 0 (explicit) and where y = 0
+/// (bisection inside each monotone piece), and every piece where y > 0 is
+/// integrated by the Gauss-Legendre `rule`, exact for y m up to its degree
+/// (4 points: degree 7, the conductor tables' cubic measure; 8 points:
+/// degree 15, the dielectric's of degree 7, `crate::dielectric_energy`).
+/// So dE_avg is the moment of the very dE the tables interpolate, and the
+/// furnace identity holds for it.
+pub(crate) fn positive_part_integral(
+    y: [f64; 4],
+    m: impl Fn(f64) -> f64,
+    rule: &[(f64, f64)],
+) -> f64 {
     // Turning points: y' = c1 + 2 c2 t + 3 c3 t^2 = 0 inside (0, 1).
     let (a, b, c) = (3.0 * y[3], 2.0 * y[2], y[1]);
     let mut turns = [f64::NAN; 2];
@@ -661,8 +671,7 @@ pub(crate) fn positive_part_integral(y: [f64; 4], m: impl Fn(f64) -> f64) -> f64
         .filter(|piece| cubic_at(y, 0.5 * (piece[0] + piece[1])) > 0.0)
         .map(|piece| {
             let (lo, width) = (piece[0], piece[1] - piece[0]);
-            gauss_legendre_4()
-                .iter()
+            rule.iter()
                 .map(|&(x, w)| {
                     let t = lo + width * x;
                     w * width * cubic_at(y, t) * m(t)
@@ -705,7 +714,7 @@ mod tests {
                 cubic_at(y, t).max(0.0) * m(t) / n as f64
             })
             .sum();
-        let exact = positive_part_integral(y, m);
+        let exact = positive_part_integral(y, m, gauss_legendre_4());
         assert!((exact - fine).abs() < 1e-10, "{exact} vs {fine}");
     }
 
