@@ -247,7 +247,7 @@ impl Renderer {
     /// Otherwise each table is built at its first use, inside the first
     /// iteration that widens such a lobe (release build, one core: 0.25-1.7 s
     /// for a reflection table and 0.4-3.2 s for its gain scaling; for a
-    /// dielectric at one eta, 1.3-9 s for the four critical-cosine slices
+    /// dielectric at one eta, 1.3-18 s for the four critical-cosine slices
     /// of its albedo and 0.1-10 s for its gain scaling), so timed
     /// comparisons call this first: no configuration then pays
     /// for tables in its measured time, whichever ran before it in the

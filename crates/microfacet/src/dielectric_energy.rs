@@ -61,9 +61,11 @@
 //! curve, from the dense side), serially, one critical-cosine node at its
 //! first use: an interface reads four of the 61 (release build, one core,
 //! eta 1.5: 1.5-2.6 s for Beckmann/Smith, 2.7-3.3 s for GGX/Smith, about
-//! 1.5x the former 21 x 44-node grid's, measured side by side; 6.6-8.8 s
-//! for GGX/V-cavity with its 104 nodes in mu at eta 1.001-2.4 on an idle
-//! host, 1.2x what its former 88 took: `TABLE_MU_VCAVITY`).
+//! 1.5x the former 21 x 44-node grid's, measured side by side; 6.6-8.1 s
+//! for GGX/V-cavity with its 104 nodes in mu at eta 1.05-2.4 on an idle
+//! host, 1.2x what its former 88 took, `TABLE_MU_VCAVITY`; 17-18 s at eta
+//! 1.001-1.005, whose slices take a finer rule,
+//! `QUADRATURE_DENSE_VCAVITY_FINE`).
 //!
 //! Accuracy (against fine quadrature, originals alpha 0 to 0.3 widened to
 //! 0.15 to 1; a sweep of mu in steps of 0.01, of which
@@ -80,14 +82,12 @@
 //! - V-cavity for mu >= 0.04 up to eta 2.4, its dense rows split at the
 //!   onsets of transmission and of full visibility (`MuGrid`,
 //!   `crate::vcavity_onsets`; 1.75e-3 in one segment below the kink):
-//!   Beckmann 4.0e-4 from the rare side and 7.6e-4 from the dense side
-//!   (eta 1/1.001; 7.2e-4 at 1/2, where off-plane normals round off the
+//!   Beckmann 4.0e-4 from the rare side and 8.3e-4 from the dense side
+//!   (eta 1/1.012; 7.2e-4 at 1/2, where off-plane normals round off the
 //!   onset of transmission), Blinn-Phong 7.9e-4 (1/2.4) and GGX 7.6e-4
-//!   (1/2.4) from the dense side, except GGX near index matching: 1.29e-3
-//!   at eta 1/1.0013, 1.09e-3 at 1/1.0017, within 1e-3 from 1/1.0025. That
-//!   is the tables' own rule (`QUADRATURE_DENSE`): at mu 0.12 it is 6e-4
-//!   off 64 x 64 nodes per piece at alpha 0.2 and at 0.75, with opposite
-//!   signs.
+//!   (1/2.4) from the dense side; near index matching (eta 1/1.001 to
+//!   1/1.012) GGX 5.5e-4, where the slices' rule made 1.29e-3 before it was
+//!   refined there (`QUADRATURE_DENSE_VCAVITY_FINE`).
 //!
 //! The same sweep gave GGX/Smith 6.9e-4 and 8.0e-4 for eta 1.05-2.2 but
 //! 1.84e-3 at 1/1.0017, and Beckmann/V-cavity 9.1e-4 (Blinn-Phong 9.7e-4)
@@ -237,6 +237,24 @@ fn quadrature_rare(shadowing: Shadowing) -> (usize, usize) {
 /// 1e-3 of it except near normal incidence at alpha about 0.45 (1.5e-3,
 /// eta 1/2.2): the kinks left unsplit (module docs of `SplitQuadrature`).
 const QUADRATURE_DENSE: (usize, usize) = (16, 16);
+/// The split rule of V-cavity slices near index matching (critical cosine
+/// below `VCAVITY_FINE_CRITICAL`), where V-cavity's unsplit kinks sit just
+/// above the critical cosine, at cosines of the order of alpha: there 16 x
+/// 16 nodes per piece were 6e-4 off 64 x 64 (GGX, eta 1/1.0013, mu 0.12,
+/// alpha 0.2 and 0.75, with opposite signs) and the compensated albedo
+/// missed by 1.29e-3; with 24 x 24 by 4.5e-4.
+const QUADRATURE_DENSE_VCAVITY_FINE: (usize, usize) = (24, 24);
+/// Critical cosine below which V-cavity slices take
+/// `QUADRATURE_DENSE_VCAVITY_FINE` (eta within 1.011 of 1).
+const VCAVITY_FINE_CRITICAL: f32 = 0.15;
+
+/// The split rule's nodes per piece for the slice at critical cosine `c`.
+fn quadrature_dense(shadowing: Shadowing, c: f32) -> (usize, usize) {
+    match shadowing {
+        Shadowing::VCavity if c < VCAVITY_FINE_CRITICAL => QUADRATURE_DENSE_VCAVITY_FINE,
+        _ => QUADRATURE_DENSE,
+    }
+}
 /// Gauss-Legendre nodes of the smooth interface's hemispherical
 /// transmittance (`transmittance_above`), whose integrand (1 - F) mu is
 /// smooth on the rarer side.
@@ -341,7 +359,7 @@ pub(crate) fn critical_cell(c: f32) -> (usize, f32) {
 ///   1/1.05-1/2.4 from 4.6e-3 to 1.75e-3, and to 9.1e-4 with its rows split
 ///   at its onsets (`Lower::Split`). Read at the index fraction (and with
 ///   critical-cosine nodes denser near 0, `TABLE_CRITICAL`), 3.3e-4 at
-///   1/1.0017 and at most 6.3e-4 elsewhere for GGX/Smith, 7.6e-4 for
+///   1/1.0017 and at most 6.3e-4 elsewhere for GGX/Smith, 8.3e-4 for
 ///   Beckmann/V-cavity (with `VCAVITY_UPPER_CELLS`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum MuGrid {
@@ -927,7 +945,7 @@ impl CriticalSlice {
                 let (radial, azimuth) = quadrature_rare(shadowing);
                 (
                     Quadrature::new(kind, shadowing, alpha, radial, azimuth),
-                    SplitQuadrature::new(kind, shadowing, alpha, QUADRATURE_DENSE),
+                    SplitQuadrature::new(kind, shadowing, alpha, quadrature_dense(shadowing, c)),
                 )
             });
             for (medium, row) in e.iter_mut().enumerate() {
@@ -1089,7 +1107,7 @@ pub(crate) fn dielectric_kernel(
     let c = critical_node(i);
     let (radial, azimuth) = quadrature_rare(shadowing);
     let rare = Quadrature::new(kind, shadowing, alpha, radial, azimuth);
-    let dense = SplitQuadrature::new(kind, shadowing, alpha, QUADRATURE_DENSE);
+    let dense = SplitQuadrature::new(kind, shadowing, alpha, quadrature_dense(shadowing, c));
     let nodes = table_mu_nodes(shadowing);
     let grids = [RARE, DENSE].map(|medium| MuGrid::of(shadowing, medium, c));
     let mut kernel = Kernel::zeros(2, nodes, subdivisions);

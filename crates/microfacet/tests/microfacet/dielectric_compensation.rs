@@ -256,9 +256,9 @@ fn compensated_albedo_matches_the_original_by_quadrature() {
 /// at 0.045 (eta 1.001) and 0.058 (1.0017): there the albedo changes on the
 /// scale of c. Tables with 41 critical-cosine nodes 0.0236 apart, read with
 /// cell fractions linear in the grid's coordinate, missed by up to 1.84e-3
-/// (GGX/Smith, eta 1/1.0017, 0.03 -> 0.3, mu 0.11). Smith shadowing only:
-/// V-cavity's rows miss its features above the kink there by up to 1.7e-3
-/// (`microfacet::dielectric_energy`'s module docs).
+/// (GGX/Smith, eta 1/1.0017, 0.03 -> 0.3, mu 0.11). Smith shadowing only,
+/// for the test's time: V-cavity's tables there take 12-17 s per model, and
+/// the module docs of `microfacet::dielectric_energy` give their sweep.
 #[test]
 fn nearly_index_matched_compensation_matches_the_original() {
     let cosines = [0.02f32, 0.03, 0.05, 0.07, 0.09, 0.11, 0.3, 0.98];
