@@ -15,7 +15,9 @@ use crate::ndf::NdfKind;
 use crate::shadowing::Shadowing;
 
 /// The 8-point Gauss-Legendre rule on [0, 1] (exact for polynomials of
-/// degree 15), for the Fresnel average of `Fresnel::average`.
+/// degree 15), for the Fresnel average of `Fresnel::average` and the
+/// moments of the dielectric tables' interpolated deficit
+/// (`crate::dielectric_energy`).
 pub(crate) fn gauss_legendre_8() -> &'static [(f64, f64)] {
     static NODES: OnceLock<Vec<(f64, f64)>> = OnceLock::new();
     NODES.get_or_init(|| gauss_legendre(8))
