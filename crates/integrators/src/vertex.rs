@@ -97,16 +97,21 @@ impl PathVertex {
         } else {
             point.frame
         };
-        // The memo only where a lobe may be widened with its compensation:
-        // reaching it costs about 40 instructions.
-        let (bsdf, alpha_hat) = if regularization.compensates() && bsdf_original.alpha().is_some() {
+        // Under tau = infinity (no regularization, a light subpath or a
+        // sampleable prefix in `unsampleable` mode: most vertices) the lobe
+        // stays as it is. The memo only where a lobe may be widened with its
+        // compensation: reaching it costs about 40 instructions.
+        let tau = regularization.tau();
+        let (bsdf, alpha_hat) = if tau == f64::INFINITY {
+            (bsdf_original, None)
+        } else if regularization.compensates() && bsdf_original.alpha().is_some() {
             WIDENED.with_borrow_mut(|memo| regularization.regularize_with(&bsdf_original, memo))
         } else {
             regularization.regularize(&bsdf_original)
         };
         let alpha_hat = alpha_hat.filter(|hat| Some(hat.alpha) != bsdf_original.alpha());
         let tau = if alpha_hat.is_some() {
-            regularization.tau()
+            tau
         } else {
             f64::INFINITY
         };

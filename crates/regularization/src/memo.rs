@@ -12,7 +12,7 @@
 //! [`MEMO_ENTRIES`] widened lobes and returns what `regularize` would,
 //! bit for bit.
 
-use microfacet::Bsdf;
+use microfacet::{Bsdf, SMOOTH_ALPHA};
 
 use crate::selective::Energy;
 use crate::tau::{AlphaHat, bsdf_alpha_hat, regularize};
@@ -74,6 +74,11 @@ impl RegularizationMemo {
         if bsdf.alpha() == Some(hat.alpha) {
             return (*bsdf, Some(hat));
         }
+        // A lobe that stays a delta gets no compensation
+        // (`Bsdf::regularized`): nothing to build, nothing to keep.
+        if hat.alpha < SMOOTH_ALPHA {
+            return (bsdf.with_alpha(hat.alpha), Some(hat));
+        }
         let same = |e: &&Entry| e.alpha_hat.to_bits() == hat.alpha.to_bits() && e.original == *bsdf;
         if let Some(entry) = self.entries.iter().flatten().find(same) {
             return (entry.widened, Some(hat));
@@ -112,12 +117,13 @@ mod tests {
     /// More lobes and bounds than the memo holds, each asked for twice in a
     /// row (the second from the memo) and between keys that differ in one
     /// part only (energy, tau, alpha, eta): every result equals
-    /// `regularize`'s.
+    /// `regularize`'s. tau = 1e9 widens the smooth lobes to alpha-hat
+    /// between `ALPHA_MIN` and `SMOOTH_ALPHA`: still deltas.
     #[test]
     fn memo_returns_what_regularize_returns() {
         let mut memo = RegularizationMemo::new();
         for (i, bsdf) in lobes().iter().enumerate() {
-            for tau in [7.5, 30.0, 120.0] {
+            for tau in [7.5, 30.0, 120.0, 1e9] {
                 for energy in [Energy::Preserved, Energy::Lost] {
                     for _ in 0..2 {
                         let got = memo.regularize(bsdf, tau, energy);
@@ -138,5 +144,19 @@ mod tests {
             assert_eq!(memo.regularize(&bsdf, 7.5, Energy::Preserved), first);
         }
         assert_eq!(memo.entries.iter().flatten().count(), 1);
+    }
+
+    /// A smooth lobe widened to a width that is still a delta is widened
+    /// (alpha-hat above its alpha) but not kept: it has no compensation.
+    #[test]
+    fn lobes_that_stay_deltas_are_not_kept() {
+        let mut memo = RegularizationMemo::new();
+        for bsdf in lobes().iter().filter(|b| b.is_specular()) {
+            let (widened, hat) = memo.regularize(bsdf, 1e9, Energy::Preserved);
+            let hat = hat.unwrap();
+            assert!(widened.is_specular() && hat.alpha > bsdf.alpha().unwrap());
+            assert_eq!(widened.alpha(), Some(hat.alpha));
+        }
+        assert_eq!(memo.entries.iter().flatten().count(), 0);
     }
 }

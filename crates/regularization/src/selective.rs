@@ -241,8 +241,9 @@ impl PathRegularization {
             _ => bsdf.alpha().unwrap_or(1.0).min(1.0),
         };
         // Only a camera subpath of an integrator with connections or merges
-        // uses the record (`tau`): skip the bound elsewhere.
-        let after = if self.is_tracked() {
+        // uses the record (`tau`), and only until it is sampleable: skip the
+        // bound elsewhere.
+        let after = if self.is_tracked() && !self.sampleable {
             self.after_bounded(self.is_bounded(bsdf))
         } else {
             self

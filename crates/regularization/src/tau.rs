@@ -302,8 +302,8 @@ pub(crate) fn bsdf_alpha_hat(bsdf: &Bsdf, tau: f64) -> Option<AlphaHat> {
 /// bounded; a delta lobe never is (not even an index-matched one, which
 /// no roughness can bound).
 pub fn is_bounded(bsdf: &Bsdf, tau: f64) -> bool {
-    bsdf_alpha_hat(bsdf, tau)
-        .is_none_or(|hat| Some(hat.alpha) == bsdf.alpha() && !bsdf.is_specular())
+    !bsdf.is_specular()
+        && bsdf_alpha_hat(bsdf, tau).is_none_or(|hat| Some(hat.alpha) == bsdf.alpha())
 }
 
 #[cfg(test)]
