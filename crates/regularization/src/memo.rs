@@ -10,9 +10,11 @@
 //! an iteration), one per material and rho in selective modes (SPEC §5;
 //! rho takes the scene's few alphas). The memo keeps the last
 //! [`MEMO_ENTRIES`] widened lobes and returns what `regularize` would,
-//! bit for bit.
+//! bit for bit. Keyed by tau too, it also spares alpha-hat itself for the
+//! lobe asked again under the same tau (in `unsampleable` mode, every
+//! delta lobe at the start of a camera subpath).
 
-use microfacet::{Bsdf, SMOOTH_ALPHA};
+use microfacet::Bsdf;
 
 use crate::selective::Energy;
 use crate::tau::{AlphaHat, bsdf_alpha_hat, regularize};
@@ -30,11 +32,13 @@ pub struct RegularizationMemo {
     next: usize,
 }
 
-/// One widened lobe: the key (original lobe, alpha-hat) and the result.
+/// One widened lobe: the key (original lobe, tau or alpha-hat) and the
+/// result.
 #[derive(Clone, Copy, Debug)]
 struct Entry {
     original: Bsdf,
-    alpha_hat: f32,
+    tau: f64,
+    hat: AlphaHat,
     widened: Bsdf,
 }
 
@@ -55,10 +59,11 @@ impl RegularizationMemo {
     }
 
     /// [`regularize`]`(bsdf, tau, energy)`, from the memo when the same lobe
-    /// was widened to the same alpha-hat with its energy compensation
-    /// (alpha-hat compared bit for bit; a lobe holding a NaN never matches
-    /// and is widened anew). `Energy::Lost` widens in nanoseconds and is
-    /// not kept.
+    /// was widened under the same tau (then alpha-hat is not computed
+    /// again) or to the same alpha-hat (then the compensation is not built
+    /// again); tau and alpha-hat compared bit for bit, a lobe holding a NaN
+    /// never matches and is widened anew. Lobes that tau leaves as they
+    /// are, and `Energy::Lost`, which widens in nanoseconds, are not kept.
     pub fn regularize(
         &mut self,
         bsdf: &Bsdf,
@@ -68,25 +73,26 @@ impl RegularizationMemo {
         if energy == Energy::Lost {
             return regularize(bsdf, tau, energy);
         }
+        let same_tau = |e: &&Entry| e.tau.to_bits() == tau.to_bits() && e.original == *bsdf;
+        if let Some(entry) = self.entries.iter().flatten().find(same_tau) {
+            return (entry.widened, Some(entry.hat));
+        }
         let Some(hat) = bsdf_alpha_hat(bsdf, tau) else {
             return (*bsdf, None);
         };
         if bsdf.alpha() == Some(hat.alpha) {
             return (*bsdf, Some(hat));
         }
-        // A lobe that stays a delta gets no compensation
-        // (`Bsdf::regularized`): nothing to build, nothing to keep.
-        if hat.alpha < SMOOTH_ALPHA {
-            return (bsdf.with_alpha(hat.alpha), Some(hat));
-        }
-        let same = |e: &&Entry| e.alpha_hat.to_bits() == hat.alpha.to_bits() && e.original == *bsdf;
-        if let Some(entry) = self.entries.iter().flatten().find(same) {
-            return (entry.widened, Some(hat));
-        }
-        let widened = bsdf.regularized(hat.alpha);
+        let same_width =
+            |e: &&Entry| e.hat.alpha.to_bits() == hat.alpha.to_bits() && e.original == *bsdf;
+        let widened = match self.entries.iter().flatten().find(same_width) {
+            Some(entry) => entry.widened,
+            None => bsdf.regularized(hat.alpha),
+        };
         self.entries[self.next] = Some(Entry {
             original: *bsdf,
-            alpha_hat: hat.alpha,
+            tau,
+            hat,
             widened,
         });
         self.next = (self.next + 1) % MEMO_ENTRIES;
@@ -146,17 +152,33 @@ mod tests {
         assert_eq!(memo.entries.iter().flatten().count(), 1);
     }
 
-    /// A smooth lobe widened to a width that is still a delta is widened
-    /// (alpha-hat above its alpha) but not kept: it has no compensation.
+    /// Kept: widened lobes, also those that stay deltas (tau = 1e9 widens
+    /// the smooth lobes to alpha-hat between `ALPHA_MIN` and `SMOOTH_ALPHA`).
+    /// Not kept: lobes that tau leaves as they are (the rough ones there).
     #[test]
-    fn lobes_that_stay_deltas_are_not_kept() {
+    fn only_widened_lobes_are_kept() {
         let mut memo = RegularizationMemo::new();
-        for bsdf in lobes().iter().filter(|b| b.is_specular()) {
+        let lobes = lobes();
+        for bsdf in &lobes {
             let (widened, hat) = memo.regularize(bsdf, 1e9, Energy::Preserved);
-            let hat = hat.unwrap();
-            assert!(widened.is_specular() && hat.alpha > bsdf.alpha().unwrap());
-            assert_eq!(widened.alpha(), Some(hat.alpha));
+            assert_eq!(widened.alpha(), hat.map(|h| h.alpha));
+            assert_eq!(widened.is_specular(), bsdf.is_specular());
         }
-        assert_eq!(memo.entries.iter().flatten().count(), 0);
+        let smooth = lobes.iter().filter(|b| b.is_specular()).count();
+        assert_eq!(memo.entries.iter().flatten().count(), smooth);
+    }
+
+    /// Two bounds that give the same alpha-hat (both beyond the cap) give
+    /// the same widened lobe (the second from the first's entry), kept
+    /// under each tau.
+    #[test]
+    fn bounds_with_the_same_alpha_hat_share_the_widened_lobe() {
+        let bsdf = lobes()[1];
+        let mut memo = RegularizationMemo::new();
+        let (a, hat_a) = memo.regularize(&bsdf, 1e-3, Energy::Preserved);
+        let (b, hat_b) = memo.regularize(&bsdf, 2e-3, Energy::Preserved);
+        assert_eq!(hat_a.unwrap().alpha, hat_b.unwrap().alpha);
+        assert_eq!(a, b);
+        assert_eq!(memo.entries.iter().flatten().count(), 2);
     }
 }
