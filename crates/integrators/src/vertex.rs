@@ -115,6 +115,7 @@ impl PathVertex {
         } else {
             f64::INFINITY
         };
+        let (after, camera_only) = regularization.through_vertex(&bsdf_original);
         Self {
             point,
             frame,
@@ -124,8 +125,8 @@ impl PathVertex {
             bsdf,
             alpha_hat,
             throughput,
-            regularization: regularization.after_vertex(&bsdf_original),
-            camera_only: regularization.is_camera_only(&bsdf_original),
+            regularization: after,
+            camera_only,
             tau,
             medium: crate::medium::of(material),
         }

@@ -236,6 +236,13 @@ impl PathRegularization {
     /// In `Unsampleable` mode it also records whether the prefix now has
     /// what one of the integrator's techniques needs ([`Techniques`]).
     pub fn after_vertex(self, bsdf: &Bsdf) -> Self {
+        self.through_vertex(bsdf).0
+    }
+
+    /// [`Self::after_vertex`] and [`Self::is_camera_only`] of one vertex,
+    /// its bound computed once (the bound's alpha-hat is most of the cost
+    /// of both).
+    pub fn through_vertex(self, bsdf: &Bsdf) -> (Self, bool) {
         let alpha = match bsdf {
             Bsdf::Coated(c) if c.has_diffuse() => 1.0,
             _ => bsdf.alpha().unwrap_or(1.0).min(1.0),
@@ -243,15 +250,18 @@ impl PathRegularization {
         // Only a camera subpath of an integrator with connections or merges
         // uses the record (`tau`), and only until it is sampleable: skip the
         // bound elsewhere.
-        let after = if self.is_tracked() && !self.sampleable {
-            self.after_bounded(self.is_bounded(bsdf))
+        let recording = self.is_tracked() && !self.sampleable;
+        let bounded = recording && self.is_bounded(bsdf);
+        let after = if recording {
+            self.after_bounded(bounded)
         } else {
             self
         };
-        Self {
+        let after = Self {
             rho: self.rho.max(alpha),
             ..after
-        }
+        };
+        (after, recording && !bounded)
     }
 
     /// Whether `bsdf` is bounded at this iteration's tau_N (`tau::is_bounded`).
@@ -288,7 +298,7 @@ impl PathRegularization {
     /// are not made ([`Self::admits_light_interior`]), so the techniques
     /// that remain agree on every vertex and their weights sum to 1.
     pub fn is_camera_only(&self, bsdf: &Bsdf) -> bool {
-        self.is_tracked() && !self.sampleable && !self.is_bounded(bsdf)
+        self.through_vertex(bsdf).1
     }
 
     /// Whether a technique may join this camera subpath state (after the

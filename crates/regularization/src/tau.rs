@@ -146,33 +146,52 @@ pub fn alpha_hat(kind: NdfKind, alpha: f32, lobe: Lobe, tau: f64) -> AlphaHat {
 }
 
 fn single_lobe(kind: NdfKind, alpha: f32, lobe: Lobe, tau: f64) -> AlphaHat {
-    let alpha = Ndf::new(kind, alpha).alpha();
-    if !(tau < f64::INFINITY) {
-        return AlphaHat {
-            alpha,
-            bound: Bound::Met,
-        };
-    }
-    if let Lobe::Transmission { eta_i, eta_t } = lobe
-        && (eta_i - eta_t).abs() < INDEX_MATCH_EPSILON
-    {
-        return AlphaHat {
-            alpha,
-            bound: Bound::IndexMatched,
-        };
-    }
-    let cap = alpha_cap(kind);
-    let wanted = alpha_tau(lobe, tau);
-    let alpha_hat = alpha.max(round_up(wanted.min(f64::from(cap))));
-    let bound = match bound_at(kind, alpha_hat, lobe, tau) {
-        Bound::Met => Bound::Met,
-        _ if wanted > f64::from(cap) => Bound::Clamped,
-        other => other,
+    let alpha_hat = widened_single(kind, alpha, lobe, tau);
+    let bound = if !(tau < f64::INFINITY) {
+        Bound::Met
+    } else if is_index_matched(lobe) {
+        Bound::IndexMatched
+    } else {
+        match bound_at(kind, alpha_hat, lobe, tau) {
+            Bound::Met => Bound::Met,
+            _ if alpha_tau(lobe, tau) > f64::from(alpha_cap(kind)) => Bound::Clamped,
+            other => other,
+        }
     };
     AlphaHat {
         alpha: alpha_hat,
         bound,
     }
+}
+
+/// [`alpha_hat`]'s roughness without its bound check: all that a caller
+/// asking whether a lobe would be widened needs ([`is_bounded`]).
+pub fn widened_alpha(kind: NdfKind, alpha: f32, lobe: Lobe, tau: f64) -> f32 {
+    match lobe {
+        Lobe::Dielectric { eta_i, eta_t } => {
+            let r = widened_single(kind, alpha, Lobe::Reflection, tau);
+            let t = widened_single(kind, alpha, Lobe::Transmission { eta_i, eta_t }, tau);
+            r.max(t)
+        }
+        _ => widened_single(kind, alpha, lobe, tau),
+    }
+}
+
+/// alpha-hat of one lobe (SPEC §5): alpha, after the NDF's clamping,
+/// raised to alpha_tau capped at [`alpha_cap`]; unchanged under tau =
+/// infinity (or NaN) and at an index-matched interface.
+fn widened_single(kind: NdfKind, alpha: f32, lobe: Lobe, tau: f64) -> f32 {
+    let alpha = Ndf::new(kind, alpha).alpha();
+    if !(tau < f64::INFINITY) || is_index_matched(lobe) {
+        return alpha;
+    }
+    let cap = f64::from(alpha_cap(kind));
+    alpha.max(round_up(alpha_tau(lobe, tau).min(cap)))
+}
+
+/// Refraction between indices closer than [`INDEX_MATCH_EPSILON`].
+fn is_index_matched(lobe: Lobe) -> bool {
+    matches!(lobe, Lobe::Transmission { eta_i, eta_t } if (eta_i - eta_t).abs() < INDEX_MATCH_EPSILON)
 }
 
 /// `Met` if the lobe's peak density at `alpha` is within tau, else `Unreachable`.
@@ -280,20 +299,26 @@ pub fn regularize(bsdf: &Bsdf, tau: f64, energy: Energy) -> (Bsdf, Option<AlphaH
     (regularized, Some(hat))
 }
 
-/// alpha-hat of the microfacet part of `bsdf` under tau (`None` for a lobe
-/// without roughness). A coated lobe's microfacet part is a reflection
-/// lobe; a dielectric is one interface, bounded both ways (`regularize`).
+/// alpha-hat of the microfacet part of `bsdf` under tau ([`bound_lobe`]).
 pub(crate) fn bsdf_alpha_hat(bsdf: &Bsdf, tau: f64) -> Option<AlphaHat> {
+    let (kind, alpha, lobe) = bound_lobe(bsdf)?;
+    Some(alpha_hat(kind, alpha, lobe, tau))
+}
+
+/// The NDF, roughness and lobe whose peak density tau bounds: a coated
+/// lobe's microfacet part is a reflection lobe; a dielectric is one
+/// interface, bounded both ways (`regularize`). `None` without roughness.
+fn bound_lobe(bsdf: &Bsdf) -> Option<(NdfKind, f32, Lobe)> {
     let (model, lobe) = match bsdf {
         Bsdf::Lambertian(_) => return None,
-        Bsdf::Conductor(c) => (c.model, Lobe::Reflection),
-        Bsdf::Coated(c) => (c.model, Lobe::Reflection),
+        Bsdf::Conductor(c) => (&c.model, Lobe::Reflection),
+        Bsdf::Coated(c) => (&c.model, Lobe::Reflection),
         Bsdf::Dielectric(d) => {
             let eta_t = d.eta.max(1.0 / d.eta);
-            (d.model, Lobe::Dielectric { eta_i: 1.0, eta_t })
+            (&d.model, Lobe::Dielectric { eta_i: 1.0, eta_t })
         }
     };
-    Some(alpha_hat(model.ndf.kind(), model.alpha(), lobe, tau))
+    Some((model.ndf.kind(), model.alpha(), lobe))
 }
 
 /// True when regularizing `bsdf` at tau would leave it as it is: its peak
@@ -303,7 +328,8 @@ pub(crate) fn bsdf_alpha_hat(bsdf: &Bsdf, tau: f64) -> Option<AlphaHat> {
 /// no roughness can bound).
 pub fn is_bounded(bsdf: &Bsdf, tau: f64) -> bool {
     !bsdf.is_specular()
-        && bsdf_alpha_hat(bsdf, tau).is_none_or(|hat| Some(hat.alpha) == bsdf.alpha())
+        && bound_lobe(bsdf)
+            .is_none_or(|(kind, alpha, lobe)| widened_alpha(kind, alpha, lobe, tau) == alpha)
 }
 
 #[cfg(test)]
@@ -386,6 +412,64 @@ mod tests {
             20.0,
         );
         assert_eq!((c.alpha, c.bound), (ALPHA_CAP, Bound::Clamped));
+    }
+
+    /// `widened_alpha` is `alpha_hat`'s roughness, and `is_bounded` says
+    /// whether alpha-hat leaves a lobe as it is, over NDFs, roughness from
+    /// below `ALPHA_MIN` to beyond the caps, every lobe kind (an
+    /// index-matched one too) and tau from tiny to infinite and NaN.
+    #[test]
+    fn widened_alpha_is_alpha_hats_roughness() {
+        let taus = [0.1, 2.0, 7.5, 30.0, 1e3, 1e9, f64::INFINITY, f64::NAN];
+        let lobes = [
+            Lobe::Reflection,
+            Lobe::Transmission {
+                eta_i: 1.0,
+                eta_t: 1.5,
+            },
+            Lobe::Transmission {
+                eta_i: 1.33,
+                eta_t: 1.0,
+            },
+            Lobe::Transmission {
+                eta_i: 1.0,
+                eta_t: 1.0005,
+            },
+            Lobe::Dielectric {
+                eta_i: 1.0,
+                eta_t: 1.5,
+            },
+            Lobe::Dielectric {
+                eta_i: 1.0,
+                eta_t: 1.0005,
+            },
+        ];
+        for kind in [NdfKind::Ggx, NdfKind::Beckmann, NdfKind::BlinnPhong] {
+            for alpha in [0.0, 1e-5, 0.02, 0.1, 0.5, 0.8, 1.0, 1.5] {
+                let model = MicrofacetModel::new(kind, alpha, Shadowing::Smith);
+                let lobes_of_bsdfs = [
+                    Bsdf::Conductor(microfacet::Conductor {
+                        model,
+                        fresnel: microfacet::Fresnel::Schlick {
+                            f0: glam::Vec3::ONE,
+                        },
+                    }),
+                    Bsdf::Dielectric(microfacet::Dielectric::new(model, 1.0 / 1.5)),
+                ];
+                for tau in taus {
+                    for lobe in lobes {
+                        let hat = alpha_hat(kind, alpha, lobe, tau);
+                        let got = widened_alpha(kind, alpha, lobe, tau);
+                        assert_eq!(got, hat.alpha, "{kind:?} alpha {alpha} {lobe:?} tau {tau}");
+                    }
+                    for bsdf in &lobes_of_bsdfs {
+                        let unchanged = bsdf_alpha_hat(bsdf, tau).map(|h| h.alpha) == bsdf.alpha();
+                        let expected = !bsdf.is_specular() && unchanged;
+                        assert_eq!(is_bounded(bsdf, tau), expected, "{bsdf:?} tau {tau}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]
