@@ -240,8 +240,8 @@ impl PathRegularization {
     }
 
     /// [`Self::after_vertex`] and [`Self::is_camera_only`] of one vertex,
-    /// its bound computed once (the bound's alpha-hat is most of the cost
-    /// of both).
+    /// with its bound (`tau::is_bounded`, most of the cost of both)
+    /// computed once.
     pub fn through_vertex(self, bsdf: &Bsdf) -> (Self, bool) {
         let alpha = match bsdf {
             Bsdf::Coated(c) if c.has_diffuse() => 1.0,
