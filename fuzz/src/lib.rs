@@ -68,3 +68,35 @@ pub fn split_obj_mtl(data: &[u8]) -> (&[u8], &[u8]) {
         None => (data, &[]),
     }
 }
+
+/// Mesh files the `mitsuba_xml` target writes once beside its `scene.xml`
+/// (the bundled `mitsuba-features` scene's), so that seeds naming them
+/// reach the PLY and `.serialized` readers through the XML loader.
+const MITSUBA_MESHES: &[(&str, &[u8])] = &[
+    (
+        "meshes/torus.serialized",
+        include_bytes!("../../scenes/mitsuba-features/meshes/torus.serialized"),
+    ),
+    (
+        "meshes/icosphere.ply",
+        include_bytes!("../../scenes/mitsuba-features/meshes/icosphere.ply"),
+    ),
+    (
+        "models/Mesh000.obj",
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\n",
+    ),
+];
+
+/// Writes a Mitsuba scene file with its fixed meshes and returns its path.
+pub fn write_mitsuba(xml: &[u8]) -> PathBuf {
+    static MESHES: OnceLock<()> = OnceLock::new();
+    MESHES.get_or_init(|| {
+        for (name, bytes) in MITSUBA_MESHES {
+            let path = scratch_dir().join(name);
+            std::fs::create_dir_all(path.parent().expect("a folder"))
+                .expect("cannot create a mesh folder");
+            std::fs::write(path, bytes).expect("cannot write a fixed mesh");
+        }
+    });
+    write_input("scene.xml", xml)
+}

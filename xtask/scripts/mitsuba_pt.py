@@ -6,6 +6,17 @@ XML; usable alone too:
     python mitsuba_pt.py --scene scene.xml --out image.exr --spp 64 --seed 1 --threads 2 \
         --variant llvm_ad_rgb --sampler multijitter
 
+XML mode (a Mitsuba scene file of its own, `cargo xtask mitsuba --scene x.xml`):
+with `--original FILE`, the script first writes FILE with the comparison's
+settings (`--width`, `--height`, `--max-depth`, `--spp`, `--sampler`; see
+mitsuba_xml.py) to the `--scene` path, puts FILE's folder on Mitsuba's file
+resolver (so its relative mesh and texture paths resolve) and loads the copy:
+
+    python mitsuba_pt.py --original scenes/veach-mis/scene.xml --scene /tmp/m/scene.xml \
+        --width 160 --height 120 --max-depth 8 --out /tmp/m/image.exr --spp 64 --seed 1
+
+`--load-only` stops after loading (the JSON line then has no render times).
+
 Only the render call is timed: "render_s" lists one time per repeat (scene
 loading, which builds Mitsuba's BVH, is "load_s"). With an LLVM variant the
 first render also compiles its kernels (Dr.Jit caches them on disk, in
@@ -42,7 +53,16 @@ def main():
     parser.add_argument(
         "--sampler", default="independent", help="sampler plugin (the XML's $sampler)"
     )
+    parser.add_argument(
+        "--original", help="XML mode: the Mitsuba scene file to render (--scene: its copy)"
+    )
+    parser.add_argument("--width", type=int, help="XML mode: film width")
+    parser.add_argument("--height", type=int, help="XML mode: film height")
+    parser.add_argument("--max-depth", type=int, help="XML mode: the path integrator's max_depth")
+    parser.add_argument("--load-only", action="store_true", help="load the scene, do not render")
     args = parser.parse_args()
+    if args.original and None in (args.width, args.height, args.max_depth):
+        fail("--original needs --width, --height and --max-depth")
 
     try:
         import drjit as dr
@@ -58,12 +78,38 @@ def main():
     sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
     import rlt_coated  # noqa: F401 - registers the plugin
 
+    # The exported scene takes the sampler as $sampler; a scene file of its
+    # own gets it written in (Mitsuba refuses parameters a file does not use).
+    load_params = {"sampler": args.sampler}
+    if args.original:
+        import mitsuba_xml
+
+        try:
+            scene_dir, _ = mitsuba_xml.prepare(
+                args.original,
+                args.scene,
+                width=args.width,
+                height=args.height,
+                spp=args.spp,
+                max_depth=args.max_depth,
+                sampler=args.sampler,
+            )
+        except mitsuba_xml.SceneError as e:
+            fail(str(e))
+        # Mitsuba 3.9 has one resolver for all threads; older versions one per thread.
+        if hasattr(mi, "file_resolver"):
+            resolver = mi.file_resolver()
+        else:
+            resolver = mi.Thread.thread().file_resolver()
+        resolver.prepend(str(scene_dir))
+        load_params = {}
+
     # Keep Mitsuba's log (and progress bar) off standard output, which carries the JSON.
     mi.set_log_level(mi.LogLevel.Warn)
 
     try:
         t0 = time.perf_counter()
-        scene = mi.load_file(args.scene, sampler=args.sampler)
+        scene = mi.load_file(args.scene, **load_params)
         load_s = time.perf_counter() - t0
 
         # After loading: with one thread set before mi.load_file, Mitsuba
@@ -74,7 +120,7 @@ def main():
 
         # The same seed every time: the repeats give one image, several times.
         render_s = []
-        for _ in range(max(1, args.repeat)):
+        for _ in range(0 if args.load_only else max(1, args.repeat)):
             t0 = time.perf_counter()
             image = mi.render(scene, spp=args.spp, seed=args.seed)
             # The LLVM variants record the render lazily: evaluate it and
@@ -85,9 +131,10 @@ def main():
 
         # Mitsuba 3.9.1 / Dr.Jit 1.5.0 also hang writing an EXR with a pool of
         # one thread: write with at least two.
-        if dr.thread_count() < 2:
-            dr.set_thread_count(2)
-        mi.Bitmap(image).write(args.out)
+        if not args.load_only:
+            if dr.thread_count() < 2:
+                dr.set_thread_count(2)
+            mi.Bitmap(image).write(args.out)
     except Exception as e:  # noqa: BLE001 - any failure is reported as one line
         fail(str(e).strip().splitlines()[-1] if str(e).strip() else repr(e))
 
@@ -109,7 +156,9 @@ def main():
                 "seed": args.seed,
                 "load_s": load_s,
                 "render_s": render_s,
-                "out": args.out,
+                "out": None if args.load_only else args.out,
+                "scene": args.scene,
+                "original": args.original,
             }
         )
     )

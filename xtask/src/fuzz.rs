@@ -1,9 +1,10 @@
 //! `cargo xtask fuzz --target NAME --minutes M` (and `--list`): runs one
 //! cargo-fuzz target of `fuzz/` for M minutes, with its seed corpus.
 //!
-//! The fuzz project (`fuzz/`, not a member of the workspace) holds five
-//! libFuzzer targets: the glTF, GLB, OBJ+MTL and manifest loaders through
-//! `scene::load`, and the renderer on small manifests. cargo-fuzz needs
+//! The fuzz project (`fuzz/`, not a member of the workspace) holds eight
+//! libFuzzer targets: the glTF, GLB, OBJ+MTL, manifest and Mitsuba XML
+//! loaders through `scene::load`, the PLY and `.serialized` mesh readers
+//! directly, and the renderer on small manifests. cargo-fuzz needs
 //! nightly features; on the stable toolchain they are unlocked with
 //! `RUSTC_BOOTSTRAP=1`, and the build uses `--sanitizer none` (AddressSanitizer
 //! does not help with safe Rust, and needs nightly's runtime) with debug
@@ -54,6 +55,17 @@ pub const TARGETS: &[(&str, &str, &str)] = &[
         "render",
         "toml",
         "scene.toml at 8x6, one iteration of pt, bpt, ppm, bpm, vcm",
+    ),
+    (
+        "mitsuba_xml",
+        "xml",
+        "Mitsuba 3 scene files (with fixed meshes beside them) through scene::load",
+    ),
+    ("ply", "ply", "PLY bytes through scene::mitsuba::ply::read"),
+    (
+        "serialized",
+        "serialized",
+        "shape_index byte, then .serialized bytes, through scene::mitsuba::serialized::read",
     ),
 ];
 

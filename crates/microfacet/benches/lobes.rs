@@ -19,6 +19,7 @@ fn lobes() -> Vec<(String, Bsdf)> {
     let gold = Fresnel::Conductor {
         eta: Vec3::new(0.18, 0.42, 1.37),
         k: Vec3::new(3.42, 2.35, 1.77),
+        tint: Vec3::ONE,
     };
     let mut out = vec![(
         "lambertian".to_string(),

@@ -110,6 +110,10 @@ pub enum Fresnel {
         eta: Vec3,
         /// Extinction coefficient.
         k: Vec3,
+        /// Multiplies the reflectance per channel, in [0, 1]: 1 for a physical
+        /// conductor (Mitsuba's `specular_reflectance`, a non-physical tint
+        /// some scenes use to darken a metal, e.g. Veach's MIS plates).
+        tint: Vec3,
     },
     /// Schlick's approximation with normal-incidence reflectance `f0`.
     Schlick {
@@ -122,7 +126,7 @@ impl Fresnel {
     /// Reflectance for a microfacet at cosine `cos_theta_i` to the direction.
     pub fn eval(&self, cos_theta_i: f32) -> Vec3 {
         match *self {
-            Fresnel::Conductor { eta, k } => conductor(cos_theta_i, eta, k),
+            Fresnel::Conductor { eta, k, tint } => tint * conductor(cos_theta_i, eta, k),
             Fresnel::Schlick { f0 } => schlick(cos_theta_i, f0),
         }
     }

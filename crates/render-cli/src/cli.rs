@@ -9,10 +9,10 @@ use glam::{UVec2, Vec3};
 use integrators::{Algorithm, Mode};
 
 use crate::values::{
-    parse_algorithm, parse_env_rotation, parse_env_scale, parse_exposure, parse_exr_path,
-    parse_fov, parse_iteration_range, parse_iterations, parse_max_depth, parse_on_off,
-    parse_partial_path, parse_png_path, parse_radius, parse_regularize, parse_resolution,
-    parse_shadow_roulette, parse_tau0, parse_threads, parse_time, parse_vec3,
+    parse_algorithm, parse_define, parse_env_rotation, parse_env_scale, parse_exposure,
+    parse_exr_path, parse_fov, parse_iteration_range, parse_iterations, parse_max_depth,
+    parse_on_off, parse_partial_path, parse_png_path, parse_radius, parse_regularize,
+    parse_resolution, parse_shadow_roulette, parse_tau0, parse_threads, parse_time, parse_vec3,
 };
 
 const AFTER_LONG_HELP: &str = "\
@@ -37,7 +37,8 @@ Examples:
   render-cli scenes/cornell-box/scene.toml
   render-cli scenes/glossy-caustic/scene.toml --time 60 --regularize uniform -o caustic.exr
   render-cli model.glb --camera Overview --resolution 1280x720 --exposure 1
-  render-cli model.glb --env scenes/env-sphere/sky.exr --env-rotation 90";
+  render-cli model.glb --env scenes/env-sphere/sky.exr --env-rotation 90
+  render-cli scenes/veach-bidir -D spp=64";
 
 /// Renders a scene to a linear OpenEXR image and an sRGB PNG preview.
 #[derive(Debug, Parser)]
@@ -53,7 +54,8 @@ Examples:
 )]
 pub struct Cli {
     /// The scene: a scene.toml manifest (or a folder holding one, as scenes/caustic-glass), a
-    /// glTF 2.0 file (.gltf, .glb) or a Wavefront .obj file.
+    /// glTF 2.0 file (.gltf, .glb), a Wavefront .obj file, or a Mitsuba 3 scene file (.xml, or
+    /// a folder holding a scene.xml, as scenes/veach-bidir; Mitsuba 0.6 files too).
     #[arg(value_name = "SCENE")]
     pub scene: PathBuf,
 
@@ -178,6 +180,12 @@ pub struct Cli {
     /// the renderer read other files.
     #[arg(long, help_heading = "Scene")]
     pub allow_outside_paths: bool,
+
+    /// Set a parameter of a Mitsuba scene file, as Mitsuba's own -D: every `$NAME` in the
+    /// file's attributes becomes VALUE, and it wins over the file's <default name="NAME">.
+    /// Repeat for several (-D spp=64 -D res=512). A parameter the file never uses is an error.
+    #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = parse_define, help_heading = "Scene")]
+    pub define: Vec<(String, String)>,
 
     /// Render a scene that has no geometry, or no light and no environment (its image is
     /// black or empty). By default such a scene is an error, since it is almost always a

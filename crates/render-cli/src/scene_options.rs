@@ -55,6 +55,7 @@ impl Cli {
                 scale: self.env_scale.unwrap_or(1.0),
                 rotation_degrees: self.env_rotation.unwrap_or(0.0),
             }),
+            parameters: self.define.clone(),
         })
     }
 

@@ -231,6 +231,19 @@ pub fn parse_partial_path(s: &str) -> Result<PathBuf, String> {
     parse_path_with_extension(s, image_io::film_file::EXTENSION)
 }
 
+/// `-D NAME=VALUE`: a Mitsuba scene parameter (NAME letters, digits and _).
+pub fn parse_define(s: &str) -> Result<(String, String), String> {
+    let (name, value) = s
+        .split_once('=')
+        .ok_or_else(|| format!("expected NAME=VALUE, got {s:?}"))?;
+    if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+        return Err(format!(
+            "parameter name {name:?} must be letters, digits and _"
+        ));
+    }
+    Ok((name.to_owned(), value.to_owned()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -102,21 +102,83 @@ pub struct CameraSpec {
     pub at: Vec3,
     /// Approximate image up.
     pub up: Vec3,
-    /// Vertical field of view in degrees.
-    pub vertical_fov_degrees: f32,
+    /// Field of view in degrees, along `fov_axis`.
+    pub fov_degrees: f32,
+    /// The image axis `fov_degrees` spans.
+    pub fov_axis: FovAxis,
     /// Width over height, if the file gives one.
     pub aspect: Option<f32>,
+    /// The image is mirrored left to right (a Mitsuba `to_world` with a
+    /// negative determinant): image right is `up x forward`, not
+    /// `forward x up`.
+    pub mirrored: bool,
+}
+
+/// Which extent of the image a field of view spans (Mitsuba's `fov_axis`;
+/// glTF and manifests give the vertical one).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FovAxis {
+    /// Width.
+    X,
+    /// Height.
+    Y,
+    /// Diagonal.
+    Diagonal,
+    /// The shorter side.
+    Smaller,
+    /// The longer side.
+    Larger,
+}
+
+impl FovAxis {
+    /// The vertical field of view in degrees of `degrees` along this axis,
+    /// for an image of `aspect` = width / height (Mitsuba's `perspective`
+    /// conversion, note §2.5: tan(fov_y/2) = tan(fov/2) / scale, where the
+    /// axis is `scale` times the height).
+    pub fn vertical_degrees(self, degrees: f32, aspect: f32) -> f32 {
+        let scale = match self {
+            FovAxis::Y => 1.0,
+            FovAxis::X => aspect,
+            FovAxis::Diagonal => (1.0 + aspect * aspect).sqrt(),
+            FovAxis::Smaller => aspect.min(1.0),
+            FovAxis::Larger => aspect.max(1.0),
+        };
+        let half = (0.5 * f64::from(degrees)).to_radians().tan() / f64::from(scale);
+        (2.0 * half.atan()).to_degrees() as f32
+    }
 }
 
 impl CameraSpec {
     /// The camera at `resolution`.
     pub fn camera(&self, resolution: UVec2) -> Result<Camera, String> {
-        Camera::look_at(
+        let aspect = resolution.x as f32 / resolution.y.max(1) as f32;
+        let mut camera = Camera::look_at(
             self.from,
             self.at,
             self.up,
-            self.vertical_fov_degrees,
+            self.fov_axis.vertical_degrees(self.fov_degrees, aspect),
             resolution,
-        )
+        )?;
+        if self.mirrored {
+            camera.right = -camera.right;
+        }
+        Ok(camera)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Note §2.5's measured example: fov 40 along the smaller axis of a
+    /// 16x12 image is an x fov of 51.774 degrees.
+    #[test]
+    fn fov_axes_convert_as_mitsuba() {
+        let aspect = 16.0 / 12.0;
+        let vertical = FovAxis::Smaller.vertical_degrees(40.0, aspect);
+        assert!((vertical - 40.0).abs() < 1e-4);
+        let from_x = FovAxis::X.vertical_degrees(51.774, aspect);
+        assert!((from_x - 40.0).abs() < 1e-3, "{from_x}");
+        assert_eq!(FovAxis::Larger.vertical_degrees(30.0, 0.5), 30.0);
     }
 }

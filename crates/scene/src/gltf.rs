@@ -23,7 +23,7 @@ use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use gltf::khr_lights_punctual::Kind;
 use microfacet::{NdfKind, Shadowing};
 
-use crate::camera::CameraSpec;
+use crate::camera::{CameraSpec, FovAxis};
 use crate::error::{SceneError, guarded, quoted};
 use crate::light::Light;
 use crate::material::{
@@ -1256,8 +1256,10 @@ fn camera_spec(camera: &gltf::Camera, world: Mat4) -> Result<CameraSpec, String>
                 from,
                 at: from + world.transform_vector3(Vec3::NEG_Z),
                 up: world.transform_vector3(Vec3::Y),
-                vertical_fov_degrees: p.yfov().to_degrees(),
+                fov_degrees: p.yfov().to_degrees(),
+                fov_axis: FovAxis::Y,
                 aspect: p.aspect_ratio(),
+                mirrored: false,
             })
         }
         gltf::camera::Projection::Orthographic(_) => {

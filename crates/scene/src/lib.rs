@@ -1,7 +1,7 @@
 //! The scene model every integrator sees, and every file format that fills it.
 //!
-//! [`load`] reads a `scene.toml` manifest, a glTF 2.0 file (`.gltf`, `.glb`)
-//! or a Wavefront OBJ file and returns one in-memory [`Scene`]: world-space
+//! [`load`] reads a `scene.toml` manifest, a glTF 2.0 file (`.gltf`, `.glb`),
+//! a Wavefront OBJ file or a Mitsuba 3 scene (`.xml`) and returns one in-memory [`Scene`]: world-space
 //! triangles with shading normals and texture coordinates, materials as
 //! `microfacet` lobes (mapping in [`material`]), lights, a pinhole camera.
 //! Bad input is a [`SceneError`] naming the file and element, never a panic.
@@ -15,6 +15,7 @@ pub mod gltf;
 pub mod light;
 pub mod manifest;
 pub mod material;
+pub mod mitsuba;
 pub mod obj;
 pub mod paths;
 pub mod scene;
@@ -30,7 +31,7 @@ use glam::{UVec2, Vec3};
 use crate::error::quoted;
 use microfacet::{NdfKind, Shadowing};
 
-pub use camera::{Camera, CameraSpec};
+pub use camera::{Camera, CameraSpec, FovAxis};
 pub use environment::EnvironmentMap;
 pub use error::SceneError;
 pub use features::SceneFeatures;
@@ -64,6 +65,9 @@ pub struct LoadOptions {
     /// Light the scene with this map instead of its own environment
     /// (`--env`): a model without lights then gets no default environment.
     pub environment: Option<EnvironmentOption>,
+    /// Parameters of a Mitsuba scene file, `name` -> `value` (`-D`, as
+    /// Mitsuba's own `-D`: they win over the file's `<default>`s).
+    pub parameters: Vec<(String, String)>,
 }
 
 /// An environment map given apart from the scene file (`--env FILE`).
@@ -82,24 +86,50 @@ pub struct EnvironmentOption {
 /// scenes' layout, `scenes/<name>/scene.toml`).
 pub const FOLDER_MANIFEST: &str = "scene.toml";
 
-/// Loads a scene from a manifest (`.toml`), glTF (`.gltf`, `.glb`) or OBJ
-/// (`.obj`) file, or a folder's [`FOLDER_MANIFEST`], and checks it against
-/// the input rule ([`validate`]) whatever its format.
-pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
-    let manifest;
-    let path = if path.is_dir() {
-        manifest = path.join(FOLDER_MANIFEST);
-        manifest.as_path()
+/// The Mitsuba scene a folder stands for when it has no [`FOLDER_MANIFEST`]
+/// (`scenes/veach-bidir/scene.xml`).
+pub const FOLDER_MITSUBA: &str = "scene.xml";
+
+/// The scene file a path given by the user stands for: itself, or a
+/// folder's [`FOLDER_MANIFEST`], else its [`FOLDER_MITSUBA`].
+pub fn scene_file(path: &Path) -> std::path::PathBuf {
+    if !path.is_dir() {
+        return path.to_path_buf();
+    }
+    let manifest = path.join(FOLDER_MANIFEST);
+    let mitsuba = path.join(FOLDER_MITSUBA);
+    if !manifest.exists() && mitsuba.exists() {
+        mitsuba
     } else {
-        path
-    };
+        manifest
+    }
+}
+
+/// Loads a scene from a manifest (`.toml`), glTF (`.gltf`, `.glb`), OBJ
+/// (`.obj`) or Mitsuba 3 (`.xml`) file, or a folder's scene file
+/// ([`scene_file`]), and checks it against the input rule ([`validate`])
+/// whatever its format.
+pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
+    let file = scene_file(path);
+    let path = file.as_path();
     let extension = path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
     let policy = paths::ReferencePolicy::new(path, options.allow_outside_paths);
+    if extension.as_deref() != Some("xml") && !options.parameters.is_empty() {
+        return Err(SceneError::unsupported(
+            path,
+            "parameters (-D) apply to Mitsuba scene files (.xml) only",
+        ));
+    }
     let (builder, camera, resolution, render) = if extension.as_deref() == Some("toml") {
         let m = manifest::load(path, options.camera_name.as_deref(), &policy)?;
+        (m.builder, m.camera, m.resolution, m.render)
+    } else if extension.as_deref() == Some("xml") {
+        let m = error::guarded(path, "the Mitsuba reader", || {
+            mitsuba::load(path, &options.parameters, &policy)
+        })?;
         (m.builder, m.camera, m.resolution, m.render)
     } else {
         let (mut builder, camera) = load_model(path, options.camera_name.as_deref(), &policy)?;
@@ -169,9 +199,15 @@ pub(crate) fn load_model(
             let g = gltf::load(path, camera_name, policy)?;
             Ok((g.builder, g.camera))
         }
+        Some("xml") => {
+            let m = error::guarded(path, "the Mitsuba reader", || {
+                mitsuba::load(path, &[], policy)
+            })?;
+            Ok((m.builder, m.camera))
+        }
         _ => Err(SceneError::unsupported(
             path,
-            "unknown file type: expected .toml (manifest), .gltf, .glb or .obj",
+            "unknown file type: expected .toml (manifest), .gltf, .glb, .obj or .xml (Mitsuba 3)",
         )),
     }
 }

@@ -67,7 +67,7 @@ use glam::{UVec2, Vec3};
 use microfacet::{Fresnel, MicrofacetModel, NdfKind, Shadowing};
 use serde::Deserialize;
 
-use crate::camera::CameraSpec;
+use crate::camera::{CameraSpec, FovAxis};
 use crate::environment::EnvironmentMap;
 use crate::error::{SceneError, quoted};
 use crate::light::Light;
@@ -258,8 +258,10 @@ pub fn load(
             from: Vec3::from_array(c.from.ok_or_else(|| missing("from"))?),
             at: Vec3::from_array(c.at.ok_or_else(|| missing("at"))?),
             up: Vec3::from_array(c.up.unwrap_or([0.0, 1.0, 0.0])),
-            vertical_fov_degrees: c.fov.ok_or_else(|| missing("fov"))?,
+            fov_degrees: c.fov.ok_or_else(|| missing("fov"))?,
+            fov_axis: FovAxis::Y,
             aspect: None,
+            mirrored: false,
         });
     }
     let resolution = match manifest.resolution {
@@ -500,7 +502,11 @@ fn new_surface(
 
 fn conductor_fresnel(section: &MaterialSection, reflectance: Option<Vec3>) -> Fresnel {
     match (vec3(section.eta), vec3(section.k)) {
-        (Some(eta), Some(k)) => Fresnel::Conductor { eta, k },
+        (Some(eta), Some(k)) => Fresnel::Conductor {
+            eta,
+            k,
+            tint: Vec3::ONE,
+        },
         _ => Fresnel::Schlick {
             f0: reflectance.unwrap_or(Vec3::ONE).min(Vec3::ONE),
         },

@@ -312,6 +312,15 @@ fn colour(name: &str, v: Vec3) -> Result<(), String> {
     }
 }
 
+/// A colour in [0, 1] per channel (a reflectance factor).
+fn unit_colour(name: &str, v: Vec3) -> Result<(), String> {
+    if v.is_finite() && v.min_element() >= 0.0 && v.max_element() <= 1.0 {
+        Ok(())
+    } else {
+        Err(format!("{name} must lie in [0, 1], got {v}"))
+    }
+}
+
 fn model(m: &MicrofacetModel) -> Result<(), String> {
     let a = m.alpha();
     if a.is_finite() && a >= 0.0 {
@@ -347,9 +356,10 @@ fn check_material(surface: &Surface, emission: Vec3) -> Result<(), String> {
             model(m)?;
             match *fresnel {
                 Fresnel::Schlick { f0 } => colour("F0", f0),
-                Fresnel::Conductor { eta, k } => {
+                Fresnel::Conductor { eta, k, tint } => {
                     colour("eta", eta)?;
-                    colour("k", k)
+                    colour("k", k)?;
+                    unit_colour("tint", tint)
                 }
             }
         }

@@ -279,7 +279,7 @@ fn bsdf_xml(material: &Material) -> Result<String, String> {
         } => twosided(principled(f0, 1.0, ggx(&model)?, 1.5)),
         Surface::Conductor {
             model,
-            fresnel: Fresnel::Conductor { eta, k },
+            fresnel: Fresnel::Conductor { eta, k, tint },
         } => {
             let alpha = ggx(&model)?;
             let (kind, rough) = if model.is_smooth() {
@@ -288,9 +288,10 @@ fn bsdf_xml(material: &Material) -> Result<String, String> {
                 ("roughconductor", rough_params(alpha))
             };
             twosided(format!(
-                "        <bsdf type=\"{kind}\">\n{rough}            <rgb name=\"eta\" value=\"{}\"/>\n            <rgb name=\"k\" value=\"{}\"/>\n        </bsdf>\n",
+                "        <bsdf type=\"{kind}\">\n{rough}            <rgb name=\"eta\" value=\"{}\"/>\n            <rgb name=\"k\" value=\"{}\"/>\n            <rgb name=\"specular_reflectance\" value=\"{}\"/>\n        </bsdf>\n",
                 rgb(eta),
-                rgb(k)
+                rgb(k),
+                rgb(tint)
             ))
         }
         Surface::Dielectric { model, ior, tint } => {

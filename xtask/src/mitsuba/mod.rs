@@ -10,7 +10,8 @@
 //!    into `<out>/venv` with `python3 -m venv` and `pip install mitsuba`;
 //! 3. renders a reference with our renderer at `--reference-spp` (cached in
 //!    `<out>/cache/`, keyed by the settings and the scene's files: delete
-//!    that folder after changing the renderer);
+//!    that folder after changing the renderer; for a manifest or a Mitsuba
+//!    scene file, every file under its folder);
 //! 4. renders with both renderers at `--spp` (with all cores, and with one
 //!    core unless `--no-single-thread`) and at `--check-spp` (all cores),
 //!    timing the render call only;
@@ -19,6 +20,17 @@
 //!    that the two renderers estimate the same image (image means, and
 //!    noise-normalised block means), then writes `<out>/report.md` and
 //!    `<out>/report.json`.
+//!
+//! **XML mode.** When `--scene` is a Mitsuba scene file (`.xml`, or a folder
+//! whose scene file is `scene.xml`), there is no export: Mitsuba renders that
+//! file itself, with the comparison's settings substituted (see [`xml`]:
+//! integrator `path` with `--max-depth` and rr_depth 3, film of
+//! `--resolution` with a box filter, the configuration's sampler with
+//! sample_count = spp; everything else as the file has it) and the file's
+//! folder on Mitsuba's file resolver, and our side loads the same file with
+//! `scene::load`. Steps 1 and 2 become: find Mitsuba, let it load the file
+//! once (no render), then load it ourselves. This compares our reading of a
+//! Mitsuba scene with Mitsuba's as well as the two renderers.
 //!
 //! Timings are only meaningful in a release build: when this binary is a
 //! debug build (as `cargo xtask` builds it), it runs itself again through
@@ -29,6 +41,7 @@
 //!
 //! - this file: flags, the release re-run, the steps above in order
 //! - `export`: the scene as Mitsuba 3 XML and binary PLY meshes
+//! - `xml`: the XML mode (a Mitsuba scene file rendered as itself)
 //! - `install`: finding Mitsuba, or installing it with pip
 //! - `process`: child processes with captured output and a watchdog
 //! - `render`: the timed renders, ours in-process and Mitsuba's script
@@ -43,6 +56,7 @@ mod process;
 mod reference;
 mod render;
 mod report;
+mod xml;
 
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -56,6 +70,7 @@ use install::ensure_mitsuba;
 use reference::reference;
 use render::render_all;
 use report::Report;
+use xml::MitsubaScene;
 
 pub const USAGE: &str =
     "  mitsuba [options] compare our path tracer with Mitsuba 3's `path` integrator
@@ -63,7 +78,14 @@ pub const USAGE: &str =
                     reference of ours, time to equal error; writes
                     <out>/report.md and report.json. Runs itself in release
                     (timings need it).
-      --scene PATH          scene (default scenes/cornell-box/scene.toml)
+      --scene PATH          scene (default scenes/cornell-box/scene.toml): a
+                            manifest, model or folder, exported for Mitsuba;
+                            or a Mitsuba scene file (.xml, or a folder with a
+                            scene.xml), which Mitsuba renders as it is but with
+                            this comparison's integrator (path, --max-depth),
+                            film (--resolution, box filter) and sampler (spp)
+                            and our side loads with scene::load. The copy
+                            Mitsuba loads is <out>/mitsuba-xml/scene.xml
       --mitsuba LIST        Mitsuba configurations, comma-separated, each
                             VARIANT[:SAMPLER]: variant scalar_rgb or
                             llvm_ad_rgb (vectorized; needs libLLVM, installed
@@ -86,6 +108,11 @@ pub const USAGE: &str =
       --repeat R            time each all-core --spp render R times and report
                             the fastest (default 2; the machine may be shared)
       --no-single-thread    skip the one-thread renders
+      --integrator NAME     ours: pt (default), bpt, ppm, bpm or vcm, for our
+                            reference and our timed renders (unregularized);
+                            Mitsuba always runs `path`, so its image against
+                            our bpt or vcm reference checks that both
+                            estimate one image
       --out DIR             output folder (default target/mitsuba)
                             (relative paths are from the workspace root)";
 
@@ -110,6 +137,8 @@ pub(super) struct Options {
     pub(super) out: PathBuf,
     /// Mitsuba's configurations; ratios are against the first.
     pub(super) mitsuba: Vec<MitsubaConfig>,
+    /// Our integrator, for the reference and the timed renders (`--integrator`).
+    pub(super) integrator: integrators::Algorithm,
 }
 
 /// Mitsuba variants this task knows how to run (`mi.set_variant`).
@@ -181,6 +210,7 @@ impl Options {
             single_thread: true,
             out: root.join("target/mitsuba"),
             mitsuba: vec![MitsubaConfig::parse("scalar_rgb")?],
+            integrator: integrators::Algorithm::Pt,
         };
         let mut it = args.iter();
         while let Some(flag) = it.next() {
@@ -204,6 +234,9 @@ impl Options {
                 "--check-spp" => o.check_spp = number("--check-spp")?,
                 "--repeat" => o.repeat = number("--repeat")?.max(1),
                 "--out" => o.out = root.join(value),
+                "--integrator" => {
+                    o.integrator = value.parse().map_err(|e| format!("--integrator: {e}"))?;
+                }
                 "--mitsuba" => {
                     o.mitsuba = value
                         .split(',')
@@ -221,6 +254,9 @@ impl Options {
                 }
                 other => return Err(format!("unknown option `{other}`\n\nusage:\n{USAGE}")),
             }
+        }
+        if let Some(file) = xml::scene_file(&o.scene) {
+            o.scene = file;
         }
         if o.spp == 0 || o.reference_spp == 0 || o.width == 0 || o.height == 0 {
             return Err("--spp, --reference-spp and the resolution must be positive".into());
@@ -246,6 +282,11 @@ impl Options {
     pub(super) fn pixels(&self) -> usize {
         self.width as usize * self.height as usize
     }
+
+    /// Whether `--scene` is a Mitsuba scene file (the XML mode, see [`xml`]).
+    pub(super) fn is_xml(&self) -> bool {
+        xml::is_xml(&self.scene)
+    }
 }
 
 /// Runs `cargo xtask mitsuba ARGS` (in a release build: see the module docs).
@@ -261,12 +302,30 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
     if cfg!(debug_assertions) {
         println!("warning: this is a debug build; timings are not release numbers");
     }
-    let (scene, scene_load_s) = load_scene(&options)?;
-    let exported = export_scene(&scene, &options, scene_load_s)?;
-    let mitsuba = ensure_mitsuba(&options.out, &options.mitsuba)?;
-    println!("mitsuba: {} ({})", mitsuba.version, mitsuba.how);
+    let (scene, scene_load_s, mitsuba, mitsuba_scene) = if options.is_xml() {
+        // Mitsuba first: a file it refuses is not worth our reference.
+        let mitsuba = find_mitsuba(&options)?;
+        let mitsuba_scene = xml::check(root, &mitsuba, &options)?;
+        let (scene, scene_load_s) = load_scene(&options)?;
+        println!(
+            "scene: ours: {} triangles, {} spheres, loaded in {scene_load_s:.3} s",
+            scene.triangles.len(),
+            scene.spheres.len()
+        );
+        (scene, scene_load_s, mitsuba, mitsuba_scene)
+    } else {
+        let (scene, scene_load_s) = load_scene(&options)?;
+        let exported = export_scene(&scene, &options, scene_load_s)?;
+        let mitsuba = find_mitsuba(&options)?;
+        (
+            scene,
+            scene_load_s,
+            mitsuba,
+            MitsubaScene::Exported(exported),
+        )
+    };
     let reference = reference(&scene, &options)?;
-    let runs = render_all(root, &scene, &options, &mitsuba, &exported)?;
+    let runs = render_all(root, &scene, &options, &mitsuba, &mitsuba_scene)?;
     let context = (
         &options,
         crate::cores(),
@@ -275,6 +334,13 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
         load_before,
     );
     Report::new(context, &reference, &runs).write(&options.out, started.elapsed().as_secs_f64())
+}
+
+/// Mitsuba with every configuration's variant, and says which.
+fn find_mitsuba(options: &Options) -> Result<install::Mitsuba, String> {
+    let mitsuba = ensure_mitsuba(&options.out, &options.mitsuba)?;
+    println!("mitsuba: {} ({})", mitsuba.version, mitsuba.how);
+    Ok(mitsuba)
 }
 
 /// Our scene at the options' resolution, and the seconds loading took.

@@ -66,8 +66,12 @@ fn cache_key(options: &Options) -> Result<u64, String> {
     let mut key = Fnv64::default();
     key.field(
         format!(
-            "reference v1|{}x{}|depth {}|spp {}|seed {SEED_REFERENCE}",
-            options.width, options.height, options.max_depth, options.reference_spp
+            "reference v1|{}x{}|depth {}|spp {}|seed {SEED_REFERENCE}|{}",
+            options.width,
+            options.height,
+            options.max_depth,
+            options.reference_spp,
+            options.integrator.name()
         )
         .as_bytes(),
     );
@@ -186,6 +190,7 @@ mod tests {
             &["--resolution", "64x64"],
             &["--max-depth", "8"],
             &["--scene", "scenes/diffuse-only/scene.toml"],
+            &["--scene", "scenes/veach-mis"],
         ] {
             assert_ne!(
                 base.mean,

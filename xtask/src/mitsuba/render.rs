@@ -12,9 +12,9 @@ use integrators::{Regularization, RenderConfig, Renderer};
 use scene::Scene;
 use serde_json::Value;
 
-use super::export::Exported;
 use super::install::Mitsuba;
 use super::process::run_with_timeout;
+use super::xml::MitsubaScene;
 use super::{MitsubaConfig, Options};
 
 /// Sampler seeds: every image uses its own random numbers, so that no test
@@ -29,7 +29,7 @@ pub(super) fn render_all(
     scene: &Scene,
     options: &Options,
     mitsuba: &Mitsuba,
-    exported: &Exported,
+    mitsuba_scene: &MitsubaScene,
 ) -> Result<Vec<Run>, String> {
     let mut runs = Vec::new();
     for (job, repeat) in plan(options, crate::cores()) {
@@ -39,7 +39,7 @@ pub(super) fn render_all(
         for _ in 0..repeat {
             merge(&mut ours, render_ours(scene, options, job)?);
             for (config, acc) in options.mitsuba.iter().zip(&mut theirs) {
-                let run = render_mitsuba(root, mitsuba, exported, options, config, job)?;
+                let run = render_mitsuba(root, mitsuba, mitsuba_scene, options, config, job)?;
                 merge(acc, run);
             }
         }
@@ -100,7 +100,7 @@ fn merge(acc: &mut Option<Run>, run: Run) {
 /// One timed render and its image.
 #[derive(Clone)]
 pub(super) struct Run {
-    /// [`OURS`] or a [`MitsubaConfig::label`].
+    /// [`ours`] or a [`MitsubaConfig::label`].
     pub(super) renderer: String,
     pub(super) threads: usize,
     pub(super) spp: u32,
@@ -115,10 +115,14 @@ pub(super) struct Run {
     pub(super) note: String,
 }
 
-pub(super) const OURS: &str = "ours (pt)";
+/// Our rows' label: "ours (pt)", "ours (vcm)", ...
+pub(super) fn ours(options: &Options) -> String {
+    format!("ours ({})", options.integrator.name())
+}
 
 fn config(options: &Options, seed: u64) -> RenderConfig {
     RenderConfig {
+        algorithm: options.integrator,
         max_depth: options.max_depth,
         seed,
         regularization: Regularization::off(),
@@ -174,7 +178,7 @@ fn render_ours(scene: &Scene, options: &Options, job: Job) -> Result<Run, String
         path.display()
     );
     Ok(Run {
-        renderer: OURS.into(),
+        renderer: ours(options),
         threads,
         spp,
         setup_s,
@@ -193,7 +197,7 @@ fn render_ours(scene: &Scene, options: &Options, job: Job) -> Result<Run, String
 fn render_mitsuba(
     root: &Path,
     mitsuba: &Mitsuba,
-    exported: &Exported,
+    mitsuba_scene: &MitsubaScene,
     options: &Options,
     config: &MitsubaConfig,
     job: Job,
@@ -210,8 +214,7 @@ fn render_mitsuba(
     let stdout = run_with_timeout(
         Command::new(&mitsuba.python)
             .arg(&script)
-            .arg("--scene")
-            .arg(&exported.xml)
+            .args(mitsuba_scene.script_args(options))
             .arg("--out")
             .arg(&path)
             .args(["--spp", &spp.to_string()])

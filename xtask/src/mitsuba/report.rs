@@ -12,10 +12,11 @@ use super::compare::{
 };
 use super::install::Mitsuba;
 use super::reference::Reference;
-use super::render::{OURS, Run};
+use super::render::{Run, ours};
 
 /// Above this relative difference of the image means the two renderers do
-/// not render the same scene (the export is suspect, not the comparison).
+/// not render the same scene (the export, or in the XML mode our reading of
+/// the scene file, is suspect, not the comparison).
 const MEAN_TOLERANCE: f64 = 0.03;
 
 /// Largest |z| of an image mean (per channel) before the report calls it a
@@ -73,13 +74,15 @@ impl Levels<'_> {
 fn reference_error(levels: &Levels, reference: &Reference, raw: &[Errors]) -> ReferenceError {
     let options = levels.options;
     let from_variance = reference_floor(reference);
-    let extrapolated = levels.level(OURS, options.spp).map_or(from_variance, |i| {
-        let f = f64::from(options.spp) / f64::from(options.reference_spp);
-        Errors {
-            mse: (raw[i].mse * f).min(from_variance.mse),
-            rel_mse: (raw[i].rel_mse * f).min(from_variance.rel_mse),
-        }
-    });
+    let extrapolated = levels
+        .level(&ours(options), options.spp)
+        .map_or(from_variance, |i| {
+            let f = f64::from(options.spp) / f64::from(options.reference_spp);
+            Errors {
+                mse: (raw[i].mse * f).min(from_variance.mse),
+                rel_mse: (raw[i].rel_mse * f).min(from_variance.rel_mse),
+            }
+        });
     ReferenceError {
         from_variance,
         used: extrapolated,
@@ -165,7 +168,7 @@ fn convergence(rows: &[RowMetrics], levels: &Levels) -> Vec<(String, f64)> {
         f64::from(levels.options.check_spp),
     );
     let mitsuba = levels.options.mitsuba.iter().map(|c| c.label());
-    std::iter::once(OURS.to_string())
+    std::iter::once(ours(levels.options))
         .chain(mitsuba)
         .filter_map(|name| {
             let (a, b) = levels.two_levels(&name)?;
@@ -248,9 +251,14 @@ impl<'a> Report<'a> {
         let mut alarms = Vec::new();
         for (name, spp, a) in &self.agreements {
             if a.mean_rel_diff.iter().any(|d| d.abs() > MEAN_TOLERANCE) {
+                let suspect = if self.options.is_xml() {
+                    "our reading of the scene file"
+                } else {
+                    "the export"
+                };
                 alarms.push(format!(
                     "{name} @ {spp} spp: the image mean differs from the reference's by more than {:.0} % \
-                     (if Mitsuba's: the export is suspect: emitter side, fov, colours)",
+                     (if Mitsuba's: {suspect} is suspect: emitter side, fov, colours)",
                     100.0 * MEAN_TOLERANCE
                 ));
             } else if a.z_image.iter().any(|z| z.abs() > Z_ALARM) || a.z_block_rms > BLOCK_RMS_ALARM
@@ -293,10 +301,10 @@ impl<'a> Report<'a> {
     /// The title and the settings: scene, Mitsuba, machine, how times are taken.
     fn md_settings(&self, md: &mut String) {
         let o = self.options;
-        let _ = writeln!(md, "# Our path tracer vs Mitsuba 3\n");
+        let _ = writeln!(md, "# {} vs Mitsuba 3 (`path`)\n", ours(o));
         let _ = writeln!(
             md,
-            "Scene `{}` at {}x{}, max depth {} (segments), Russian roulette from depth 3, box filter, \
+            "Scene `{}`{} at {}x{}, max depth {} (segments), Russian roulette from depth 3, box filter, \
              regularization off. Mitsuba {} (`path`; {}): {}; ratios are against the first. \
              Machine: {} logical cores, load average {} before and {} after (other work on the \
              machine slows both renderers). Times: the render call only, release build, fastest of \
@@ -304,6 +312,12 @@ impl<'a> Report<'a> {
              an LLVM variant renders twice per run and its second (warm: kernels traced and compiled) \
              time counts.\n",
             o.scene.display(),
+            if o.is_xml() {
+                " (a Mitsuba scene file: Mitsuba renders it itself with these settings \
+                 substituted, we load it with `scene::load`)"
+            } else {
+                " (exported for Mitsuba)"
+            },
             o.width,
             o.height,
             o.max_depth,
@@ -459,6 +473,7 @@ impl<'a> Report<'a> {
         let re = &self.reference_error;
         json!({
             "scene": o.scene.display().to_string(),
+            "mitsuba_scene": if o.is_xml() { "file" } else { "export" },
             "width": o.width,
             "height": o.height,
             "max_depth": o.max_depth,
@@ -532,6 +547,8 @@ impl<'a> Report<'a> {
 
 #[cfg(test)]
 mod tests {
+    /// The label of our rows under the default `--integrator pt`.
+    const OURS: &str = "ours (pt)";
     use std::fs;
     use std::path::{Path, PathBuf};
 

@@ -402,6 +402,7 @@ fn lobes(alphas: &[f32], etas: &[f32]) -> Vec<Lobe> {
     let gold = Fresnel::Conductor {
         eta: Vec3::new(0.2, 0.9, 1.1),
         k: Vec3::new(3.0, 2.5, 2.0),
+        tint: Vec3::ONE,
     };
     let schlick = Fresnel::Schlick {
         f0: Vec3::splat(0.9),
@@ -418,7 +419,7 @@ fn lobes(alphas: &[f32], etas: &[f32]) -> Vec<Lobe> {
                     let f = match name {
                         "schlick" => "Fresnel::Schlick { f0: Vec3::splat(0.9) }",
                         _ => {
-                            "Fresnel::Conductor { eta: Vec3::new(0.2, 0.9, 1.1), k: Vec3::new(3.0, 2.5, 2.0) }"
+                            "Fresnel::Conductor { eta: Vec3::new(0.2, 0.9, 1.1), k: Vec3::new(3.0, 2.5, 2.0), tint: Vec3::ONE }"
                         }
                     };
                     out.push(Lobe {

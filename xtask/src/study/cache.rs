@@ -2,9 +2,10 @@
 //! `<key>.json` holding the settings and the render time.
 //!
 //! The key is a 64-bit FNV-1a hash of the scene's files (by relative path
-//! and bytes: for a `scene.toml`, every file under its folder, so the model
-//! files it names count; for a model file given directly, the files next
-//! to it, such as an OBJ's .mtl or a glTF's buffers), the reference's settings
+//! and bytes: for a `scene.toml` or a Mitsuba scene file (`.xml`), every file
+//! under its folder, so the model and texture files it names count; for a
+//! model file given directly, the files next to it, such as an OBJ's .mtl or
+//! a glTF's buffers), the reference's settings
 //! and the renderer's version (xtask's package version, the git commit and
 //! a hash of uncommitted changes to the renderer's sources). FNV-1a is
 //! written out here rather than taken from std, whose hasher may change
@@ -96,19 +97,21 @@ pub fn scene_hash(files: &[(String, Vec<u8>)]) -> u64 {
     h.finish()
 }
 
-/// Hash of the files of the scene `scene_file` names: a manifest's
-/// folder is the scene (with subfolders, so the model files it names
-/// count); a model file given directly is hashed with the files next to it
+/// Hash of the files of the scene `scene_file` names: the folder of a
+/// manifest or of a Mitsuba scene file (`.xml`) is the scene (with
+/// subfolders, so the model, mesh and texture files it names count, and the
+/// files a Mitsuba scene includes; files it names outside its folder do
+/// not); a model file given directly is hashed with the files next to it
 /// (an OBJ's .mtl, a glTF's buffers).
 pub fn scene_hash_of(scene_file: &Path) -> Result<u64, String> {
     let dir = scene_file
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
-    let manifest = scene_file
+    let whole_folder = scene_file
         .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
-    Ok(scene_hash(&scene_files(dir, manifest)?))
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml") || e.eq_ignore_ascii_case("xml"));
+    Ok(scene_hash(&scene_files(dir, whole_folder)?))
 }
 
 /// The renderer's version, the cache key's input: xtask's package version,
@@ -364,6 +367,12 @@ mod tests {
         // Without recursion, only the folder's own files count.
         let flat = scene_files(&dir, false).unwrap();
         assert_eq!(flat.len(), 1);
+        // A Mitsuba scene file's meshes in a subfolder count, as a manifest's.
+        let xml = dir.join("scene.xml");
+        fs::write(&xml, "<scene version=\"3.0.0\"/>").unwrap();
+        let with_mesh = scene_hash_of(&xml).unwrap();
+        fs::write(dir.join("models").join("a.obj"), "v 0 0 2\n").unwrap();
+        assert_ne!(with_mesh, scene_hash_of(&xml).unwrap());
         fs::remove_dir_all(dir).unwrap();
     }
 

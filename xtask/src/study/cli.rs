@@ -25,11 +25,12 @@ bias-limited where the RMSE stopped falling like noise). Writes curves.csv, curv
 PNG), bias.png and contact-sheet.png to the output folder.
 
 options:
-  --scene PATH          scene folder with a scene.toml, or a scene file (.toml,
-                        .gltf, .glb, .obj); required. The reference cache key
-                        hashes every file under a scene.toml's folder (models
-                        outside it are not seen), or the files next to a
-                        model file.
+  --scene PATH          scene folder with a scene.toml (else a scene.xml), or a
+                        scene file (.toml, .gltf, .glb, .obj, or a Mitsuba
+                        scene .xml); required. The reference cache key
+                        hashes every file under a scene.toml's or .xml's
+                        folder (models outside it are not seen), or the
+                        files next to a model file.
   --configs LIST        comma-separated configs, each an algorithm (pt, bpt,
                         ppm, bpm, vcm) with regularization off, or with `-reg`:
                         selective regularization, progressive tau from tau_0,
@@ -369,11 +370,18 @@ fn resolve_scene(root: &Path, given: &str) -> Result<(PathBuf, String), String> 
         .find(|p| p.exists())
         .ok_or_else(|| format!("--scene: {given}: no such file or folder"))?;
     let file = if path.is_dir() {
+        // A manifest wins, as in `scene::load` and `cargo xtask mitsuba`.
         let manifest = path.join("scene.toml");
-        if !manifest.is_file() {
-            return Err(format!("--scene: {given}: the folder has no scene.toml"));
+        let xml = path.join("scene.xml");
+        if manifest.is_file() {
+            manifest
+        } else if xml.is_file() {
+            xml
+        } else {
+            return Err(format!(
+                "--scene: {given}: the folder has no scene.toml or scene.xml"
+            ));
         }
-        manifest
     } else {
         path.clone()
     };
@@ -382,7 +390,10 @@ fn resolve_scene(root: &Path, given: &str) -> Result<(PathBuf, String), String> 
         .map(Path::to_path_buf)
         .filter(|d| !d.as_os_str().is_empty())
         .unwrap_or_else(|| PathBuf::from("."));
-    let name = if file.file_name().is_some_and(|n| n == "scene.toml") {
+    let name = if file
+        .file_name()
+        .is_some_and(|n| n == "scene.toml" || n == "scene.xml")
+    {
         dir.canonicalize()
             .ok()
             .and_then(|d| d.file_name().map(|n| n.to_string_lossy().into_owned()))
@@ -723,6 +734,10 @@ mod tests {
         assert_eq!(quick.scene_name, "caustic-glass");
         assert!(quick.scene_file.ends_with("scene.toml"));
         assert!(quick.out.ends_with("target/study/caustic-glass"));
+        // A folder without a manifest gives its Mitsuba scene file.
+        let xml = parse(&["--scene", "scenes/veach-bidir", "--budget", "quick"]).unwrap();
+        assert!(xml.scene_file.ends_with("veach-bidir/scene.xml"));
+        assert_eq!(xml.scene_name, "veach-bidir");
         let full = parse(&["--scene=scenes/caustic-glass"]).unwrap();
         assert_eq!((full.iterations, full.reference_iterations), (1024, 10_000));
         assert_eq!(full.resolution, None);

@@ -10,6 +10,7 @@ mod environment;
 mod furnace;
 mod hostile;
 mod maps;
+mod mitsuba_camera;
 mod pt;
 mod real_materials;
 mod spheres;

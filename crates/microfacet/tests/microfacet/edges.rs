@@ -29,6 +29,7 @@ fn edge_lobes() -> Vec<Bsdf> {
                     fresnel: Fresnel::Conductor {
                         eta: Vec3::splat(0.2),
                         k: Vec3::splat(3.0),
+                        tint: Vec3::ONE,
                     },
                 }));
                 for eta in EDGE_ETAS {

@@ -63,6 +63,7 @@ fn lobes() -> Vec<Bsdf> {
             fresnel: microfacet::Fresnel::Conductor {
                 eta: Vec3::new(0.2, 0.9, 1.1),
                 k: Vec3::new(3.9, 2.4, 2.2),
+                tint: Vec3::ONE,
             },
         }));
         for eta in ETAS {

@@ -9,3 +9,4 @@ mod hostile_obj;
 mod malformed;
 mod manifest;
 mod maps;
+mod mitsuba;

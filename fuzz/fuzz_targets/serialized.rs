@@ -1,0 +1,25 @@
+//! A `.serialized` file through `scene::mitsuba::serialized::read`: the
+//! first input byte is the `shape_index`, the rest is the file. A mesh it
+//! returns must keep the reader's promises (finite positions, indices in
+//! range, attributes one per vertex or none).
+#![no_main]
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    let Some((&shape_index, file)) = data.split_first() else {
+        return;
+    };
+    if let Ok(mesh) = scene::mitsuba::serialized::read(file, u32::from(shape_index)) {
+        check_mesh(&mesh);
+    }
+    let _ = scene::mitsuba::serialized::mesh_count(file);
+});
+
+/// Panics if `mesh` breaks a promise of the mesh readers.
+fn check_mesh(mesh: &scene::mitsuba::MeshData) {
+    let n = mesh.positions.len();
+    assert!(mesh.positions.iter().all(|p| p.is_finite()));
+    assert!(mesh.normals.is_empty() || mesh.normals.len() == n);
+    assert!(mesh.uvs.is_empty() || mesh.uvs.len() == n);
+    assert!(mesh.triangles.iter().flatten().all(|&i| (i as usize) < n));
+}
