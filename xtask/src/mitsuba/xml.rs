@@ -27,11 +27,8 @@ use super::process::run_with_timeout;
 /// ends in `.xml`, `path/scene.xml` for a folder with one and no
 /// `scene.toml` (a manifest wins, as `scene::load` reads it); else `None`.
 pub(super) fn scene_file(path: &Path) -> Option<PathBuf> {
-    if is_xml(path) {
-        return Some(path.to_path_buf());
-    }
-    let xml = path.join("scene.xml");
-    (path.is_dir() && !path.join("scene.toml").is_file() && xml.is_file()).then_some(xml)
+    let file = scene::scene_file(path);
+    is_xml(&file).then_some(file)
 }
 
 /// Whether `path` names a Mitsuba scene file (by its extension).

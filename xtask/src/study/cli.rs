@@ -371,17 +371,13 @@ fn resolve_scene(root: &Path, given: &str) -> Result<(PathBuf, String), String> 
         .ok_or_else(|| format!("--scene: {given}: no such file or folder"))?;
     let file = if path.is_dir() {
         // A manifest wins, as in `scene::load` and `cargo xtask mitsuba`.
-        let manifest = path.join("scene.toml");
-        let xml = path.join("scene.xml");
-        if manifest.is_file() {
-            manifest
-        } else if xml.is_file() {
-            xml
-        } else {
+        let file = scene::scene_file(path);
+        if !file.is_file() {
             return Err(format!(
                 "--scene: {given}: the folder has no scene.toml or scene.xml"
             ));
         }
+        file
     } else {
         path.clone()
     };

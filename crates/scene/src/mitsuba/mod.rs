@@ -15,7 +15,7 @@
 //! - `diffuse` -> Lambertian (a `bitmap` reflectance -> a textured one);
 //!   `conductor`/`roughconductor` -> a conductor with complex Fresnel (RGB
 //!   `eta`/`k` or a named `material`; `none`, the default, a perfect
-//!   mirror); `dielectric`/`roughdielectric` -> a dielectric of index
+//!   mirror) times `specular_reflectance`; `dielectric`/`roughdielectric` -> a dielectric of index
 //!   int_ior / ext_ior, `specular_transmittance` its tint; `plastic` /
 //!   `roughplastic` -> the coated lobe (a Schlick coat of F0 ((n-1)/(n+1))^2
 //!   over a Lambertian base that loses what the coat reflects; Mitsuba's
@@ -197,7 +197,9 @@ impl<'a> Loader<'a> {
             let object = plugin.resolve(child)?;
             match object.tag.as_str() {
                 "shape" => self.shape(object)?,
-                "emitter" => self.emitter(object, None)?,
+                // Used by reference from a shape.
+                "emitter" if object.plugin == "area" && object.id.is_some() => {}
+                "emitter" => self.emitter(object)?,
                 "sensor" => {
                     sensors += 1;
                     if sensors == 1 {
@@ -211,7 +213,11 @@ impl<'a> Loader<'a> {
                     }
                 }
                 "integrator" => self.integrator(object)?,
+                // Used by reference.
                 "bsdf" | "texture" if object.id.is_some() => {}
+                "medium" => {
+                    return Err(unsupported(object, "participating media are not supported"));
+                }
                 other => self.warn(format!(
                     "{}: {}: <{other}> ignored (not supported here)",
                     object.at.file.display(),
@@ -229,6 +235,9 @@ impl<'a> Loader<'a> {
 
     fn shape(&mut self, object: &'a Object) -> Result<(), SceneError> {
         let p = Plugin::new(object, self.ids);
+        if let Some(medium) = p.children("medium")?.first() {
+            return Err(unsupported(medium, "participating media are not supported"));
+        }
         let to_world = p.transform("to_world")?;
         let flip = p.boolean_or("flip_normals", false)?;
         let material = self.shape_material(&p)?;
@@ -251,7 +260,7 @@ impl<'a> Loader<'a> {
             }
             "ply" => {
                 let file = self.file(&p, "filename")?;
-                let bytes = std::fs::read(&file).map_err(|e| SceneError::io(&file, e))?;
+                let bytes = read_mesh_file(&file)?;
                 let mut mesh = ply::read(&bytes).map_err(|e| SceneError::malformed(&file, e))?;
                 if p.boolean_or("flip_tex_coords", false)? {
                     mesh.uvs.iter_mut().for_each(|uv| uv.y = 1.0 - uv.y);
@@ -263,7 +272,7 @@ impl<'a> Loader<'a> {
                 let index = p.integer("shape_index")?.unwrap_or(0);
                 let index = u32::try_from(index)
                     .map_err(|_| p.error(format!("shape_index must be >= 0, got {index}")))?;
-                let bytes = std::fs::read(&file).map_err(|e| SceneError::io(&file, e))?;
+                let bytes = read_mesh_file(&file)?;
                 serialized::read(&bytes, index).map_err(|e| SceneError::malformed(&file, e))?
             }
             other => {
@@ -667,7 +676,7 @@ impl<'a> Loader<'a> {
 
     // ---- emitters -------------------------------------------------------
 
-    fn emitter(&mut self, object: &'a Object, _shape: Option<()>) -> Result<(), SceneError> {
+    fn emitter(&mut self, object: &'a Object) -> Result<(), SceneError> {
         let p = Plugin::new(object, self.ids);
         let rgb = |name: &str, default: Vec3| -> Result<Vec3, SceneError> {
             match p.color(name, true, false)? {
@@ -927,6 +936,36 @@ impl<'a> Loader<'a> {
         }
         Ok(())
     }
+}
+
+/// Largest PLY or `.serialized` file read (they are read whole): 4 GiB
+/// holds some 10^8 triangles, beyond what this renderer's 32-bit indices
+/// and memory serve; a larger file is refused before it is read.
+pub const MAX_MESH_FILE_BYTES: u64 = 4 << 30;
+
+/// The bytes of a mesh file, refused above [`MAX_MESH_FILE_BYTES`].
+fn read_mesh_file(path: &Path) -> Result<Vec<u8>, SceneError> {
+    let size = std::fs::metadata(path)
+        .map_err(|e| SceneError::io(path, e))?
+        .len();
+    if size > MAX_MESH_FILE_BYTES {
+        return Err(SceneError::malformed(
+            path,
+            format!("{size} bytes: a mesh file larger than {MAX_MESH_FILE_BYTES} bytes is refused"),
+        ));
+    }
+    std::fs::read(path).map_err(|e| SceneError::io(path, e))
+}
+
+/// An error saying that `object` uses what is not supported here.
+fn unsupported(object: &Object, what: &str) -> SceneError {
+    SceneError::unsupported(
+        object.at.file.as_path(),
+        format!(
+            "{}: {what}",
+            xml::element_name(&object.at, &object.tag, &object.plugin)
+        ),
+    )
 }
 
 /// The unit vector along `v` in f32, if it has a length.

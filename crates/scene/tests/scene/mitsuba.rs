@@ -264,9 +264,12 @@ fn includes_refs_and_paths() {
         <sensor type="perspective"><float name="fov" value="30"/></sensor>
         <emitter type="point"><point name="position" x="0" y="3" z="0"/><rgb name="intensity" value="5"/></emitter>
         <shape type="obj"><string name="filename" value="meshes/tri.obj"/><ref id="red"/></shape>
+        <shape type="obj"><string name="filename" value="meshes/tri.obj"/><ref id="glow"/>
+            <transform name="to_world"><translate z="-1"/></transform></shape>
     </scene>"#;
     let materials = r#"<scene version="3.0.0">
         <bsdf type="diffuse" id="red"><rgb name="reflectance" value="0.8, 0.1, 0.1"/></bsdf>
+        <emitter type="area" id="glow"><rgb name="radiance" value="0.5"/></emitter>
     </scene>"#;
     let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
     let s = load_with(
@@ -278,7 +281,12 @@ fn includes_refs_and_paths() {
         &[],
     )
     .unwrap();
-    assert_eq!(s.triangles.len(), 1);
+    assert_eq!(s.triangles.len(), 2);
+    // An area emitter given by reference lights the second triangle.
+    assert_eq!(
+        s.materials[s.triangle_materials[1] as usize].emission,
+        Vec3::splat(0.5)
+    );
     assert_eq!(
         s.materials[s.triangle_materials[0] as usize].surface,
         Surface::Diffuse {
@@ -339,6 +347,14 @@ fn bad_input_is_named() {
             "axis is zero",
         ),
         (r#"<blackbody/>"#, "unknown element"),
+        (
+            r#"<shape type="cube"><medium type="homogeneous" name="interior"/></shape>"#,
+            "media are not supported",
+        ),
+        (
+            r#"<shape type="cube"><bsdf type="thindielectric"/></shape>"#,
+            "\"thindielectric\" is not supported",
+        ),
         (
             r#"<shape type="cube"><float name="radius" value="1"/><float name="face_normals" value="1"/></shape>"#,
             "expected a <boolean>",
