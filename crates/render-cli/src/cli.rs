@@ -16,8 +16,8 @@ use crate::values::{
 };
 
 const AFTER_LONG_HELP: &str = "\
-Settings are taken from the flags, else from the scene manifest's [render] table, else from the \
-defaults above; --explain shows where each one came from. The table's keys are the flags' names \
+Settings are taken from the flags, else from the scene manifest's [render] table (a Mitsuba \
+file's integrator max_depth, sampler sample_count and film size), else from the defaults above; --explain shows where each one came from. The table's keys are the flags' names \
 with underscores: integrator, iterations, max_depth, regularize, tau0, seed, radius, \
 shadow_roulette, and progressive, regularize_energy and virtual_merges (true or false).
 

@@ -283,17 +283,17 @@ mod tests {
         };
         let text = explain(&["--iterations", "2", "--seed", "3"], &manifest);
         for line in [
-            "integrator:       vcm (manifest)",
+            "integrator:       vcm (scene file)",
             "iterations:       2 (flag)",
             "regularize:       unsampleable (default)",
-            "tau0:             30 (manifest)",
+            "tau0:             30 (scene file)",
             "progressive:      yes (default)",
-            "energy:           off (manifest)",
+            "energy:           off (scene file)",
             "max depth:        12 (default)",
             "seed:             3 (flag)",
-            "radius:           0.01 (manifest)",
-            "shadow roulette:  0.25 (manifest)",
-            "virtual merges:   off (manifest)",
+            "radius:           0.01 (scene file)",
+            "shadow roulette:  0.25 (scene file)",
+            "virtual merges:   off (scene file)",
         ] {
             assert!(
                 text.contains(&format!("{line}\n")),

@@ -38,7 +38,8 @@ pub const DEFAULT_SEED: u64 = 0;
 pub enum Origin {
     /// A command-line flag.
     Flag,
-    /// The scene manifest's `[render]` table.
+    /// The scene file: a manifest's `[render]` table, or a Mitsuba file's
+    /// integrator, sampler and film.
     Manifest,
     /// The built-in default.
     Default,
@@ -48,7 +49,7 @@ impl fmt::Display for Origin {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
             Self::Flag => "flag",
-            Self::Manifest => "manifest",
+            Self::Manifest => "scene file",
             Self::Default => "default",
         })
     }

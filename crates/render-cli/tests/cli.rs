@@ -271,6 +271,7 @@ fn help_mentions_every_flag() {
         "--env ",
         "--env-scale",
         "--env-rotation",
+        "-D <NAME=VALUE>",
         "D/4 for reflection",
         "shadow_roulette",
     ] {
@@ -290,7 +291,7 @@ fn explain_prints_the_settings_and_renders() {
     assert!(output.status.success(), "{}", stderr(&output));
     let stdout = String::from_utf8(output.stdout).unwrap();
     for line in [
-        "regularize:       selective (manifest)",
+        "regularize:       selective (scene file)",
         "iterations:       2 (flag)",
         "tau0:             30 (default)",
         "threads:          1",
@@ -325,9 +326,9 @@ fn manifest_render_keys_take_effect_and_flags_override_them() {
     assert!(output.status.success(), "{}", stderr(&output));
     let stdout = String::from_utf8(output.stdout).unwrap();
     for line in [
-        "radius:           0.02 (manifest)",
-        "shadow roulette:  0.25 (manifest)",
-        "virtual merges:   off (manifest)",
+        "radius:           0.02 (scene file)",
+        "shadow roulette:  0.25 (scene file)",
+        "virtual merges:   off (scene file)",
         "(0.02 x scene radius;",
     ] {
         assert!(stdout.contains(line), "'{line}' missing from:\n{stdout}");
@@ -849,4 +850,42 @@ fn env_lights_any_scene_and_explain_says_so() {
     args.extend(["--env", missing.to_str().unwrap()]);
     std::fs::remove_file(&exr).unwrap();
     assert_fails_cleanly(&render_cli(&args), &["nope.exr"], dir.path());
+}
+
+/// A Mitsuba scene folder renders with the file's own settings where no
+/// flag overrides them (here: the iterations, from `-D spp=2`); an unused
+/// parameter is one line naming it, before anything is written.
+#[test]
+fn renders_a_mitsuba_scene_with_parameters() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("mis.exr");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/veach-mis");
+    let args = [
+        scene.to_str().unwrap(),
+        "-o",
+        exr.to_str().unwrap(),
+        "--resolution",
+        "32x18",
+    ];
+    let output = render_cli(&[&args[..], &["-D", "spp=2", "-D", "max_depth=2"]].concat());
+    let err = stderr(&output);
+    assert!(output.status.success(), "{err}");
+    assert!(
+        err.lines()
+            .last()
+            .is_some_and(|l| l.starts_with("rendered 2 iterations of 32x18 in ")),
+        "{err}"
+    );
+    let image = read_exr(&exr).unwrap();
+    assert!(
+        image.pixels.iter().any(|p| p.element_sum() > 0.0),
+        "black image"
+    );
+
+    let output = render_cli(&[&args[..], &["-D", "sppp=2"]].concat());
+    let _ = std::fs::remove_file(dir.path().join("mis.png"));
+    let _ = std::fs::remove_file(&exr);
+    assert_fails_cleanly(&output, &["scene.xml", "sppp"], dir.path());
+    let output = render_cli(&[&args[..], &["-D", "bad name=1"]].concat());
+    assert!(!output.status.success() && stderr(&output).contains("letters, digits and _"));
 }

@@ -938,10 +938,10 @@ impl<'a> Loader<'a> {
     }
 }
 
-/// Largest PLY or `.serialized` file read (they are read whole): 4 GiB
-/// holds some 10^8 triangles, beyond what this renderer's 32-bit indices
-/// and memory serve; a larger file is refused before it is read.
-pub const MAX_MESH_FILE_BYTES: u64 = 4 << 30;
+/// Largest PLY or `.serialized` file read (they are read whole): the bound
+/// of one inflated mesh, [`serialized::MAX_MESH_BYTES`]; a larger file is
+/// refused before it is read.
+pub const MAX_MESH_FILE_BYTES: u64 = serialized::MAX_MESH_BYTES;
 
 /// The bytes of a mesh file, refused above [`MAX_MESH_FILE_BYTES`].
 fn read_mesh_file(path: &Path) -> Result<Vec<u8>, SceneError> {

@@ -196,6 +196,7 @@ fn fixtures() -> Vec<(&'static str, Vec<u8>)> {
         ("f.gltf", gltf_triangle(r#","extras":{"ndf":"beckmann"}"#, UNIT, [0, 1, 2]).into_bytes()),
         ("f.toml", b"resolution = [4, 4]\n[[material]]\nname = \"m\"\ntype = \"diffuse\"\n[[shape]]\ntype = \"sphere\"\nmaterial = \"m\"\ncenter = [0, 0, 0]\nradius = 1\nrings = 4\n[[light]]\ntype = \"environment\"\nintensity = [1, 1, 1]\n".to_vec()),
         ("f.glb", std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/Box/glTF-Binary/Box.glb")).unwrap_or_default()),
+        ("f.xml", std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/veach-mis/scene.xml")).unwrap_or_default()),
     ]
 }
 
@@ -204,14 +205,14 @@ proptest! {
 
     /// Random bytes under every file extension: an error or a scene, no panic.
     #[test]
-    fn random_bytes_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..512), which in 0usize..4) {
-        let name = ["r.obj", "r.gltf", "r.toml", "r.glb"][which];
+    fn random_bytes_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..512), which in 0usize..5) {
+        let name = ["r.obj", "r.gltf", "r.toml", "r.glb", "r.xml"][which];
         let _ = load_files(&[(name, &bytes)]);
     }
 
     /// Random mutations (overwrites, truncation) of valid files: no panic.
     #[test]
-    fn mutated_files_never_panic(which in 0usize..4, edits in proptest::collection::vec((any::<u16>(), any::<u8>()), 1..8), cut in any::<u16>()) {
+    fn mutated_files_never_panic(which in 0usize..5, edits in proptest::collection::vec((any::<u16>(), any::<u8>()), 1..8), cut in any::<u16>()) {
         let (name, mut bytes) = fixtures().swap_remove(which);
         if bytes.is_empty() {
             return Ok(());

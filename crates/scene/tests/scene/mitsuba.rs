@@ -61,6 +61,14 @@ fn scene(body: &str) -> String {
 const CUBE: &str =
     r#"<shape type="cube"><transform name="to_world"><translate z="-10"/></transform></shape>"#;
 
+/// `bytes` as a zlib stream (the `.serialized` format's compression).
+fn zlib(bytes: &[u8]) -> Vec<u8> {
+    use std::io::Write;
+    let mut e = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
+    e.write_all(bytes).unwrap();
+    e.finish().unwrap()
+}
+
 fn error(xml: &str) -> String {
     load_xml(xml).expect_err("must fail").to_string()
 }
@@ -390,6 +398,28 @@ fn hostile_documents_are_refused_without_panic() {
     // A file including itself stops at Mitsuba's include depth.
     let e = error(r#"<scene version="3.0.0"><include filename="scene.xml"/></scene>"#);
     assert!(e.contains("includes nest deeper"), "{e}");
+    // Mesh headers claiming 10^12 vertices are refused before allocating.
+    let ply = b"ply\nformat binary_little_endian 1.0\nelement vertex 1000000000000\nproperty float x\nproperty float y\nproperty float z\nend_header\n\0\0\0\0";
+    let mut serialized = vec![0x1C, 0x04, 4, 0];
+    let mut body = vec![0u8; 4];
+    body.extend_from_slice(b"m\0");
+    body.extend_from_slice(&1_000_000_000_000u64.to_le_bytes());
+    body.extend_from_slice(&1u64.to_le_bytes());
+    serialized.extend(zlib(&body));
+    serialized.extend_from_slice(&0u64.to_le_bytes());
+    serialized.extend_from_slice(&1u32.to_le_bytes());
+    for (plugin, file, bytes) in [
+        ("ply", "m.ply", &ply[..]),
+        ("serialized", "m.serialized", &serialized[..]),
+    ] {
+        let xml = scene(&format!(
+            r#"<shape type="{plugin}"><string name="filename" value="{file}"/></shape>"#
+        ));
+        let e = load_with(&[("scene.xml", xml.as_bytes()), (file, bytes)], &[])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(file) && e.contains("1000000000000"), "{e}");
+    }
     // A BSDF that refers to itself.
     let e = error(&scene(
         r#"<bsdf type="twosided" id="loop"><ref id="loop"/></bsdf><shape type="cube"><ref id="loop"/></shape>"#,
