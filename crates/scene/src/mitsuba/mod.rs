@@ -178,6 +178,15 @@ impl<'a> Loader<'a> {
         self.builder.report.warnings.push(message);
     }
 
+    /// A warning naming `object`'s file, line and element.
+    fn warn_at(&mut self, object: &Object, message: impl std::fmt::Display) {
+        self.warn(format!(
+            "{}: {}: {message}",
+            object.at.file.display(),
+            xml::element_name(&object.at, &object.tag, &object.plugin)
+        ));
+    }
+
     /// Warns about what `plugin` did not read.
     fn finish(&mut self, plugin: &Plugin) {
         if let Some(w) = plugin.unused() {
@@ -205,11 +214,7 @@ impl<'a> Loader<'a> {
                     if sensors == 1 {
                         self.sensor(object)?;
                     } else {
-                        self.warn(format!(
-                            "{}: {}: a second sensor: the first one is used",
-                            object.at.file.display(),
-                            xml::element_name(&object.at, &object.tag, &object.plugin)
-                        ));
+                        self.warn_at(object, "a second sensor: the first one is used");
                     }
                 }
                 "integrator" => self.integrator(object)?,
@@ -218,11 +223,7 @@ impl<'a> Loader<'a> {
                 "medium" => {
                     return Err(unsupported(object, "participating media are not supported"));
                 }
-                other => self.warn(format!(
-                    "{}: {}: <{other}> ignored (not supported here)",
-                    object.at.file.display(),
-                    xml::element_name(&object.at, &object.tag, &object.plugin)
-                )),
+                other => self.warn_at(object, format!("<{other}> ignored (not supported here)")),
             }
         }
         if !root.properties.is_empty() {
@@ -250,11 +251,10 @@ impl<'a> Loader<'a> {
                 let file = self.file(&p, "filename")?;
                 // Mitsuba's default flips v (obj.cpp); our OBJ reader always does.
                 if !p.boolean_or("flip_tex_coords", true)? {
-                    self.warn(format!(
-                        "{}: {}: flip_tex_coords=false ignored: OBJ texture v is flipped",
-                        object.at.file.display(),
-                        p.element()
-                    ));
+                    self.warn_at(
+                        object,
+                        "flip_tex_coords=false ignored: OBJ texture v is flipped",
+                    );
                 }
                 obj_mesh(&file, self.policy)?
             }
@@ -445,11 +445,10 @@ impl<'a> Loader<'a> {
                     [front, back] => {
                         let s = self.bsdf(front, depth + 1)?;
                         if self.bsdf(back, depth + 1)? != s {
-                            self.warn(format!(
-                                "{}: {}: a different back BSDF ignored: both sides use the front one",
-                                object.at.file.display(),
-                                p.element()
-                            ));
+                            self.warn_at(
+                                object,
+                                "a different back BSDF ignored: both sides use the front one",
+                            );
                         }
                         s
                     }
@@ -489,11 +488,7 @@ impl<'a> Loader<'a> {
                 let ior = p.ior("int_ior", "polypropylene")? / p.ior("ext_ior", "air")?;
                 self.ignore_unit_color(&p, "specular_reflectance")?;
                 if p.boolean_or("nonlinear", false)? {
-                    self.warn(format!(
-                        "{}: {}: nonlinear=true ignored",
-                        object.at.file.display(),
-                        p.element()
-                    ));
+                    self.warn_at(object, "nonlinear=true ignored");
                 }
                 let base_color = match p.color("diffuse_reflectance", false, true)? {
                     None => Vec3::splat(0.5),
@@ -611,11 +606,7 @@ impl<'a> Loader<'a> {
         match p.color(name, false, false)? {
             None => {}
             Some(Color::Rgb(c)) if c == Vec3::ONE => {}
-            Some(_) => self.warn(format!(
-                "{}: {}: {name} other than 1 ignored",
-                p.object.at.file.display(),
-                p.element()
-            )),
+            Some(_) => self.warn_at(p.object, format!("{name} other than 1 ignored")),
         }
         Ok(())
     }
@@ -648,11 +639,7 @@ impl<'a> Loader<'a> {
             }
         };
         if p.string("filter_type")? == Some("nearest") {
-            self.warn(format!(
-                "{}: {}: filter_type=nearest ignored: lookups are bilinear",
-                object.at.file.display(),
-                p.element()
-            ));
+            self.warn_at(object, "filter_type=nearest ignored: lookups are bilinear");
         }
         if p.transform("to_uv")? != DMat4::IDENTITY {
             return Err(p.error("to_uv is not supported"));
@@ -707,11 +694,7 @@ impl<'a> Loader<'a> {
                         "needs 0 <= beam_width <= cutoff_angle in (0, 180], got {beam} and {cutoff}"
                     )));
                 }
-                self.warn(format!(
-                    "{}: {}: the spot's falloff between beam_width and cutoff_angle is glTF's smooth curve, Mitsuba's is linear in the angle",
-                    object.at.file.display(),
-                    p.element()
-                ));
+                self.warn_at(object, "the spot's falloff between beam_width and cutoff_angle is glTF's smooth curve, Mitsuba's is linear in the angle");
                 Light::Spot {
                     position: to_world.transform_point3(DVec3::ZERO).as_vec3(),
                     direction: unit(to_world.transform_vector3(DVec3::Z))
@@ -802,11 +785,10 @@ impl<'a> Loader<'a> {
         let near = p.float_or("near_clip", 1e-2)?;
         p.float("far_clip")?;
         if near > 1e-2 {
-            self.warn(format!(
-                "{}: {}: near_clip {near} ignored: rays start at the camera",
-                object.at.file.display(),
-                p.element()
-            ));
+            self.warn_at(
+                object,
+                format!("near_clip {near} ignored: rays start at the camera"),
+            );
         }
         self.camera = Some(CameraSpec {
             from: position.as_vec3(),
@@ -889,11 +871,12 @@ impl<'a> Loader<'a> {
                 let what = filter.map_or("gaussian (Mitsuba's default)".to_owned(), |f| {
                     quoted(&f.plugin)
                 });
-                self.warn(format!(
-                    "{}: {}: reconstruction filter {what} replaced by a box filter (the only one here)",
-                    object.at.file.display(),
-                    p.element()
-                ));
+                self.warn_at(
+                    object,
+                    format!(
+                        "reconstruction filter {what} replaced by a box filter (the only one here)"
+                    ),
+                );
             }
         }
         self.finish(&p);
@@ -904,32 +887,25 @@ impl<'a> Loader<'a> {
         let p = Plugin::new(object, self.ids);
         match p.plugin() {
             "path" | "volpath" => self.render.integrator = Some("pt".into()),
-            other => self.warn(format!(
-                "{}: {}: integrator {} is not one of ours: the renderer's default or --integrator decides",
-                object.at.file.display(),
-                p.element(),
-                quoted(other)
-            )),
+            other => self.warn_at(object, format!("integrator {} is not one of ours: the renderer's default or --integrator decides", quoted(other))),
         }
         if let Some(depth) = p.integer("max_depth")? {
             match u32::try_from(depth) {
                 Ok(d) if d > 0 => self.render.max_depth = Some(d),
-                _ if depth == -1 => self.warn(format!(
-                    "{}: {}: max_depth -1 (unbounded): the renderer's default or --max-depth decides",
-                    object.at.file.display(),
-                    p.element()
-                )),
+                _ if depth == -1 => self.warn_at(
+                    object,
+                    "max_depth -1 (unbounded): the renderer's default or --max-depth decides",
+                ),
                 _ => return Err(p.error(format!("max_depth must be -1 or >= 1, got {depth}"))),
             }
         }
         // Russian roulette changes noise, not the expected image.
         p.integer("rr_depth")?;
         if p.boolean_or("hide_emitters", false)? {
-            self.warn(format!(
-                "{}: {}: hide_emitters ignored: directly seen emitters are shown",
-                object.at.file.display(),
-                p.element()
-            ));
+            self.warn_at(
+                object,
+                "hide_emitters ignored: directly seen emitters are shown",
+            );
         }
         if p.plugin() == "path" || p.plugin() == "volpath" {
             self.finish(&p);
