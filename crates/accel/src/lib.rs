@@ -34,6 +34,12 @@
 //!
 //! [obvhs]: https://crates.io/crates/obvhs
 
+/// The glam this crate's API is written in (0.34): types such as `Vec3` in its
+/// signatures are `accel::glam` types. Depend on the same glam version, or
+/// use `accel::glam` directly, to avoid "multiple different versions of crate
+/// `glam`" errors.
+pub use glam;
+
 mod binned;
 mod bvh;
 mod convert;

@@ -31,6 +31,12 @@
 //! Equation numbers refer to `SPEC.md` (§) and the paper's supplemental
 //! document ("supp. eq."), as the doc comment of each function says.
 
+/// The glam this crate's API is written in (0.34): types such as `Vec3` in its
+/// signatures are `microfacet::glam` types. Depend on the same glam version, or
+/// use `microfacet::glam` directly, to avoid "multiple different versions of crate
+/// `glam`" errors.
+pub use glam;
+
 pub mod bounds;
 pub mod bsdf;
 pub mod coated;

@@ -17,6 +17,12 @@
 //!
 //! Pure math on top of `microfacet`: no I/O, no threads, no global state.
 
+/// The glam this crate's API is written in (0.34): types such as `Vec3` in its
+/// signatures are `regularization::glam` types. Depend on the same glam version, or
+/// use `regularization::glam` directly, to avoid "multiple different versions of crate
+/// `glam`" errors.
+pub use glam;
+
 pub mod memo;
 pub mod pdf;
 pub mod schedule;

@@ -460,15 +460,28 @@ fn folders_holding_a_scene_xml_load() {
 /// lights join the manifest's (the manifest's camera and settings rule).
 #[test]
 fn manifests_take_mitsuba_models() {
-    let model = scene(r#"<shape type="cube"><bsdf type="conductor"><string name="material" value="Au"/></bsdf></shape>"#);
+    let model = scene(
+        r#"<shape type="cube"><bsdf type="conductor"><string name="material" value="Au"/></bsdf></shape>"#,
+    );
     let manifest = "resolution = [8, 6]\n[camera]\nfrom = [0, 0, 5]\nat = [0, 0, 0]\nfov = 40\n[[model]]\nfile = \"model.xml\"\n";
     let s = load_with(
-        &[("scene.toml", manifest.as_bytes()), ("model.xml", model.as_bytes())],
+        &[
+            ("scene.toml", manifest.as_bytes()),
+            ("model.xml", model.as_bytes()),
+        ],
         &[],
     )
     .unwrap();
     assert_eq!(s.triangles.len(), 12);
     assert_eq!(s.camera.resolution, UVec2::new(8, 6));
-    assert!(s.lights.iter().any(|l| matches!(l, Light::Environment { .. })));
-    assert!(s.materials.iter().any(|m| matches!(m.surface, Surface::Conductor { .. })));
+    assert!(
+        s.lights
+            .iter()
+            .any(|l| matches!(l, Light::Environment { .. }))
+    );
+    assert!(
+        s.materials
+            .iter()
+            .any(|m| matches!(m.surface, Surface::Conductor { .. }))
+    );
 }
