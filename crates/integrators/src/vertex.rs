@@ -151,11 +151,12 @@ impl PathVertex {
     }
 
     /// False when `wo` (of any length) leaves through the other side of the
-    /// geometric surface than `wi` while the lobe only reflects: shading
+    /// geometric surface than `wi` while the lobe only reflects (not a
+    /// dielectric, nor a thin sheet): shading
     /// normals must not let light leak through a surface. `eval` and `f`
     /// are zero towards such a `wo`.
     pub fn is_consistent_towards(&self, wo: Vec3) -> bool {
-        matches!(self.bsdf, Bsdf::Dielectric(_))
+        matches!(self.bsdf, Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_))
             || self.point.ng.dot(wo) * self.point.ng.dot(self.wi) > 0.0
     }
 

@@ -13,6 +13,7 @@ use crate::conductor::Conductor;
 use crate::dielectric::Dielectric;
 use crate::lambertian::Lambertian;
 use crate::sample::{BsdfSample, TransportMode};
+use crate::thin_dielectric::ThinDielectric;
 
 /// A surface scattering function: one of the lobes of this crate.
 ///
@@ -28,6 +29,8 @@ pub enum Bsdf {
     /// glTF metallic-roughness: a specular coat over a diffuse base, mixed
     /// with a metal (reflection only).
     Coated(Coated),
+    /// A thin dielectric sheet: delta reflection, and straight transmission.
+    ThinDielectric(ThinDielectric),
 }
 
 impl Bsdf {
@@ -39,6 +42,7 @@ impl Bsdf {
             Bsdf::Dielectric(d) => d.eval(wi, wo, mode),
             // Reflection only: both transport modes see the same value.
             Bsdf::Coated(c) => c.eval(wi, wo),
+            Bsdf::ThinDielectric(_) => Vec3::ZERO,
         }
     }
 
@@ -50,6 +54,7 @@ impl Bsdf {
             Bsdf::Conductor(c) => c.sample(wi, uc, u),
             Bsdf::Dielectric(d) => d.sample(wi, uc, u, mode),
             Bsdf::Coated(c) => c.sample(wi, uc, u),
+            Bsdf::ThinDielectric(t) => t.sample(wi, uc),
         }
     }
 
@@ -60,6 +65,7 @@ impl Bsdf {
             Bsdf::Conductor(c) => c.pdf(wi, wo),
             Bsdf::Dielectric(d) => d.pdf(wi, wo),
             Bsdf::Coated(c) => c.pdf(wi, wo),
+            Bsdf::ThinDielectric(_) => 0.0,
         }
     }
 
@@ -77,13 +83,15 @@ impl Bsdf {
             Bsdf::Conductor(c) => c.is_specular(),
             Bsdf::Dielectric(d) => d.is_specular(),
             Bsdf::Coated(c) => c.is_specular(),
+            Bsdf::ThinDielectric(_) => true,
         }
     }
 
-    /// The microfacet width, if the lobe has one.
+    /// The microfacet width, if the lobe has one (not a Lambertian lobe, not
+    /// a thin sheet).
     pub fn alpha(&self) -> Option<f32> {
         match self {
-            Bsdf::Lambertian(_) => None,
+            Bsdf::Lambertian(_) | Bsdf::ThinDielectric(_) => None,
             Bsdf::Conductor(c) => Some(c.model.alpha()),
             Bsdf::Dielectric(d) => Some(d.model.alpha()),
             Bsdf::Coated(c) => Some(c.model.alpha()),
@@ -95,7 +103,8 @@ impl Bsdf {
     /// restores the original white albedo, tinted with the lobe's Fresnel
     /// average (conductors, coats); for dielectrics the lobe that restores
     /// the energy albedo, split between reflection and transmission
-    /// (`crate::dielectric_energy`). Lambertian lobes are unchanged.
+    /// (`crate::dielectric_energy`). Lambertian lobes and thin sheets are
+    /// unchanged.
     pub fn regularized(&self, alpha_hat: f32) -> Self {
         match *self {
             Bsdf::Conductor(c) => Bsdf::Conductor(Conductor {
@@ -107,16 +116,16 @@ impl Bsdf {
                 ..c
             }),
             Bsdf::Dielectric(d) => Bsdf::Dielectric(d.regularized(alpha_hat)),
-            Bsdf::Lambertian(_) => self.with_alpha(alpha_hat),
+            Bsdf::Lambertian(_) | Bsdf::ThinDielectric(_) => self.with_alpha(alpha_hat),
         }
     }
 
     /// The same BSDF with microfacet width `alpha` (regularization's alpha-hat);
-    /// a Lambertian lobe is returned unchanged, a coated lobe's diffuse base too
+    /// a Lambertian lobe or a thin sheet is returned unchanged, a coated lobe's diffuse base too
     /// (only its specular lobe has a width).
     pub fn with_alpha(&self, alpha: f32) -> Self {
         match *self {
-            Bsdf::Lambertian(l) => Bsdf::Lambertian(l),
+            Bsdf::Lambertian(_) | Bsdf::ThinDielectric(_) => *self,
             Bsdf::Conductor(c) => Bsdf::Conductor(Conductor {
                 model: c.model.with_alpha(alpha),
                 ..c

@@ -55,6 +55,7 @@ mod quadrature;
 pub mod sample;
 pub mod shadowing;
 pub mod special;
+pub mod thin_dielectric;
 mod vcavity_onsets;
 pub mod vndf;
 
@@ -68,3 +69,4 @@ pub use model::{HalfVectorSample, MicrofacetModel, SMOOTH_ALPHA};
 pub use ndf::{Ndf, NdfKind};
 pub use sample::{BsdfSample, TransportMode};
 pub use shadowing::Shadowing;
+pub use thin_dielectric::ThinDielectric;

@@ -310,7 +310,7 @@ pub(crate) fn bsdf_alpha_hat(bsdf: &Bsdf, tau: f64) -> Option<AlphaHat> {
 /// interface, bounded both ways (`regularize`). `None` without roughness.
 fn bound_lobe(bsdf: &Bsdf) -> Option<(NdfKind, f32, Lobe)> {
     let (model, lobe) = match bsdf {
-        Bsdf::Lambertian(_) => return None,
+        Bsdf::Lambertian(_) | Bsdf::ThinDielectric(_) => return None,
         Bsdf::Conductor(c) => (&c.model, Lobe::Reflection),
         Bsdf::Coated(c) => (&c.model, Lobe::Reflection),
         Bsdf::Dielectric(d) => {
@@ -479,5 +479,17 @@ mod tests {
         assert!((f64::from(a.alpha) - (PI * 100.0).powf(-0.25)).abs() < 1e-6);
         let vcavity = MicrofacetModel::new(NdfKind::Ggx, 0.01, Shadowing::VCavity);
         assert_eq!(alpha_hat_strict(&vcavity, 100.0), Err(StrictError::VCavity));
+    }
+
+    /// A thin sheet has no roughness to widen: regularization returns it
+    /// unchanged, and, a delta lobe, it is never bounded (the unsampleable
+    /// rule keeps regularizing past it, as past a smooth dielectric).
+    #[test]
+    fn thin_sheets_are_left_alone_and_never_bounded() {
+        let sheet = Bsdf::ThinDielectric(microfacet::ThinDielectric::new(1.5));
+        for energy in [Energy::Preserved, Energy::Lost] {
+            assert_eq!(regularize(&sheet, 7.5, energy), (sheet, None));
+        }
+        assert!(!is_bounded(&sheet, 1e12));
     }
 }

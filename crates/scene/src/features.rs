@@ -76,7 +76,10 @@ impl SceneFeatures {
         }
         for (material, _) in scene.materials.iter().zip(&used).filter(|(_, u)| **u) {
             f.materials += 1;
-            f.transmission |= material.surface.may_transmit();
+            let thin = matches!(material.surface, Surface::ThinDielectric { .. });
+            f.transmission |= material.surface.may_transmit() || thin;
+            // A thin sheet is a delta lobe without a roughness.
+            f.specular_materials += usize::from(thin);
             f.textured |= matches!(material.surface, Surface::Textured(_));
             if let Some(model) = material.surface.microfacet() {
                 let alpha = model.alpha();

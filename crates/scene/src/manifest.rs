@@ -565,6 +565,13 @@ fn override_surface(
             }
             Surface::Textured(pbr)
         }
+        Surface::ThinDielectric { ior, tint } if !wants_microfacet => Surface::ThinDielectric {
+            ior: section.ior.unwrap_or(ior),
+            tint: vec3(section.tint).unwrap_or(tint),
+        },
+        Surface::ThinDielectric { .. } => {
+            return Err("is a thin dielectric sheet, which has no roughness".into());
+        }
     })
 }
 

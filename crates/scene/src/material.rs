@@ -60,6 +60,7 @@
 use glam::{Vec2, Vec3};
 use microfacet::{
     Bsdf, Coated, Conductor, Dielectric, Fresnel, Lambertian, MicrofacetModel, NdfKind, Shadowing,
+    ThinDielectric,
 };
 
 use crate::texture::Texture;
@@ -92,6 +93,14 @@ pub enum Surface {
     /// glTF metallic-roughness: a specular coat over a diffuse base, mixed
     /// with a metal (the module docs' mapping).
     Coated(Coated),
+    /// A thin sheet of glass (a window pane; Mitsuba's `thindielectric`):
+    /// delta reflection, and straight transmission tinted by `tint`.
+    ThinDielectric {
+        /// Index of refraction of the sheet, > 0 (around it: 1).
+        ior: f32,
+        /// Colour of the transmitted part, each channel in [0, 1].
+        tint: Vec3,
+    },
     /// glTF metallic-roughness resolved per shading point from textures.
     Textured(TexturedPbr),
 }
@@ -354,13 +363,17 @@ impl Surface {
                 Bsdf::Dielectric(Dielectric::new(model, ior).with_tint(tint))
             }
             Surface::Coated(coated) => Bsdf::Coated(coated),
+            Surface::ThinDielectric { ior, tint } => {
+                Bsdf::ThinDielectric(ThinDielectric { eta: ior, tint })
+            }
             Surface::Textured(pbr) => pbr.resolve(uv, textures).bsdf(uv, textures),
         }
     }
 
-    /// True when some point of the surface may be a dielectric (textured
-    /// surfaces: where the textures make it no metal and fully transmissive;
-    /// textures only scale the factors down).
+    /// True when some point of the surface may be a refracting dielectric
+    /// interface (textured surfaces: where the textures make it no metal and
+    /// fully transmissive; textures only scale the factors down). Not a thin
+    /// sheet, which bounds no volume.
     pub fn may_transmit(&self) -> bool {
         match *self {
             Surface::Dielectric { .. } => true,
@@ -371,14 +384,17 @@ impl Surface {
                 };
                 is_transmissive(metallic, pbr.transmission)
             }
-            Surface::Diffuse { .. } | Surface::Conductor { .. } | Surface::Coated(_) => false,
+            Surface::Diffuse { .. }
+            | Surface::Conductor { .. }
+            | Surface::Coated(_)
+            | Surface::ThinDielectric { .. } => false,
         }
     }
 
     /// The microfacet model, if the surface has one (textured surfaces: the factors').
     pub fn microfacet(&self) -> Option<MicrofacetModel> {
         match *self {
-            Surface::Diffuse { .. } => None,
+            Surface::Diffuse { .. } | Surface::ThinDielectric { .. } => None,
             Surface::Conductor { model, .. } | Surface::Dielectric { model, .. } => Some(model),
             Surface::Coated(coated) => Some(coated.model),
             Surface::Textured(pbr) => Some(MicrofacetModel::new(

@@ -376,6 +376,14 @@ fn check_material(surface: &Surface, emission: Vec3) -> Result<(), String> {
                 Err(format!("ior must be finite and > 0, got {ior}"))
             }
         }
+        Surface::ThinDielectric { ior, tint } => {
+            unit_colour("tint", *tint)?;
+            if ior.is_finite() && *ior > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("ior must be finite and > 0, got {ior}"))
+            }
+        }
         Surface::Coated(c) => {
             model(&c.model)?;
             colour("base colour", c.base_color)?;

@@ -309,6 +309,10 @@ fn bsdf_xml(material: &Material) -> Result<String, String> {
                 rgb(tint)
             )
         }
+        Surface::ThinDielectric { ior, tint } => format!(
+            "        <bsdf type=\"thindielectric\">\n            <float name=\"int_ior\" value=\"{ior:?}\"/>\n            <float name=\"ext_ior\" value=\"1.0\"/>\n            <rgb name=\"specular_transmittance\" value=\"{}\"/>\n        </bsdf>",
+            rgb(tint)
+        ),
         Surface::Textured(_) => return refuse("textured surfaces are not exported"),
     })
 }

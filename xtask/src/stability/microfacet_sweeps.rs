@@ -8,7 +8,7 @@ use microfacet::fresnel;
 use microfacet::special;
 use microfacet::{
     Bsdf, Coated, Conductor, Dielectric, Fresnel, Lambertian, MicrofacetModel, Ndf, NdfKind,
-    Shadowing, TransportMode,
+    Shadowing, ThinDielectric, TransportMode,
 };
 use rayon::prelude::*;
 
@@ -361,6 +361,7 @@ fn lobe_case(bsdf: &Bsdf) -> String {
         Bsdf::Conductor(_) => format!("conductor{alpha}"),
         Bsdf::Dielectric(d) => format!("dielectric {}{alpha}", eta_case(d.eta)),
         Bsdf::Coated(_) => format!("coated{alpha}"),
+        Bsdf::ThinDielectric(t) => format!("thin dielectric {}", eta_case(t.eta)),
     }
 }
 
@@ -399,6 +400,11 @@ fn lobes(alphas: &[f32], etas: &[f32]) -> Vec<Lobe> {
         repro: "Bsdf::Lambertian(Lambertian { reflectance: Vec3::new(0.9, 0.5, 0.0) })".into(),
         reference: LobeReference::None,
     }];
+    out.extend(etas.iter().map(|&eta| Lobe {
+        bsdf: Bsdf::ThinDielectric(ThinDielectric::new(eta)),
+        repro: format!("Bsdf::ThinDielectric(ThinDielectric::new({eta:?}))"),
+        reference: LobeReference::None,
+    }));
     let gold = Fresnel::Conductor {
         eta: Vec3::new(0.2, 0.9, 1.1),
         k: Vec3::new(3.0, 2.5, 2.0),
@@ -487,7 +493,9 @@ fn modes(bsdf: &Bsdf) -> &'static [TransportMode] {
     match bsdf {
         Bsdf::Dielectric(_) => &[TransportMode::Radiance, TransportMode::Importance],
         // The mode only matters for refraction.
-        Bsdf::Conductor(_) | Bsdf::Lambertian(_) | Bsdf::Coated(_) => &[TransportMode::Radiance],
+        Bsdf::Conductor(_) | Bsdf::Lambertian(_) | Bsdf::Coated(_) | Bsdf::ThinDielectric(_) => {
+            &[TransportMode::Radiance]
+        }
     }
 }
 

@@ -16,7 +16,8 @@
 //!   `conductor`/`roughconductor` -> a conductor with complex Fresnel (RGB
 //!   `eta`/`k` or a named `material`; `none`, the default, a perfect
 //!   mirror) times `specular_reflectance`; `dielectric`/`roughdielectric` -> a dielectric of index
-//!   int_ior / ext_ior, `specular_transmittance` its tint; `plastic` /
+//!   int_ior / ext_ior, `specular_transmittance` its tint; `thindielectric`
+//!   -> a thin sheet (`microfacet::ThinDielectric`); `plastic` /
 //!   `roughplastic` -> the coated lobe (a Schlick coat of F0 ((n-1)/(n+1))^2
 //!   over a Lambertian base that loses what the coat reflects; Mitsuba's
 //!   coat has exact Fresnel and its base keeps the light the coat reflects
@@ -483,6 +484,18 @@ impl<'a> Loader<'a> {
                 };
                 Surface::Dielectric { model, ior, tint }
             }
+            "thindielectric" => {
+                let ior = p.ior("int_ior", "bk7")? / p.ior("ext_ior", "air")?;
+                self.ignore_unit_color(&p, "specular_reflectance")?;
+                let tint = match p.color("specular_transmittance", false, true)? {
+                    None => Vec3::ONE,
+                    Some(Color::Rgb(c)) => c,
+                    Some(Color::Texture(_)) => {
+                        return Err(p.error("a textured specular_transmittance is not supported"));
+                    }
+                };
+                Surface::ThinDielectric { ior, tint }
+            }
             "plastic" | "roughplastic" => {
                 let model = self.model(&p)?;
                 let ior = p.ior("int_ior", "polypropylene")? / p.ior("ext_ior", "air")?;
@@ -512,7 +525,7 @@ impl<'a> Loader<'a> {
                 return Err(SceneError::unsupported(
                     object.at.file.as_path(),
                     format!(
-                        "{}: BSDF type {} is not supported (diffuse, conductor, roughconductor, dielectric, roughdielectric, plastic, roughplastic, twosided are)",
+                        "{}: BSDF type {} is not supported (diffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided are)",
                         p.element(),
                         quoted(other)
                     ),

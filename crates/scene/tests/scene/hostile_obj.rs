@@ -355,6 +355,7 @@ fn assert_finite(scene: &Scene) {
                     && c.ior.is_finite()
             ),
             Surface::Textured(p) => assert!(p.base_color.is_finite() && p.roughness.is_finite()),
+            Surface::ThinDielectric { ior, tint } => assert!(ior > 0.0 && tint.is_finite()),
         }
     }
     for l in &scene.lights {

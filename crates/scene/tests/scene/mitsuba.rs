@@ -184,7 +184,8 @@ fn built_in_shapes_emitters_and_materials() {
            <shape type="cube"><ref id="gold"/></shape>
            <shape type="disk"><bsdf type="dielectric"><string name="int_ior" value="acrylic glass"/></bsdf></shape>
            <shape type="cube"><bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0.2, 0.4, 0.6"/></bsdf></bsdf></shape>
-           <shape type="sphere"><bsdf type="plastic"/></shape>"#,
+           <shape type="sphere"><bsdf type="plastic"/></shape>
+           <shape type="rectangle"><bsdf type="thindielectric"><rgb name="specular_transmittance" value="0.9"/></bsdf></shape>"#,
     ))
     .unwrap();
     let emissive: Vec<_> = s.materials.iter().filter(|m| m.is_emissive()).collect();
@@ -224,10 +225,13 @@ fn built_in_shapes_emitters_and_materials() {
         Surface::Diffuse { reflectance } if *reflectance == Vec3::new(0.2, 0.4, 0.6))));
     assert!(surfaces.iter().any(|m| matches!(m,
         Surface::Coated(c) if (c.ior - 1.49 / 1.000277).abs() < 1e-6)));
-    // rectangle 2 + cube 12 + disk 256 + cube 12 triangles, one sphere.
+    assert!(surfaces.iter().any(|m| matches!(m,
+        Surface::ThinDielectric { ior, tint }
+            if (*ior - 1.5046 / 1.000277).abs() < 1e-6 && *tint == Vec3::splat(0.9))));
+    // rectangle 2 + cube 12 + disk 256 + cube 12 + rectangle 2 triangles, one sphere.
     assert_eq!(
         s.triangles.len(),
-        2 + 12 + scene::mitsuba::geometry::DISK_SEGMENTS as usize + 12
+        2 + 12 + scene::mitsuba::geometry::DISK_SEGMENTS as usize + 12 + 2
     );
     assert_eq!(s.spheres.len(), 1);
 }
@@ -360,8 +364,8 @@ fn bad_input_is_named() {
             "media are not supported",
         ),
         (
-            r#"<shape type="cube"><bsdf type="thindielectric"/></shape>"#,
-            "\"thindielectric\" is not supported",
+            r#"<shape type="cube"><bsdf type="blendbsdf"/></shape>"#,
+            "\"blendbsdf\" is not supported",
         ),
         (
             r#"<shape type="cube"><float name="radius" value="1"/><float name="face_normals" value="1"/></shape>"#,
