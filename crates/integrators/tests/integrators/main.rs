@@ -14,3 +14,4 @@ mod mitsuba_camera;
 mod pt;
 mod real_materials;
 mod spheres;
+mod thin_dielectric;
