@@ -774,8 +774,9 @@ mod tests {
     #[test]
     fn lobe_list_has_references_only_for_rough_ggx_smith() {
         let lobes = lobes(&[1e-5, 0.3], &[1.5, 1.0]);
-        // Lambertian + 3 kinds x 2 shadowing x 2 alphas x (2 conductors + 3 coated + 2 dielectrics).
-        assert_eq!(lobes.len(), 1 + 3 * 2 * 2 * 7);
+        // Lambertian + a thin sheet per eta + 3 kinds x 2 shadowing x 2 alphas
+        // x (2 conductors + 3 coated + 2 dielectrics).
+        assert_eq!(lobes.len(), 1 + 2 + 3 * 2 * 2 * 7);
         let with_reference: Vec<&str> = lobes
             .iter()
             .filter(|l| !matches!(l.reference, LobeReference::None))
