@@ -43,12 +43,25 @@ impl CameraRays {
         dist * dist / cos
     }
 
-    /// The pixel (x, y) that sees world point `p`, if any.
+    /// The ray parameter at which unit direction `d` from the camera
+    /// crosses the near plane (`Camera::near_clip`): camera rays see only
+    /// what lies beyond it (Mitsuba's `perspective`); 0 without a near plane.
+    pub fn near_t(&self, d: Vec3) -> f32 {
+        let near = self.camera.near_clip;
+        if near > 0.0 {
+            near / d.dot(self.camera.forward)
+        } else {
+            0.0
+        }
+    }
+
+    /// The pixel (x, y) that sees world point `p`, if any (none before the
+    /// near plane).
     pub fn project(&self, p: Vec3) -> Option<(u32, u32)> {
         let c = &self.camera;
         let v = p - c.position;
         let z = v.dot(c.forward);
-        if !(z > 0.0) {
+        if !(z > 0.0 && z >= c.near_clip) {
             return None;
         }
         let ndc = Vec2::new(

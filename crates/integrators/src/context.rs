@@ -163,6 +163,24 @@ impl SceneContext {
         }
     }
 
+    /// [`SceneContext::intersect`] of a camera ray (from the camera position):
+    /// the closest hit beyond the near plane (`CameraRays::near_t`), with
+    /// `t` still measured from `origin`, so that distances to the camera
+    /// (MIS, light tracing) stay those of the pinhole.
+    pub fn intersect_camera_ray(&self, origin: Vec3, direction: Vec3) -> Option<Hit> {
+        let hit = self.intersect(origin, direction, f32::INFINITY);
+        let t_near = self.camera.near_t(direction);
+        match hit {
+            Some(h) if h.t < t_near => self
+                .intersect(origin + direction * t_near, direction, f32::INFINITY)
+                .map(|h| Hit {
+                    t: h.t + t_near,
+                    ..h
+                }),
+            other => other,
+        }
+    }
+
     /// [`SceneContext::intersect`] with the alpha test (out of line: scenes
     /// without alpha keep the plain query inlined).
     #[inline(never)]

@@ -135,7 +135,12 @@ impl PathTracer {
         };
 
         for depth in 1..=ctx.config.max_depth {
-            let Some(hit) = ctx.intersect(walk.origin, walk.direction, f32::INFINITY) else {
+            let hit = if depth == 1 {
+                ctx.intersect_camera_ray(walk.origin, walk.direction)
+            } else {
+                ctx.intersect(walk.origin, walk.direction, f32::INFINITY)
+            };
+            let Some(hit) = hit else {
                 if let Some(le) = ctx.lights.environment(&ctx.scene, walk.direction) {
                     let weight = self.emitter_hit_weight(&bounce, || {
                         ctx.lights.environment_pdf(&ctx.scene, walk.direction)

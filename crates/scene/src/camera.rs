@@ -18,6 +18,9 @@ pub struct Camera {
     pub vertical_fov: f32,
     /// Image size in pixels.
     pub resolution: UVec2,
+    /// Distance along `forward` before which nothing is seen (Mitsuba's
+    /// `near_clip`: camera rays start on this plane); 0 for none.
+    pub near_clip: f32,
 }
 
 impl Camera {
@@ -58,6 +61,7 @@ impl Camera {
             right,
             vertical_fov: vertical_fov_degrees.to_radians(),
             resolution,
+            near_clip: 0.0,
         })
     }
 
@@ -84,6 +88,7 @@ impl Camera {
             right: Vec3::X,
             vertical_fov: FOV_DEGREES.to_radians(),
             resolution,
+            near_clip: 0.0,
         })
     }
 
@@ -112,6 +117,8 @@ pub struct CameraSpec {
     /// negative determinant): image right is `up x forward`, not
     /// `forward x up`.
     pub mirrored: bool,
+    /// [`Camera::near_clip`].
+    pub near_clip: f32,
 }
 
 /// Which extent of the image a field of view spans (Mitsuba's `fov_axis`;
@@ -162,6 +169,13 @@ impl CameraSpec {
         if self.mirrored {
             camera.right = -camera.right;
         }
+        if !(self.near_clip.is_finite() && self.near_clip >= 0.0) {
+            return Err(format!(
+                "near_clip must be finite and >= 0, got {}",
+                self.near_clip
+            ));
+        }
+        camera.near_clip = self.near_clip;
         Ok(camera)
     }
 }

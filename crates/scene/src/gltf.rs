@@ -1260,6 +1260,7 @@ fn camera_spec(camera: &gltf::Camera, world: Mat4) -> Result<CameraSpec, String>
                 fov_axis: FovAxis::Y,
                 aspect: p.aspect_ratio(),
                 mirrored: false,
+                near_clip: 0.0,
             })
         }
         gltf::camera::Projection::Orthographic(_) => {

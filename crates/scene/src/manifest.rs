@@ -262,6 +262,7 @@ pub fn load(
             fov_axis: FovAxis::Y,
             aspect: None,
             mirrored: false,
+            near_clip: 0.0,
         });
     }
     let resolution = match manifest.resolution {

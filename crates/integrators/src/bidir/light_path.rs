@@ -248,7 +248,11 @@ impl Iteration<'_> {
             return;
         };
         let origin = vertex.point.spawn_origin(dir);
-        if ctx.occluded(origin, camera.position - origin, 1.0) {
+        // Up to the near plane: what lies before it is not seen
+        // (`CameraRays::project` refused points before it).
+        let depth = (origin - camera.position).dot(camera.forward);
+        let beyond_near = 1.0 - camera.near_clip / depth;
+        if ctx.occluded(origin, camera.position - origin, beyond_near) {
             return;
         }
         splats.push(y * camera.resolution.x + x, contribution);

@@ -61,7 +61,12 @@ impl Iteration<'_> {
         let mut regularization = self.path_regularization(Subpath::Camera);
         let mut radiance = Vec3::ZERO;
         for length in 1..=max_depth {
-            let Some(hit) = ctx.intersect(walk.origin, walk.direction, f32::INFINITY) else {
+            let hit = if length == 1 {
+                ctx.intersect_camera_ray(walk.origin, walk.direction)
+            } else {
+                ctx.intersect(walk.origin, walk.direction, f32::INFINITY)
+            };
+            let Some(hit) = hit else {
                 if let Some(le) = ctx.lights.environment(&ctx.scene, walk.direction) {
                     radiance += walk.escaped_throughput() * le;
                 }

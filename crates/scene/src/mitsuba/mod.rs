@@ -33,7 +33,7 @@
 //!   angle: a warning), `directional`, `constant`, `envmap` (rotations about
 //!   +y only).
 //! - `perspective` sensor: `fov` along `fov_axis`, `to_world` (mirroring
-//!   too); film `width`/`height` -> resolution (box filter always: a warning
+//!   too), `near_clip`; film `width`/`height` -> resolution (box filter always: a warning
 //!   names another `rfilter`), sampler `sample_count` -> iterations,
 //!   integrator `max_depth` -> max depth, `path` -> our path tracer.
 
@@ -78,6 +78,10 @@ pub struct MeshData {
 
 /// Mitsuba's film size when the file gives none (`hdrfilm`'s defaults).
 pub const DEFAULT_FILM: UVec2 = UVec2::new(768, 576);
+
+/// Mitsuba's `perspective` default `near_clip`: camera rays start 0.01 in
+/// front of the camera.
+const NEAR_CLIP: f64 = 1e-2;
 
 /// Mitsuba's defaults for `alpha` of rough lobes.
 const DEFAULT_ALPHA: f64 = 0.1;
@@ -793,16 +797,8 @@ impl<'a> Loader<'a> {
         if !(fov > 0.0 && fov < 180.0) {
             return Err(p.error(format!("fov must be in (0, 180) degrees, got {fov}")));
         }
-        // Rays start at the camera; a near plane beyond Mitsuba's default
-        // would clip what lies before it there.
-        let near = p.float_or("near_clip", 1e-2)?;
+        let near_clip = p.float_or("near_clip", NEAR_CLIP)?;
         p.float("far_clip")?;
-        if near > 1e-2 {
-            self.warn_at(
-                object,
-                format!("near_clip {near} ignored: rays start at the camera"),
-            );
-        }
         self.camera = Some(CameraSpec {
             from: position.as_vec3(),
             at: (position + forward.as_dvec3()).as_vec3(),
@@ -811,6 +807,7 @@ impl<'a> Loader<'a> {
             fov_axis: axis,
             aspect: None,
             mirrored: linear.determinant() < 0.0,
+            near_clip: near_clip as f32,
         });
         if let Some(film) = p.child("film")? {
             self.film(film)?;
