@@ -9,7 +9,6 @@ use glam::{UVec2, Vec3};
 use integrators::{Algorithm, RenderConfig, Renderer};
 use libfuzzer_sys::fuzz_target;
 
-
 fuzz_target!(
     init: {
         // One worker: the machine is shared, and libFuzzer runs one input at a time.

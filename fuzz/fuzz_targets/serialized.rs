@@ -10,16 +10,7 @@ fuzz_target!(|data: &[u8]| {
         return;
     };
     if let Ok(mesh) = scene::mitsuba::serialized::read(file, u32::from(shape_index)) {
-        check_mesh(&mesh);
+        rlt_fuzz::check_mesh(&mesh);
     }
     let _ = scene::mitsuba::serialized::mesh_count(file);
 });
-
-/// Panics if `mesh` breaks a promise of the mesh readers.
-fn check_mesh(mesh: &scene::mitsuba::MeshData) {
-    let n = mesh.positions.len();
-    assert!(mesh.positions.iter().all(|p| p.is_finite()));
-    assert!(mesh.normals.is_empty() || mesh.normals.len() == n);
-    assert!(mesh.uvs.is_empty() || mesh.uvs.len() == n);
-    assert!(mesh.triangles.iter().flatten().all(|&i| (i as usize) < n));
-}

@@ -100,3 +100,14 @@ pub fn write_mitsuba(xml: &[u8]) -> PathBuf {
     });
     write_input("scene.xml", xml)
 }
+
+/// Panics if `mesh` breaks a promise of the mesh readers (`ply`,
+/// `serialized` targets): finite positions, indices in range, attributes
+/// one per vertex or none.
+pub fn check_mesh(mesh: &scene::mitsuba::MeshData) {
+    let n = mesh.positions.len();
+    assert!(mesh.positions.iter().all(|p| p.is_finite()));
+    assert!(mesh.normals.is_empty() || mesh.normals.len() == n);
+    assert!(mesh.uvs.is_empty() || mesh.uvs.len() == n);
+    assert!(mesh.triangles.iter().flatten().all(|&i| (i as usize) < n));
+}

@@ -407,6 +407,29 @@ impl Surface {
 }
 
 impl TexturedPbr {
+    /// A Lambertian surface of albedo `base_color` times `texture` (sRGB):
+    /// no coat (specular 0), so the lobe stays Lambertian (OBJ `map_Kd`,
+    /// a Mitsuba `diffuse` with a `bitmap`).
+    pub fn lambertian(base_color: Vec3, texture: Option<usize>) -> Self {
+        Self {
+            base_color,
+            base_color_texture: texture,
+            metallic: 0.0,
+            roughness: 1.0,
+            metallic_roughness_texture: None,
+            transmission: 0.0,
+            transmission_texture: None,
+            specular: 0.0,
+            specular_color: Vec3::ONE,
+            // Unused without a coat or transmission.
+            ior: 1.5,
+            specular_color_texture: None,
+            shininess_texture: None,
+            ndf: NdfKind::Ggx,
+            shadowing: Shadowing::Smith,
+        }
+    }
+
     /// The untextured surface for the factors modulated by the textures at `uv`.
     pub fn resolve(&self, uv: Vec2, textures: &[Texture]) -> Surface {
         let mut base = self.base_color;

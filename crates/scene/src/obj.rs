@@ -907,23 +907,9 @@ fn textured(
             ndf: c.model.ndf.kind(),
             shadowing: c.model.shadowing,
         }),
-        (None, Surface::Diffuse { reflectance }) => Surface::Textured(TexturedPbr {
-            base_color: reflectance,
-            base_color_texture: kd_map,
-            metallic: 0.0,
-            roughness: 1.0,
-            metallic_roughness_texture: None,
-            transmission: 0.0,
-            transmission_texture: None,
-            // No coat: the textured surface stays Lambertian.
-            specular: 0.0,
-            specular_color: Vec3::ONE,
-            ior: MTL_COAT_IOR,
-            specular_color_texture: None,
-            shininess_texture: None,
-            ndf: NdfKind::Ggx,
-            shadowing: Shadowing::Smith,
-        }),
+        (None, Surface::Diffuse { reflectance }) => {
+            Surface::Textured(TexturedPbr::lambertian(reflectance, kd_map))
+        }
         (None, other) => other,
     })
 }

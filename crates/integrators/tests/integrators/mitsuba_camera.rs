@@ -24,6 +24,11 @@ fn sphere_scene(center: &str, extra: &str) -> scene::Scene {
         <emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>
 </scene>"#
     );
+    load_xml(&xml)
+}
+
+/// Loads a Mitsuba file written to a temporary folder of its own.
+fn load_xml(xml: &str) -> scene::Scene {
     static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
     let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let dir: PathBuf =
@@ -99,15 +104,7 @@ fn near_clip_hides_what_lies_before_it() {
     <emitter type="point"><point name="position" value="0, 0, 3"/><rgb name="intensity" value="5"/></emitter>
 </scene>"#
         );
-        static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-        let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        let dir = std::env::temp_dir().join(format!("rlt-near-{}-{call}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        std::fs::write(dir.join("scene.xml"), xml).unwrap();
-        let scene = scene::load(&dir.join("scene.xml"), &scene::LoadOptions::default())
-            .unwrap_or_else(|e| panic!("{e}"));
-        std::fs::remove_dir_all(&dir).unwrap();
-        scene
+        load_xml(&xml)
     };
     let centre = |algorithm, near: &str| {
         let config = RenderConfig {

@@ -281,11 +281,10 @@ impl<'a> Loader<'a> {
                 serialized::read(&bytes, index).map_err(|e| SceneError::malformed(&file, e))?
             }
             other => {
-                return Err(SceneError::unsupported(
-                    object.at.file.as_path(),
+                return Err(unsupported(
+                    object,
                     format!(
-                        "{}: shape type {} is not supported (obj, ply, serialized, rectangle, cube, disk, sphere are)",
-                        p.element(),
+                        "shape type {} is not supported (obj, ply, serialized, rectangle, cube, disk, sphere are)",
                         quoted(other)
                     ),
                 ));
@@ -399,13 +398,7 @@ impl<'a> Loader<'a> {
                 ));
             }
             let e = Plugin::new(emitter, self.ids);
-            emission += match e.color("radiance", true, false)? {
-                None => Vec3::ONE,
-                Some(Color::Rgb(c)) => c,
-                Some(Color::Texture(_)) => {
-                    return Err(e.error("textured radiance is not supported"));
-                }
-            };
+            emission += e.rgb("radiance", true, false)?.unwrap_or(Vec3::ONE);
             self.finish(&e);
         }
         let key = (
@@ -467,7 +460,7 @@ impl<'a> Loader<'a> {
                 Some(Color::Rgb(reflectance)) => Surface::Diffuse { reflectance },
                 Some(Color::Texture(t)) => {
                     let texture = self.texture(t)?;
-                    Surface::Textured(lambertian_texture(texture))
+                    Surface::Textured(TexturedPbr::lambertian(Vec3::ONE, Some(texture)))
                 }
             },
             "conductor" | "roughconductor" => {
@@ -479,25 +472,17 @@ impl<'a> Loader<'a> {
                 let model = self.model(&p)?;
                 let ior = p.ior("int_ior", "bk7")? / p.ior("ext_ior", "air")?;
                 self.ignore_unit_color(&p, "specular_reflectance")?;
-                let tint = match p.color("specular_transmittance", false, true)? {
-                    None => Vec3::ONE,
-                    Some(Color::Rgb(c)) => c,
-                    Some(Color::Texture(_)) => {
-                        return Err(p.error("a textured specular_transmittance is not supported"));
-                    }
-                };
+                let tint = p
+                    .rgb("specular_transmittance", false, true)?
+                    .unwrap_or(Vec3::ONE);
                 Surface::Dielectric { model, ior, tint }
             }
             "thindielectric" => {
                 let ior = p.ior("int_ior", "bk7")? / p.ior("ext_ior", "air")?;
                 self.ignore_unit_color(&p, "specular_reflectance")?;
-                let tint = match p.color("specular_transmittance", false, true)? {
-                    None => Vec3::ONE,
-                    Some(Color::Rgb(c)) => c,
-                    Some(Color::Texture(_)) => {
-                        return Err(p.error("a textured specular_transmittance is not supported"));
-                    }
-                };
+                let tint = p
+                    .rgb("specular_transmittance", false, true)?
+                    .unwrap_or(Vec3::ONE);
                 Surface::ThinDielectric { ior, tint }
             }
             "plastic" | "roughplastic" => {
@@ -507,15 +492,9 @@ impl<'a> Loader<'a> {
                 if p.boolean_or("nonlinear", false)? {
                     self.warn_at(object, "nonlinear=true ignored");
                 }
-                let base_color = match p.color("diffuse_reflectance", false, true)? {
-                    None => Vec3::splat(0.5),
-                    Some(Color::Rgb(c)) => c,
-                    Some(Color::Texture(_)) => {
-                        return Err(p.error(
-                            "a textured diffuse_reflectance on a plastic is not supported",
-                        ));
-                    }
-                };
+                let base_color = p
+                    .rgb("diffuse_reflectance", false, true)?
+                    .unwrap_or(Vec3::splat(0.5));
                 Surface::Coated(Coated {
                     model,
                     base_color,
@@ -526,11 +505,10 @@ impl<'a> Loader<'a> {
                 })
             }
             other => {
-                return Err(SceneError::unsupported(
-                    object.at.file.as_path(),
+                return Err(unsupported(
+                    object,
                     format!(
-                        "{}: BSDF type {} is not supported (diffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided are)",
-                        p.element(),
+                        "BSDF type {} is not supported (diffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided are)",
                         quoted(other)
                     ),
                 ));
@@ -559,11 +537,9 @@ impl<'a> Loader<'a> {
         };
         let alpha = match (p.float("alpha_u")?, p.float("alpha_v")?) {
             (Some(u), Some(v)) if u == v => u,
-            (None, None) => match p.color("alpha", false, false)? {
-                None => DEFAULT_ALPHA,
-                Some(Color::Rgb(a)) => f64::from(a.x),
-                Some(Color::Texture(_)) => return Err(p.error("a textured alpha is not supported")),
-            },
+            (None, None) => p
+                .rgb("alpha", false, false)?
+                .map_or(DEFAULT_ALPHA, |a| f64::from(a.x)),
             _ => return Err(p.error("anisotropic roughness (alpha_u != alpha_v) is not supported")),
         };
         if !(alpha >= 0.0) {
@@ -577,24 +553,11 @@ impl<'a> Loader<'a> {
     /// `eta` and `k` (both at once is an error, as in Mitsuba), and
     /// `specular_reflectance`, which scales its reflectance.
     fn conductor_fresnel(&mut self, p: &Plugin) -> Result<Fresnel, SceneError> {
-        let tint = match p.color("specular_reflectance", false, true)? {
-            None => Vec3::ONE,
-            Some(Color::Rgb(c)) => c,
-            Some(Color::Texture(_)) => {
-                return Err(p.error("a textured specular_reflectance is not supported"));
-            }
-        };
+        let tint = p
+            .rgb("specular_reflectance", false, true)?
+            .unwrap_or(Vec3::ONE);
         let material = p.string("material")?;
-        let rgb = |name: &str| -> Result<Option<Vec3>, SceneError> {
-            match p.color(name, false, false)? {
-                None => Ok(None),
-                Some(Color::Rgb(c)) => Ok(Some(c)),
-                Some(Color::Texture(_)) => {
-                    Err(p.error(format!("a textured {name} is not supported")))
-                }
-            }
-        };
-        let (eta, k) = (rgb("eta")?, rgb("k")?);
+        let (eta, k) = (p.rgb("eta", false, false)?, p.rgb("k", false, false)?);
         let (eta, k) = match (material, eta, k) {
             (Some(_), Some(_), _) | (Some(_), _, Some(_)) => {
                 return Err(p.error("give either material or eta and k, not both"));
@@ -633,11 +596,10 @@ impl<'a> Loader<'a> {
     fn texture(&mut self, object: &'a Object) -> Result<usize, SceneError> {
         let p = Plugin::new(object, self.ids);
         if p.plugin() != "bitmap" {
-            return Err(SceneError::unsupported(
-                object.at.file.as_path(),
+            return Err(unsupported(
+                object,
                 format!(
-                    "{}: texture type {} is not supported (bitmap is)",
-                    p.element(),
+                    "texture type {} is not supported (bitmap is)",
                     quoted(p.plugin())
                 ),
             ));
@@ -682,14 +644,8 @@ impl<'a> Loader<'a> {
 
     fn emitter(&mut self, object: &'a Object) -> Result<(), SceneError> {
         let p = Plugin::new(object, self.ids);
-        let rgb = |name: &str, default: Vec3| -> Result<Vec3, SceneError> {
-            match p.color(name, true, false)? {
-                None => Ok(default),
-                Some(Color::Rgb(c)) => Ok(c),
-                Some(Color::Texture(_)) => {
-                    Err(p.error(format!("a textured {name} is not supported")))
-                }
-            }
+        let rgb = |name: &str, default: Vec3| {
+            Ok::<_, SceneError>(p.rgb(name, true, false)?.unwrap_or(default))
         };
         let to_world = p.transform("to_world")?;
         let light = match p.plugin() {
@@ -748,11 +704,10 @@ impl<'a> Loader<'a> {
             }
             "area" => return Err(p.error("an area emitter must be nested in a shape")),
             other => {
-                return Err(SceneError::unsupported(
-                    object.at.file.as_path(),
+                return Err(unsupported(
+                    object,
                     format!(
-                        "{}: emitter type {} is not supported (area, point, spot, directional, constant, envmap are)",
-                        p.element(),
+                        "emitter type {} is not supported (area, point, spot, directional, constant, envmap are)",
                         quoted(other)
                     ),
                 ));
@@ -768,11 +723,10 @@ impl<'a> Loader<'a> {
     fn sensor(&mut self, object: &'a Object) -> Result<(), SceneError> {
         let p = Plugin::new(object, self.ids);
         if p.plugin() != "perspective" {
-            return Err(SceneError::unsupported(
-                object.at.file.as_path(),
+            return Err(unsupported(
+                object,
                 format!(
-                    "{}: sensor type {} is not supported (perspective is)",
-                    p.element(),
+                    "sensor type {} is not supported (perspective is)",
                     quoted(p.plugin())
                 ),
             ));
@@ -944,7 +898,7 @@ fn read_mesh_file(path: &Path) -> Result<Vec<u8>, SceneError> {
 }
 
 /// An error saying that `object` uses what is not supported here.
-fn unsupported(object: &Object, what: &str) -> SceneError {
+fn unsupported(object: &Object, what: impl std::fmt::Display) -> SceneError {
     SceneError::unsupported(
         object.at.file.as_path(),
         format!(
@@ -983,27 +937,6 @@ fn focal_length_fov(value: &str) -> Result<f64, String> {
         return Err(format!("focal_length must be > 0, got {f}"));
     }
     Ok((2.0 * ((36.0f64 * 36.0 + 24.0 * 24.0).sqrt() / (2.0 * f)).atan()).to_degrees())
-}
-
-/// A Lambertian surface whose albedo is `texture` (no coat: the lobe
-/// stays Lambertian, as an OBJ `map_Kd`).
-fn lambertian_texture(texture: usize) -> TexturedPbr {
-    TexturedPbr {
-        base_color: Vec3::ONE,
-        base_color_texture: Some(texture),
-        metallic: 0.0,
-        roughness: 1.0,
-        metallic_roughness_texture: None,
-        transmission: 0.0,
-        transmission_texture: None,
-        specular: 0.0,
-        specular_color: Vec3::ONE,
-        ior: 1.5,
-        specular_color_texture: None,
-        shininess_texture: None,
-        ndf: NdfKind::Ggx,
-        shadowing: Shadowing::Smith,
-    }
 }
 
 /// An OBJ file's geometry only (Mitsuba reads `v`, `vt`, `vn`, `f` and

@@ -234,6 +234,22 @@ impl<'a> Plugin<'a> {
         Ok(Some(Color::Rgb(rgb.as_vec3())))
     }
 
+    /// A constant [`Plugin::color`]: a texture there is an error naming it.
+    pub fn rgb(
+        &self,
+        name: &str,
+        emitter: bool,
+        bounded: bool,
+    ) -> Result<Option<Vec3>, SceneError> {
+        match self.color(name, emitter, bounded)? {
+            None => Ok(None),
+            Some(Color::Rgb(c)) => Ok(Some(c)),
+            Some(Color::Texture(_)) => {
+                Err(self.error(format!("a textured {name} is not supported")))
+            }
+        }
+    }
+
     /// The nested objects (or objects referred to) with tag `tag`, in order,
     /// marked as read.
     pub fn children(&self, tag: &str) -> Result<Vec<&'a Object>, SceneError> {
