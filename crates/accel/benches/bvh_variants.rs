@@ -5,7 +5,7 @@
 //! cost of this crate's robust node and triangle tests.
 //!
 //! Run one scene or variant with a filter, e.g.
-//! `cargo bench -p accel --bench bvh_variants -- cluster_1m/wide-medium`.
+//! `cargo bench -p rlt-accel --bench bvh_variants -- cluster_1m/wide-medium`.
 
 mod common;
 

@@ -1,5 +1,9 @@
-//! Ray-tracing acceleration for the renderer, behind a narrow API so that the
-//! BVH library can be swapped by editing this crate only:
+#![doc = include_str!("../README.md")]
+//!
+//! # Contents
+//!
+//! The API is narrow so that the BVH library can be swapped by editing this
+//! crate only:
 //!
 //! - [`Bvh`]: a triangle BVH (this crate's binned SAH builder, or [obvhs]'
 //!   PLOC with reinsertion, converted to an 8-wide compressed BVH in

@@ -155,6 +155,22 @@ impl Dielectric {
         self.with_compensation_pdf(wi, wo, lobe)
     }
 
+    /// (s(wi) s(wo), f_c(wi, wo)) of a compensated interface: the factor of
+    /// the widened lobe's value and the compensation lobe's value, untinted
+    /// (`eval` is `tint`-coloured (scale f + f_c) through refraction); (1, 0)
+    /// without compensation.
+    pub fn compensation_terms(&self, wi: Vec3, wo: Vec3, mode: TransportMode) -> (f32, f32) {
+        self.compensation
+            .map_or((1.0, 0.0), |c| c.terms(&self.model, self.eta, wi, wo, mode))
+    }
+
+    /// P_c(wi), the probability of sampling the compensation lobe for a
+    /// query from `wi` (0 without compensation).
+    pub fn compensation_probability(&self, wi: Vec3) -> f32 {
+        self.compensation
+            .map_or(0.0, |c| c.probability(&self.model, self.eta, wi))
+    }
+
     /// The mixture density (1 - P_c(wi)) `p_lobe` + P_c(wi) p_c(wi, wo) of a
     /// compensated interface (`p_lobe` unchanged without compensation), for
     /// `pdf` and for p-hat at a regularized vertex.

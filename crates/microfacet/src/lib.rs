@@ -1,7 +1,4 @@
-//! Microfacet BSDF math for a renderer that regularizes glossy light
-//! transport (Jendersie & Grosch, EGSR 2019).
-//!
-//! Pure math: no I/O, no threads, no global state; glam is the only dependency.
+#![doc = include_str!("../README.md")]
 //!
 //! # Conventions (SPEC §0)
 //! - Shading frame with normal n = (0, 0, 1); every direction is a unit vector

@@ -1,8 +1,6 @@
-//! Multiple importance sampling for bidirectional light transport with
-//! regularized vertices (Jendersie & Grosch, EGSR 2019).
+#![doc = include_str!("../README.md")]
 //!
-//! A small math library: no I/O, no threads, no global state, no dependencies,
-//! no allocation in the per-vertex API.
+//! # Layout
 //!
 //! - [`Heuristic`]: balance and power heuristics (Veach 1997, ch. 9).
 //! - [`SubpathState`] / [`SubpathRay`]: the recursive sub-path quantities of

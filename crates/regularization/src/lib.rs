@@ -1,10 +1,6 @@
-//! Microfacet model regularization (Jendersie & Grosch, "Microfacet Model
-//! Regularization for Robust Light Transport", EGSR 2019; SPEC §5-§6).
+#![doc = include_str!("../README.md")]
 //!
-//! Before a microfacet lobe is evaluated or sampled, its roughness is raised
-//! to alpha-hat, just enough that the lobe's peak density stays below a bound
-//! tau; tau grows with the iteration number, so the blur shrinks and the
-//! estimate converges (biased but consistent).
+//! # Layout (SPEC §5-§6)
 //!
 //! - [`tau`]: what tau bounds, in one place, and alpha-hat for reflection,
 //!   transmission and the strict variant.
@@ -12,10 +8,9 @@
 //! - [`selective`]: off / uniform / selective / unsampleable modes and the
 //!   per-vertex tau_k carried along a subpath.
 //! - [`pdf`]: the MIS pdf correction p-hat (paper eq. 13, supp. §4).
+//! - [`foreign`]: the same for another renderer's lobes ([`MicrofacetLobe`]).
 //! - [`memo`]: the last widened lobes, for callers that widen the same few
 //!   lobes again and again (a compensated lobe costs microseconds to build).
-//!
-//! Pure math on top of `microfacet`: no I/O, no threads, no global state.
 
 /// The glam this crate's API is written in (0.34): types such as `Vec3` in its
 /// signatures are `regularization::glam` types. Depend on the same glam version, or
@@ -23,12 +18,18 @@
 /// `glam`" errors.
 pub use glam;
 
+/// The microfacet crate whose `Bsdf` this crate regularizes, so that a
+/// dependent needs no second, possibly different, version of it.
+pub use microfacet;
+
+pub mod foreign;
 pub mod memo;
 pub mod pdf;
 pub mod schedule;
 pub mod selective;
 pub mod tau;
 
+pub use foreign::{MicrofacetLobe, RegularizedLobe};
 pub use memo::RegularizationMemo;
 pub use pdf::{p_hat, p_hat_of_sample};
 pub use schedule::{

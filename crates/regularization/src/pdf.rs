@@ -88,7 +88,7 @@ pub fn p_hat_of_sample(bsdf: &Bsdf, regularized: &Bsdf, wi: Vec3, s: &BsdfSample
 
 /// The factor p-hat / p(wo | alpha-hat) of a microfacet model (see
 /// [`p_hat`]); 0 where it is undefined (G = 0 at the original alpha).
-fn shadowing_ratio(model: &MicrofacetModel, alpha_hat: f32, wi: Vec3, wo: Vec3) -> f32 {
+pub(crate) fn shadowing_ratio(model: &MicrofacetModel, alpha_hat: f32, wi: Vec3, wo: Vec3) -> f32 {
     let hat = model.with_alpha(alpha_hat);
     let ratio = match model.shadowing {
         Shadowing::VCavity => 1.0,
