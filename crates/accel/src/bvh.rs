@@ -52,6 +52,7 @@ pub struct Hit {
 
 /// Tree layout built by obvhs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[non_exhaustive]
 pub enum Layout {
     /// 8-wide compressed BVH (Ylitie et al. 2017, 80 bytes per node), built by
     /// converting the binary tree; SIMD node tests. Fastest traversal.
@@ -66,6 +67,7 @@ pub enum Layout {
 /// obvhs build preset (`BvhBuildParams::*_build`), from fastest build to
 /// best tree.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[non_exhaustive]
 pub enum BuildQuality {
     /// Top-down binned SAH (`binned.rs`), one primitive per leaf; the
     /// `Medium` preset's wide-leaf size (and, for [`Layout::Binary`], its

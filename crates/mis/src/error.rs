@@ -8,6 +8,7 @@ use std::fmt;
 /// errors; the per-vertex functions never fail (they sanitize their inputs,
 /// see the crate documentation, "Numerics").
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum MisError {
     /// The heuristic exponent beta must be finite and positive.
     InvalidExponent(f64),

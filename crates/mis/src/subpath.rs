@@ -17,6 +17,7 @@ use crate::numeric::{abs, add, div, mul};
 /// common to all techniques that can sample the path): pass the selection
 /// probability where a pdf of the delta quantity is asked for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum EmitterKind {
     /// An emitting surface (finite, can be hit).
     Area,
