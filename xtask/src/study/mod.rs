@@ -17,7 +17,8 @@
 //! - `report`: curves.csv, curves.json, report.md (equal-time tables)
 //! - `bias`: the regularized reference minus the unbiased one, as numbers
 //!   and a false-colour image
-//! - `plot`, `raster`: charts as SVG and PNG
+//! - `plot`: charts as SVG and PNG, one panel per algorithm
+//! - `raster`: an RGB canvas with a bitmap font (contact sheet, bias image)
 //! - `sheet`: the contact sheet
 
 mod bias;

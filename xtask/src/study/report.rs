@@ -121,7 +121,7 @@ fn write_charts(out: &Path, study: &Study) -> Result<Vec<String>, String> {
             .runs
             .iter()
             .map(|run| Series {
-                name: run.config.to_string(),
+                config: run.config,
                 points: run.points.iter().map(|p| (x(p), y(p))).collect(),
             })
             .collect()
@@ -147,6 +147,7 @@ fn write_charts(out: &Path, study: &Study) -> Result<Vec<String>, String> {
                 ),
                 x_label: "render time (s, wall clock)".into(),
                 y_label: format!("{metric} (luminance)"),
+                tau0: study.tau0,
                 series: series(&|p| p.seconds, value),
             };
             files.extend(plot::write_chart(out, &format!("{stem}{suffix}"), &chart)?);
@@ -165,6 +166,7 @@ fn write_charts(out: &Path, study: &Study) -> Result<Vec<String>, String> {
             ),
             x_label: "render CPU time (s, all threads)".into(),
             y_label: "RMSE (luminance)".into(),
+            tau0: study.tau0,
             series: series(&|p| p.cpu_seconds.unwrap_or(f64::NAN), &|p| {
                 p.errors[0].rmse
             }),
@@ -175,6 +177,7 @@ fn write_charts(out: &Path, study: &Study) -> Result<Vec<String>, String> {
         title: format!("Noise vs iterations, {} {w}x{h}", study.scene_name),
         x_label: "iterations N".into(),
         y_label: "mean s^2/N (luminance)".into(),
+        tau0: study.tau0,
         series: series(&|p| p.iteration as f64, &|p| {
             p.noise.map_or(f64::NAN, |n| n.variance)
         }),
