@@ -9,6 +9,7 @@ use regularization::{DEFAULT_SCHEDULE_EXPONENT, Schedule};
 
 /// `cargo xtask study --help`.
 pub(super) const HELP: &str = "usage: cargo xtask study --scene PATH [options]
+       cargo xtask study --replot DIR
 
 Renders two references (cached in target/study/cache/): an unbiased one
 (unregularized BPT, or VCM where the scene has specular surfaces, see
@@ -79,6 +80,8 @@ options:
                         Slurm resources of the farm jobs (see `cargo xtask
                         farm help`)
   -h, --help            print this text
+  --replot DIR          (alone) redraw the charts of the study whose
+                        curves.json is in DIR, into DIR; renders nothing
 
 Timings are wall-clock seconds of rendering only (scene setup and metrics
 excluded), cumulative over iterations, on all cores; the report records the
@@ -139,6 +142,25 @@ impl Config {
             unsampleable,
             ..Self::plain(algorithm, regularized)
         })
+    }
+
+    /// A config from its name as [`fmt::Display`] writes it, swept values
+    /// included (`bpt-reg@tau0=30@exp=0.25`).
+    pub(super) fn parse_name(s: &str) -> Result<Self, String> {
+        let mut parts = s.split('@');
+        let mut config = Self::parse(parts.next().unwrap_or_default())?;
+        for part in parts {
+            let value = |v: &str| {
+                v.parse::<f64>()
+                    .map_err(|_| format!("config '{s}': bad value '{part}'"))
+            };
+            match part.split_once('=') {
+                Some(("tau0", v)) => config.tau0 = Some(value(v)?),
+                Some(("exp", v)) => config.exponent = Some(value(v)?),
+                _ => return Err(format!("config '{s}': unknown part '{part}'")),
+            }
+        }
+        Ok(config)
     }
 
     /// The renderer's configuration; `tau0` is the study's, which a swept
@@ -381,23 +403,29 @@ fn resolve_scene(root: &Path, given: &str) -> Result<(PathBuf, String), String> 
     } else {
         path.clone()
     };
-    let dir = file
-        .parent()
-        .map(Path::to_path_buf)
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or_else(|| PathBuf::from("."));
-    let name = if file
+    let name = scene_name(&file);
+    Ok((file, name))
+}
+
+/// The name of the scene in `file` (the output folder's and the charts'):
+/// its folder's for a `scene.toml` or `scene.xml`, else the file's stem.
+pub(super) fn scene_name(file: &Path) -> String {
+    if file
         .file_name()
         .is_some_and(|n| n == "scene.toml" || n == "scene.xml")
     {
+        let dir = file
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
         dir.canonicalize()
-            .ok()
-            .and_then(|d| d.file_name().map(|n| n.to_string_lossy().into_owned()))
+            .unwrap_or_else(|_| dir.to_path_buf())
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
     } else {
         file.file_stem().map(|n| n.to_string_lossy().into_owned())
     }
-    .unwrap_or_else(|| "scene".into());
-    Ok((file, name))
+    .unwrap_or_else(|| "scene".into())
 }
 
 impl Options {
@@ -715,6 +743,30 @@ mod tests {
         assert_eq!(unsampleable.regularization.mode, Mode::Unsampleable);
     }
 
+    /// A swept config's name (curves.json, `--replot`) parses back to it.
+    #[test]
+    fn names_with_swept_values_parse_back() {
+        let swept = Config {
+            tau0: Some(7.5),
+            exponent: Some(1.0 / 6.0),
+            ..Config::parse("bpt-uns").unwrap()
+        };
+        let name = swept.to_string();
+        assert_eq!(name, "bpt-uns@tau0=7.5@exp=0.1667");
+        let back = Config::parse_name(&name).unwrap();
+        assert_eq!((back.tau0, back.exponent), (Some(7.5), Some(0.1667)));
+        assert_eq!(back.to_string(), name);
+        assert_eq!(
+            Config::parse_name("vcm").unwrap(),
+            Config::parse("vcm").unwrap()
+        );
+        assert!(
+            Config::parse_name("bpt-reg@mu=2")
+                .unwrap_err()
+                .contains("'mu=2'")
+        );
+    }
+
     #[test]
     fn budgets_set_defaults_and_flags_win() {
         let quick = parse(&["--scene", "scenes/caustic-glass", "--budget", "quick"]).unwrap();
@@ -972,6 +1024,7 @@ mod tests {
             "--out",
             "--rerender-reference",
             "--help",
+            "--replot",
         ] {
             assert!(HELP.contains(flag), "{flag}");
         }

@@ -17,11 +17,15 @@
 //! - `report`: curves.csv, curves.json, report.md (equal-time tables)
 //! - `bias`: the regularized reference minus the unbiased one, as numbers
 //!   and a false-colour image
-//! - `plot`, `raster`: charts as SVG and PNG
+//! - `charts`: which charts a study has, from its run or its curves.json
+//!   (`--replot`)
+//! - `plot`: charts as SVG and PNG, one panel per algorithm
+//! - `raster`: an RGB canvas with a bitmap font (contact sheet, bias image)
 //! - `sheet`: the contact sheet
 
 mod bias;
 pub(crate) mod cache;
+mod charts;
 mod cli;
 pub(crate) mod metrics;
 mod plot;
@@ -88,6 +92,7 @@ pub struct Reference {
 }
 
 /// One checkpoint of a config.
+#[derive(Clone)]
 pub struct Point {
     /// Iterations done.
     pub iteration: u64,
@@ -179,6 +184,11 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
 
 /// [`run`] with the reference cache in `cache_dir`.
 fn run_with_cache(root: &Path, args: &[String], cache_dir: &Path) -> Result<(), String> {
+    if let [flag, dir] = args
+        && flag == "--replot"
+    {
+        return charts::replot(Path::new(dir));
+    }
     let options = match Options::parse(root, args)? {
         Parsed::Help => {
             println!("{HELP}");
@@ -961,6 +971,27 @@ mod tests {
         assert!(json["bias_of_regularization"]["rmse"].as_f64().unwrap() > 0.0);
         assert!(report.contains("no: rendered in this run"), "{report}");
         assert!(!report.contains("from the cache"), "{report}");
+        // --replot redraws every chart from curves.json alone, the same.
+        let charts: Vec<(PathBuf, String)> = fs::read_dir(&out)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|x| x == "svg"))
+            .map(|p| (p.clone(), fs::read_to_string(&p).unwrap()))
+            .collect();
+        assert!(charts.len() >= 5, "{charts:?}");
+        for (path, _) in &charts {
+            fs::remove_file(path).unwrap();
+        }
+        let replot = ["--replot".to_string(), out.to_str().unwrap().to_string()];
+        run_with_cache(&root(), &replot, &cache).unwrap();
+        for (path, svg) in &charts {
+            assert_eq!(
+                &fs::read_to_string(path).unwrap(),
+                svg,
+                "{}",
+                path.display()
+            );
+        }
         assert_eq!(
             fs::read_dir(&cache).unwrap().count(),
             4,

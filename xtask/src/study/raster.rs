@@ -1,16 +1,10 @@
-//! An 8-bit RGB canvas with an 8x8 bitmap font (public-domain `font8x8`),
-//! usable as a plotters drawing backend, so that charts and the contact
-//! sheet get PNG versions with labels without system fonts (plotters'
-//! own bitmap backend needs fontconfig/freetype or an embedded TTF file).
+//! An 8-bit RGB canvas with an 8x8 bitmap font (public-domain `font8x8`)
+//! for the contact sheet's and the bias image's labels, and the PNG writer
+//! that the charts share.
 
 use std::fs;
 use std::io::BufWriter;
 use std::path::Path;
-
-use plotters_backend::{
-    BackendColor, BackendCoord, BackendTextStyle, DrawingBackend, DrawingErrorKind, FontTransform,
-    text_anchor::{HPos, VPos},
-};
 
 /// Width and height of a glyph of the bitmap font, in font pixels.
 const GLYPH: i32 = 8;
@@ -21,18 +15,6 @@ pub struct Canvas {
     height: u32,
     pixels: Vec<[u8; 3]>,
 }
-
-/// The error type of [`Painter`] (drawing cannot fail).
-#[derive(Debug)]
-pub struct NoError;
-
-impl std::fmt::Display for NoError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("no error")
-    }
-}
-
-impl std::error::Error for NoError {}
 
 impl Canvas {
     /// A canvas filled with `background`.
@@ -58,16 +40,22 @@ impl Canvas {
 
     /// Writes the canvas as an 8-bit sRGB PNG file.
     pub fn write_png(&self, path: &Path) -> Result<(), String> {
-        let error = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-        let file = fs::File::create(path).map_err(|e| error(&e))?;
-        let mut encoder = png::Encoder::new(BufWriter::new(file), self.width, self.height);
-        encoder.set_color(png::ColorType::Rgb);
-        encoder.set_depth(png::BitDepth::Eight);
-        let mut writer = encoder.write_header().map_err(|e| error(&e))?;
         let bytes: Vec<u8> = self.pixels.iter().flatten().copied().collect();
-        writer.write_image_data(&bytes).map_err(|e| error(&e))?;
-        writer.finish().map_err(|e| error(&e))
+        write_rgb_png(path, (self.width, self.height), &bytes)
     }
+}
+
+/// Writes `rgb`, row-major 8-bit RGB of `width` x `height` pixels, as an
+/// sRGB PNG file.
+pub fn write_rgb_png(path: &Path, (width, height): (u32, u32), rgb: &[u8]) -> Result<(), String> {
+    let error = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    let file = fs::File::create(path).map_err(|e| error(&e))?;
+    let mut encoder = png::Encoder::new(BufWriter::new(file), width, height);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    let mut writer = encoder.write_header().map_err(|e| error(&e))?;
+    writer.write_image_data(rgb).map_err(|e| error(&e))?;
+    writer.finish().map_err(|e| error(&e))
 }
 
 /// Size in pixels of `text` drawn at integer `scale` (one line, ASCII).
@@ -101,96 +89,6 @@ pub fn for_each_text_pixel(text: &str, scale: i32, mut plot: impl FnMut(i32, i32
                 }
             }
         }
-    }
-}
-
-/// The integer scale of the 8x8 font for a plotters font size in pixels.
-fn font_scale(size: f64) -> i32 {
-    ((size / 11.0).round() as i32).max(1)
-}
-
-/// A [`Canvas`] borrowed as a plotters drawing backend.
-pub struct Painter<'a>(pub &'a mut Canvas);
-
-impl Painter<'_> {
-    /// The font scale of `text` at plotters size `size`: smaller when the
-    /// text would not fit the canvas's width.
-    fn scale(&self, text: &str, size: f64) -> i32 {
-        let scale = font_scale(size);
-        if scale > 1 && text_size(text, scale).0 > self.0.width as i32 - 16 {
-            1
-        } else {
-            scale
-        }
-    }
-}
-
-impl DrawingBackend for Painter<'_> {
-    type ErrorType = NoError;
-
-    fn get_size(&self) -> (u32, u32) {
-        (self.0.width, self.0.height)
-    }
-
-    fn ensure_prepared(&mut self) -> Result<(), DrawingErrorKind<NoError>> {
-        Ok(())
-    }
-
-    fn present(&mut self) -> Result<(), DrawingErrorKind<NoError>> {
-        Ok(())
-    }
-
-    fn draw_pixel(
-        &mut self,
-        (x, y): BackendCoord,
-        color: BackendColor,
-    ) -> Result<(), DrawingErrorKind<NoError>> {
-        let (r, g, b) = color.rgb;
-        self.0.blend(x, y, [r, g, b], color.alpha);
-        Ok(())
-    }
-
-    fn draw_text<S: BackendTextStyle>(
-        &mut self,
-        text: &str,
-        style: &S,
-        pos: BackendCoord,
-    ) -> Result<(), DrawingErrorKind<NoError>> {
-        let color = style.color();
-        let scale = self.scale(text, style.size());
-        let (width, height) = text_size(text, scale);
-        // Anchor and rotation as plotters' default implementation does them.
-        let anchor = style.anchor();
-        let dx = match anchor.h_pos {
-            HPos::Left => 0,
-            HPos::Right => -width,
-            HPos::Center => -width / 2,
-        };
-        let dy = match anchor.v_pos {
-            VPos::Top => 0,
-            VPos::Center => -height / 2,
-            VPos::Bottom => -height,
-        };
-        let transform: FontTransform = style.transform();
-        let (r, g, b) = color.rgb;
-        let mut points = Vec::new();
-        for_each_text_pixel(text, scale, |x, y| {
-            let (x, y) = transform.transform(x + dx, y + dy);
-            points.push((pos.0 + x, pos.1 + y));
-        });
-        for (x, y) in points {
-            self.0.blend(x, y, [r, g, b], color.alpha);
-        }
-        Ok(())
-    }
-
-    fn estimate_text_size<S: BackendTextStyle>(
-        &self,
-        text: &str,
-        style: &S,
-    ) -> Result<(u32, u32), DrawingErrorKind<NoError>> {
-        let (w, h) = text_size(text, self.scale(text, style.size()));
-        Ok((w as u32, h as u32))
     }
 }
 

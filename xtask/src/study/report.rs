@@ -7,8 +7,8 @@ use std::path::Path;
 use serde_json::{Value, json};
 
 use super::bias::{self, Bias};
+use super::charts::{self, ChartData};
 use super::metrics::{self, Errors};
-use super::plot::{self, Chart, Series};
 use super::sheet::{self, Crop, SheetInfo};
 use super::{Config, Run, Study};
 
@@ -16,7 +16,7 @@ use super::{Config, Run, Study};
 pub fn write(out: &Path, study: &Study) -> Result<Vec<String>, String> {
     let mut written = Vec::new();
     write_file(out, "curves.csv", &csv(study), &mut written)?;
-    let charts = write_charts(out, study)?;
+    let charts = charts::write(out, &ChartData::of(study))?;
     let (w, h) = study.resolution;
     let reference = &study.references[0];
     let finals: Vec<Vec<f64>> = study
@@ -93,94 +93,6 @@ fn write_file(out: &Path, name: &str, text: &str, written: &mut Vec<String>) -> 
     crate::write_file(&out.join(name), text)?;
     written.push(name.to_string());
     Ok(())
-}
-
-/// File-name suffix and label of reference `i`.
-fn reference_suffix(study: &Study, i: usize) -> (String, String) {
-    let r = &study.references[i];
-    if i == 0 {
-        (
-            String::new(),
-            format!("{} x {}", r.config, r.spec.iterations),
-        )
-    } else {
-        (
-            format!("-{}", r.role),
-            format!("{} {} x {}", r.role, r.config, r.spec.iterations),
-        )
-    }
-}
-
-fn write_charts(out: &Path, study: &Study) -> Result<Vec<String>, String> {
-    let (w, h) = study.resolution;
-    let mut files = Vec::new();
-    type Axis<'a> = &'a dyn Fn(&super::Point) -> f64;
-    // One line per config: (x(p), y(p)) at each checkpoint p.
-    let series = |x: Axis, y: Axis| -> Vec<Series> {
-        study
-            .runs
-            .iter()
-            .map(|run| Series {
-                name: run.config.to_string(),
-                points: run.points.iter().map(|p| (x(p), y(p))).collect(),
-            })
-            .collect()
-    };
-    for i in 0..study.references.len() {
-        let (suffix, label) = reference_suffix(study, i);
-        for (stem, metric, value) in [
-            (
-                "rmse-vs-time",
-                "RMSE",
-                &(move |p: &super::Point| p.errors[i].rmse) as &dyn Fn(&super::Point) -> f64,
-            ),
-            (
-                "relmse-vs-time",
-                "relMSE",
-                &(move |p: &super::Point| p.errors[i].rel_mse),
-            ),
-        ] {
-            let chart = Chart {
-                title: format!(
-                    "{metric} vs time, {} {w}x{h}, ref. {label}",
-                    study.scene_name
-                ),
-                x_label: "render time (s, wall clock)".into(),
-                y_label: format!("{metric} (luminance)"),
-                series: series(&|p| p.seconds, value),
-            };
-            files.extend(plot::write_chart(out, &format!("{stem}{suffix}"), &chart)?);
-        }
-    }
-    if study
-        .runs
-        .iter()
-        .all(|r| r.points.iter().all(|p| p.cpu_seconds.is_some()))
-    {
-        let (_, label) = reference_suffix(study, 0);
-        let chart = Chart {
-            title: format!(
-                "RMSE vs CPU time, {} {w}x{h}, ref. {label}",
-                study.scene_name
-            ),
-            x_label: "render CPU time (s, all threads)".into(),
-            y_label: "RMSE (luminance)".into(),
-            series: series(&|p| p.cpu_seconds.unwrap_or(f64::NAN), &|p| {
-                p.errors[0].rmse
-            }),
-        };
-        files.extend(plot::write_chart(out, "rmse-vs-cpu-time", &chart)?);
-    }
-    let chart = Chart {
-        title: format!("Noise vs iterations, {} {w}x{h}", study.scene_name),
-        x_label: "iterations N".into(),
-        y_label: "mean s^2/N (luminance)".into(),
-        series: series(&|p| p.iteration as f64, &|p| {
-            p.noise.map_or(f64::NAN, |n| n.variance)
-        }),
-    };
-    files.extend(plot::write_chart(out, "noise-vs-iterations", &chart)?);
-    Ok(files)
 }
 
 /// A regularized config against its unregularized algorithm at equal time.
