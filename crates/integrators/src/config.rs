@@ -88,8 +88,8 @@ pub enum Strategies {
 }
 
 /// Default tau_0: alpha_tau = 1/sqrt(4 pi tau_0) = 0.052 at the first
-/// iteration. Chosen by the issue-21 sweep (README, "Regularization against
-/// the truth") for the default `unsampleable` rule: with 30 it met the goal
+/// iteration. Chosen by the tau_0 sweep (docs/studies.md, "Regularization
+/// against the truth") for the default `unsampleable` rule: with 30 it met the goal
 /// on both caustic scenes and lost nothing on the glossy ones, where 7.5
 /// (SPEC §5's value, alpha_tau 0.103) was 1.7x worse than no regularization
 /// on glossy-cornell-glass. Our tau bounds the outgoing density (D/4 for
@@ -146,9 +146,9 @@ impl Regularization {
 }
 
 impl Default for Regularization {
-    /// Unsampleable, tau_0 = 30, progressive: the issue-21 sweep's choice
-    /// (SPEC §5's default rule is selective, README "Regularization against
-    /// the truth").
+    /// Unsampleable, tau_0 = 30, progressive: the tau_0 sweep's choice
+    /// (SPEC §5's default rule is selective; docs/studies.md, "Regularization
+    /// against the truth").
     fn default() -> Self {
         Self::new(Mode::Unsampleable, DEFAULT_TAU_0, true).expect("the default tau_0 is valid")
     }

@@ -39,7 +39,8 @@ pub enum Mode {
     /// The selective rule, on subpaths whose prefix does not yet make every
     /// path through it sampleable by an unregularized technique
     /// ([`Techniques`]); `Selective` for integrators without such techniques.
-    /// The default of the renderer (issue-21 sweep, README).
+    /// The default of the rlt renderer, chosen by a study against unbiased
+    /// references (the repository's docs/studies.md).
     Unsampleable,
 }
 

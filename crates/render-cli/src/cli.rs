@@ -37,7 +37,7 @@ Examples:
   render-cli scenes/cornell-box/scene.toml
   render-cli scenes/glossy-caustic/scene.toml --time 60 --regularize uniform -o caustic.exr
   render-cli model.glb --camera Overview --resolution 1280x720 --exposure 1
-  render-cli model.glb --env scenes/env-sphere/sky.exr --env-rotation 90
+  render-cli model.glb --env scenes/env-sphere/sky.hdr --env-rotation 90
   render-cli scenes/veach-bidir -D spp=64";
 
 /// Renders a scene to a linear OpenEXR image and an sRGB PNG preview.

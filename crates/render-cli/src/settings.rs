@@ -26,8 +26,8 @@ use crate::values::{
 /// Iterations when neither a flag nor the manifest gives a count or a time.
 pub const DEFAULT_ITERATIONS: u64 = 64;
 /// Regularization mode when neither a flag nor the manifest gives one.
-/// `unsampleable`, the issue-21 sweep's choice: against the unbiased reference it was as
-/// good as or better than `selective` on every study scene, for BPT and VCM (README,
+/// `unsampleable`, the tau_0 sweep's choice: against the unbiased reference it was as
+/// good as or better than `selective` on every study scene, for BPT and VCM (docs/studies.md,
 /// "Regularization against the truth"; SPEC §5's default rule is selective).
 pub const DEFAULT_MODE: Mode = Mode::Unsampleable;
 /// Seed when neither a flag nor the manifest gives one.

@@ -14,8 +14,8 @@
 //! integrator = "pt"             # pt | bpt | ppm | bpm | vcm
 //! iterations = 64
 //! max_depth = 16
-//! regularize = "selective"      # off | uniform | selective | unsampleable
-//! tau0 = 7.5                    # > 1/(2 pi)
+//! regularize = "unsampleable"   # off | uniform | selective | unsampleable (the default)
+//! tau0 = 30                     # > 1/(2 pi), per steradian; default 30
 //! progressive = true            # false: tau stays tau0 (a fixed blur)
 //! regularize_energy = true      # false: regularized lobes lose energy (darker)
 //! seed = 0
