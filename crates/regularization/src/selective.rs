@@ -8,7 +8,7 @@
 //! subpaths tau_k = tau_N. What is seen directly or only through mirrors stays
 //! sharp; a glass sphere seen on a diffuse floor is regularized.
 //!
-//! `Mode::Unsampleable` goes beyond the paper (issue 21, ARCHITECTURE.md):
+//! `Mode::Unsampleable` goes beyond the paper (the repository's ARCHITECTURE.md):
 //! it regularizes only subpaths whose prefix does not yet guarantee that an
 //! unregularized technique of the integrator samples every path through it,
 //! after Kaplanyan & Dachsbacher 2013 ("Path Space Regularization for
