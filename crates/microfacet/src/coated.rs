@@ -45,11 +45,11 @@
 //! # Regularized coats
 //!
 //! Regularization widens the coat's (specular) lobe only; with energy
-//! compensation (`crate::energy`) the specular lobe gains the compensation
+//! compensation (`crate::compensation::energy`) the specular lobe gains the compensation
 //! lobe, tinted with the cosine-weighted average of `specular_fresnel`
 //! (`specular_fresnel_average`), sampled inside the specular branch of the
 //! coin with probability P_c(mu_i). Where the widened coat gains energy its
-//! lobe is scaled by s(mu_i) s(mu_o) (`crate::gain`), which changes values
+//! lobe is scaled by s(mu_i) s(mu_o) (`crate::compensation::gain`), which changes values
 //! and sample weights, not densities.
 //!
 //! # Smooth coats
@@ -65,7 +65,7 @@ use std::f32::consts::FRAC_1_PI;
 
 use glam::{Vec2, Vec3};
 
-use crate::energy::AlbedoLookup;
+use crate::compensation::reflection::AlbedoLookup;
 use crate::frame::{cosine_hemisphere, reflect, same_hemisphere};
 use crate::fresnel::{schlick, schlick_average};
 use crate::model::{MicrofacetModel, mixture_pdf};
@@ -328,7 +328,7 @@ impl Coated {
             pdf_reverse: (1.0 - p_o) * wi.z * FRAC_1_PI,
         };
         // The coat's compensation: s(mu_i) s(mu_o) scales its lobe where
-        // the widened coat gains energy (`crate::gain`; exactly 1
+        // the widened coat gains energy (`crate::compensation::gain`; exactly 1
         // otherwise), and the compensation lobe belongs to it: its value is
         // added and its density shares the specular coin.
         let (scale, compensation) = self.model.compensation_terms_at(at_i, at_o);
