@@ -108,6 +108,31 @@ struct Terms {
 }
 
 impl Coated {
+    /// A glTF metallic-roughness lobe (module docs): specular `model` (glTF:
+    /// GGX with alpha = r^2, dimensionless), `base_color` in [0, 1] (the
+    /// diffuse albedo and the metal's F0), `metallic` in [0, 1] (the metal's
+    /// weight in the mix), `KHR_materials_specular`'s `specular` in [0, 1]
+    /// and `specular_color` (1 without the extension; scale the coat's F0)
+    /// and `KHR_materials_ior`'s `ior` (relative index of the coat, 1.5
+    /// without the extension; 0 is the extension's "F0 = 1").
+    pub fn new(
+        model: MicrofacetModel,
+        base_color: Vec3,
+        metallic: f32,
+        specular: f32,
+        specular_color: Vec3,
+        ior: f32,
+    ) -> Self {
+        Self {
+            model,
+            base_color,
+            metallic,
+            specular,
+            specular_color,
+            ior,
+        }
+    }
+
     /// The coat's reflectance at normal incidence before the specular
     /// factor: min(((ior - 1)/(ior + 1))^2 specularColor, 1)
     /// (`KHR_materials_specular`, `KHR_materials_ior`).

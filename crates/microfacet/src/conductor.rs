@@ -26,6 +26,15 @@ pub struct Conductor {
 }
 
 impl Conductor {
+    /// A conductor of microfacet distribution and shadowing `model` (alpha
+    /// is the microfacet width, dimensionless) with reflectance `fresnel`
+    /// (Schlick's F0 per channel in [0, 1], or a complex index eta + i k
+    /// relative to the outside medium, SPEC §3); unregularized, without
+    /// compensation until `Bsdf::regularized` widens it.
+    pub fn new(model: MicrofacetModel, fresnel: Fresnel) -> Self {
+        Self { model, fresnel }
+    }
+
     /// True when the lobe is a perfect mirror.
     pub fn is_specular(&self) -> bool {
         self.model.is_smooth()

@@ -61,7 +61,11 @@ struct Terms {
 }
 
 impl Dielectric {
-    /// A clear (untinted) interface with `model` and index ratio `eta`.
+    /// A clear (untinted) interface with microfacet distribution and
+    /// shadowing `model` (alpha dimensionless) and index ratio `eta`: the
+    /// index below the surface over the index above (seen from above;
+    /// 1/`eta` from below), dimensionless, > 0. Without compensation until
+    /// `regularized` widens it.
     pub const fn new(model: MicrofacetModel, eta: f32) -> Self {
         Self {
             model,

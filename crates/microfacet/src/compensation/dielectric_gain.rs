@@ -225,7 +225,7 @@ pub fn slices_read(eta: f32) -> [usize; 2] {
 /// s-bar(mu) of an interface of width `alpha` widened to `alpha_hat`,
 /// queried from the side that sees the index ratio `eta`: linear in c
 /// between the slices of its cell (module docs).
-pub fn dielectric_mean_scale(
+pub(crate) fn dielectric_mean_scale(
     kind: NdfKind,
     shadowing: Shadowing,
     alpha: f32,
