@@ -107,7 +107,7 @@ pub struct Regularization {
     /// not consistent; used to compare estimators on one integrand).
     pub progressive: bool,
     /// Whether regularized lobes keep their original's energy
-    /// (`microfacet::energy`); `Preserved` by default, `Lost` to compare
+    /// (`microfacet::compensation::energy`); `Preserved` by default, `Lost` to compare
     /// with the plain widening.
     pub energy: Energy,
 }

@@ -24,7 +24,7 @@ use std::f32::consts::PI;
 use glam::{Vec2, Vec3};
 use scene::EnvironmentMap;
 
-use crate::lights::luminance;
+use crate::colour::luminance;
 
 /// One less than 1 in f64: a remapped uniform stays inside its cell (the
 /// cell's far edge belongs to the next cell).

@@ -14,6 +14,7 @@
 
 mod bidir;
 pub mod camera;
+mod colour;
 pub mod config;
 pub mod context;
 pub mod environment;

@@ -11,13 +11,9 @@ use glam::{Vec2, Vec3};
 use mis::EmitterKind;
 use scene::{Light, Scene};
 
+use crate::colour::luminance;
 use crate::environment::EnvironmentDistribution;
 use crate::geometry::{BoundingSphere, PointError, vertex_scale};
-
-/// Luminance weights (Rec. 709) to turn RGB power into one number.
-pub(crate) fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
-}
 
 /// Spot falloff (KHR_lights_punctual's recommended smooth falloff):
 /// ((cos - cos_outer) / (cos_inner - cos_outer))^2, clamped to [0, 1].

@@ -8,10 +8,12 @@
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use glam::Vec3;
-use microfacet::dielectric_energy::{DielectricAlbedoTable, dielectric_albedo_table};
-use microfacet::dielectric_gain::{mean_scale_slice, mean_scale_slice_is_built, slices_read};
-use microfacet::energy::{albedo_table, albedo_table_is_built};
-use microfacet::gain::{mean_scale_table, mean_scale_table_is_built};
+use microfacet::compensation::dielectric_energy::{DielectricAlbedoTable, dielectric_albedo_table};
+use microfacet::compensation::dielectric_gain::{
+    mean_scale_slice, mean_scale_slice_is_built, slices_read,
+};
+use microfacet::compensation::energy::{albedo_table, albedo_table_is_built};
+use microfacet::compensation::gain::{mean_scale_table, mean_scale_table_is_built};
 use microfacet::{NdfKind, Shadowing};
 use mis::Techniques;
 use rayon::prelude::*;
@@ -241,8 +243,8 @@ impl Renderer {
     }
 
     /// Builds now, in parallel, the energy-compensation tables
-    /// (`microfacet::energy`, `microfacet::gain`, `microfacet::dielectric_energy`,
-    /// `microfacet::dielectric_gain`) of every lobe of the scene that
+    /// (`microfacet::compensation::energy`, `microfacet::compensation::gain`, `microfacet::compensation::dielectric_energy`,
+    /// `microfacet::compensation::dielectric_gain`) of every lobe of the scene that
     /// regularization may widen; nothing when it is off or loses energy.
     /// Otherwise each table is built at its first use, inside the first
     /// iteration that widens such a lobe (release build, one core: 0.25-1.7 s

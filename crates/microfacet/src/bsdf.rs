@@ -99,11 +99,11 @@ impl Bsdf {
     }
 
     /// The BSDF regularized to `alpha_hat` with its energy compensated
-    /// (`crate::energy`): the microfacet lobe at alpha-hat plus the lobe that
+    /// (`crate::compensation::energy`): the microfacet lobe at alpha-hat plus the lobe that
     /// restores the original white albedo, tinted with the lobe's Fresnel
     /// average (conductors, coats); for dielectrics the lobe that restores
     /// the energy albedo, split between reflection and transmission
-    /// (`crate::dielectric_energy`). Lambertian lobes and thin sheets are
+    /// (`crate::compensation::dielectric_energy`). Lambertian lobes and thin sheets are
     /// unchanged.
     pub fn regularized(&self, alpha_hat: f32) -> Self {
         match *self {

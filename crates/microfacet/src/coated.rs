@@ -45,11 +45,11 @@
 //! # Regularized coats
 //!
 //! Regularization widens the coat's (specular) lobe only; with energy
-//! compensation (`crate::energy`) the specular lobe gains the compensation
+//! compensation (`crate::compensation::energy`) the specular lobe gains the compensation
 //! lobe, tinted with the cosine-weighted average of `specular_fresnel`
 //! (`specular_fresnel_average`), sampled inside the specular branch of the
 //! coin with probability P_c(mu_i). Where the widened coat gains energy its
-//! lobe is scaled by s(mu_i) s(mu_o) (`crate::gain`), which changes values
+//! lobe is scaled by s(mu_i) s(mu_o) (`crate::compensation::gain`), which changes values
 //! and sample weights, not densities.
 //!
 //! # Smooth coats
@@ -65,7 +65,7 @@ use std::f32::consts::FRAC_1_PI;
 
 use glam::{Vec2, Vec3};
 
-use crate::energy::AlbedoLookup;
+use crate::compensation::reflection::AlbedoLookup;
 use crate::frame::{cosine_hemisphere, reflect, same_hemisphere};
 use crate::fresnel::{schlick, schlick_average};
 use crate::model::{MicrofacetModel, mixture_pdf};
@@ -108,6 +108,31 @@ struct Terms {
 }
 
 impl Coated {
+    /// A glTF metallic-roughness lobe (module docs): specular `model` (glTF:
+    /// GGX with alpha = r^2, dimensionless), `base_color` in [0, 1] (the
+    /// diffuse albedo and the metal's F0), `metallic` in [0, 1] (the metal's
+    /// weight in the mix), `KHR_materials_specular`'s `specular` in [0, 1]
+    /// and `specular_color` (1 without the extension; scale the coat's F0)
+    /// and `KHR_materials_ior`'s `ior` (relative index of the coat, 1.5
+    /// without the extension; 0 is the extension's "F0 = 1").
+    pub fn new(
+        model: MicrofacetModel,
+        base_color: Vec3,
+        metallic: f32,
+        specular: f32,
+        specular_color: Vec3,
+        ior: f32,
+    ) -> Self {
+        Self {
+            model,
+            base_color,
+            metallic,
+            specular,
+            specular_color,
+            ior,
+        }
+    }
+
     /// The coat's reflectance at normal incidence before the specular
     /// factor: min(((ior - 1)/(ior + 1))^2 specularColor, 1)
     /// (`KHR_materials_specular`, `KHR_materials_ior`).
@@ -328,7 +353,7 @@ impl Coated {
             pdf_reverse: (1.0 - p_o) * wi.z * FRAC_1_PI,
         };
         // The coat's compensation: s(mu_i) s(mu_o) scales its lobe where
-        // the widened coat gains energy (`crate::gain`; exactly 1
+        // the widened coat gains energy (`crate::compensation::gain`; exactly 1
         // otherwise), and the compensation lobe belongs to it: its value is
         // added and its density shares the specular coin.
         let (scale, compensation) = self.model.compensation_terms_at(at_i, at_o);

@@ -2,15 +2,15 @@
 //! mirror when alpha is below `SMOOTH_ALPHA`. Two-sided.
 //!
 //! A regularized conductor may carry an energy compensation lobe
-//! (`crate::energy`, tinted with `Fresnel::average`): its value is added,
+//! (`crate::compensation::energy`, tinted with `Fresnel::average`): its value is added,
 //! and sampling picks it with probability P_c(mu_i) (cosine-weighted
 //! directions), so `pdf` is the mixture (1 - P_c) p_spec + P_c mu_o/pi.
 //! Where the widened lobe gains energy its value is scaled by s(mu_i)
-//! s(mu_o) (`crate::gain`): the sample's weight changes, its pdfs do not.
+//! s(mu_o) (`crate::compensation::gain`): the sample's weight changes, its pdfs do not.
 
 use glam::{Vec2, Vec3};
 
-use crate::energy::Compensation;
+use crate::compensation::Compensation;
 use crate::frame::{cosine_hemisphere, reflect, same_hemisphere};
 use crate::fresnel::Fresnel;
 use crate::model::{MicrofacetModel, mixture_pdf};
@@ -26,6 +26,15 @@ pub struct Conductor {
 }
 
 impl Conductor {
+    /// A conductor of microfacet distribution and shadowing `model` (alpha
+    /// is the microfacet width, dimensionless) with reflectance `fresnel`
+    /// (Schlick's F0 per channel in [0, 1], or a complex index eta + i k
+    /// relative to the outside medium, SPEC §3); unregularized, without
+    /// compensation until `Bsdf::regularized` widens it.
+    pub fn new(model: MicrofacetModel, fresnel: Fresnel) -> Self {
+        Self { model, fresnel }
+    }
+
     /// True when the lobe is a perfect mirror.
     pub fn is_specular(&self) -> bool {
         self.model.is_smooth()
@@ -121,7 +130,7 @@ impl Conductor {
         uc: f32,
         u: Vec2,
     ) -> Option<BsdfSample> {
-        let at_i = c.lookup(&self.model, wi.z);
+        let at_i = c.lookup(&self.model.ndf, self.model.shadowing, wi.z);
         let p_c = c.probability_at(&at_i);
         let wo = if uc < p_c {
             cosine_hemisphere(u)?
@@ -134,14 +143,14 @@ impl Conductor {
             }
             wo
         };
-        let at_o = c.lookup(&self.model, wo.z.abs());
+        let at_o = c.lookup(&self.model.ndf, self.model.shadowing, wo.z.abs());
         let mixture = [
             mixture_pdf(p_c, wi, wo, self.specular_pdf(wi, wo)),
             mixture_pdf(c.probability_at(&at_o), wo, wi, self.specular_pdf(wo, wi)),
         ];
         let [pdf, pdf_reverse] = mixture.map(|m| m.pdf());
         let terms = if same_hemisphere(wi, wo) {
-            let (scale, value) = c.terms_at(&self.model, &at_i, &at_o);
+            let (scale, value) = c.terms_at(&self.model.ndf, self.model.shadowing, &at_i, &at_o);
             (scale, c.tint * value)
         } else {
             (1.0, Vec3::ZERO)

@@ -15,14 +15,14 @@
 //! untinted lobe's, bit for bit.
 //!
 //! A regularized interface may carry an energy compensation lobe
-//! (`crate::dielectric_energy`): its value is added (its transmitted part
+//! (`crate::compensation::dielectric_energy`): its value is added (its transmitted part
 //! tinted like the refraction), and sampling picks it with probability
 //! P_c(mu_i) (a cosine-weighted direction on the side its own coin picks), so
 //! `pdf` is the mixture (1 - P_c) p_lobe + P_c p_compensation.
 
 use glam::{DVec3, Vec2, Vec3};
 
-use crate::dielectric_energy::DielectricCompensation;
+use crate::compensation::DielectricCompensation;
 use crate::frame::{cosine_hemisphere, reflect, refract_f64};
 use crate::fresnel;
 use crate::model::MicrofacetModel;
@@ -48,7 +48,7 @@ pub struct Dielectric {
     /// material), each channel in [0, 1]; `Vec3::ONE` for clear glass.
     pub tint: Vec3,
     /// The energy compensation of a regularized interface
-    /// (`crate::dielectric_energy`); `None` for every lobe a material
+    /// (`crate::compensation::dielectric_energy`); `None` for every lobe a material
     /// defines, and for one regularized without compensation.
     pub compensation: Option<DielectricCompensation>,
 }
@@ -61,7 +61,11 @@ struct Terms {
 }
 
 impl Dielectric {
-    /// A clear (untinted) interface with `model` and index ratio `eta`.
+    /// A clear (untinted) interface with microfacet distribution and
+    /// shadowing `model` (alpha dimensionless) and index ratio `eta`: the
+    /// index below the surface over the index above (seen from above;
+    /// 1/`eta` from below), dimensionless, > 0. Without compensation until
+    /// `regularized` widens it.
     pub const fn new(model: MicrofacetModel, eta: f32) -> Self {
         Self {
             model,
@@ -72,7 +76,7 @@ impl Dielectric {
     }
 
     /// The interface widened to `alpha_hat` with the energy compensation
-    /// that keeps its energy albedo (`crate::dielectric_energy`); without
+    /// that keeps its energy albedo (`crate::compensation::dielectric_energy`); without
     /// compensation when alpha-hat does not exceed alpha, and for an
     /// index-matched interface (a pass-through that regularization skips).
     pub fn regularized(&self, alpha_hat: f32) -> Self {
@@ -80,7 +84,7 @@ impl Dielectric {
         let compensation = if self.is_index_matched() {
             None
         } else {
-            DielectricCompensation::new(&model, self.model.alpha(), self.eta)
+            DielectricCompensation::new(&model.ndf, model.shadowing, self.model.alpha(), self.eta)
         };
         Self {
             model,
@@ -125,14 +129,21 @@ impl Dielectric {
     /// (eta = eta_t/eta_i; equivalent to SPEC's eta_i^2, eta_t^2 numerators);
     /// the refraction value times `tint` (module docs); for a regularized
     /// interface, the lobe scaled by s(wi) s(wo) where it gains
-    /// (`crate::dielectric_gain`) plus the compensation lobe.
+    /// (`crate::compensation::dielectric_gain`) plus the compensation lobe.
     pub fn eval(&self, wi: Vec3, wo: Vec3, mode: TransportMode) -> Vec3 {
         let refracted = wi.z * wo.z < 0.0;
         let lobe = self.evaluate(wi, wo, mode).map_or(0.0, |t| t.f);
         let Some(c) = self.compensation else {
             return self.colour(lobe, refracted);
         };
-        let (scale, compensation) = c.terms(&self.model, self.eta, wi, wo, mode);
+        let (scale, compensation) = c.terms(
+            &self.model.ndf,
+            self.model.shadowing,
+            self.eta,
+            wi,
+            wo,
+            mode,
+        );
         self.colour(scale * lobe + compensation, refracted)
     }
 
@@ -178,8 +189,13 @@ impl Dielectric {
         let Some(c) = self.compensation else {
             return p_lobe;
         };
-        c.mixture_pdf(c.probability(&self.model, self.eta, wi), wi, wo, p_lobe)
-            .pdf()
+        c.mixture_pdf(
+            c.probability(&self.model.ndf, self.model.shadowing, self.eta, wi),
+            wi,
+            wo,
+            p_lobe,
+        )
+        .pdf()
     }
 
     /// Samples reflection or refraction through a sampled microfacet normal
@@ -215,10 +231,10 @@ impl Dielectric {
         if wi.z == 0.0 {
             return None;
         }
-        let at_i = c.lookup(&self.model, self.eta, wi);
+        let at_i = c.lookup(&self.model.ndf, self.model.shadowing, self.eta, wi);
         let p_c = c.probability_at(&at_i);
         let wo = if uc < p_c {
-            let side = crate::dielectric_energy::side(wi);
+            let side = crate::compensation::dielectric_energy::side(wi);
             let transmitted = uc / p_c < c.transmitted_share(side);
             let w = cosine_hemisphere(u)? * wi.z.signum();
             if transmitted { -w } else { w }
@@ -226,7 +242,7 @@ impl Dielectric {
             let uc = ((uc - p_c) / (1.0 - p_c)).min(ONE_MINUS_EPSILON);
             self.sample_lobe(wi, uc, u, mode)?.wo
         };
-        let at_o = c.lookup(&self.model, self.eta, wo);
+        let at_o = c.lookup(&self.model.ndf, self.model.shadowing, self.eta, wo);
         // The lobe's pdf does not depend on the mode; its reverse density is
         // `pdf`'s own query from wo.
         let (lobe_f, lobe_pdf) = self
@@ -240,7 +256,14 @@ impl Dielectric {
             c.mixture_pdf(c.probability_at(&at_o), wo, wi, lobe_pdf_reverse),
         ];
         let [pdf, pdf_reverse] = mixture.map(|m| m.pdf());
-        let (scale, compensation) = c.terms_at(&self.model, self.eta, &at_i, &at_o, mode);
+        let (scale, compensation) = c.terms_at(
+            &self.model.ndf,
+            self.model.shadowing,
+            self.eta,
+            &at_i,
+            &at_o,
+            mode,
+        );
         let refracted = wi.z * wo.z < 0.0;
         let f = self.colour(scale * lobe_f + compensation, refracted);
         let eta = if !refracted {

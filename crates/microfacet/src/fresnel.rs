@@ -139,7 +139,7 @@ impl Fresnel {
     pub fn average(&self) -> Vec3 {
         match *self {
             Fresnel::Schlick { f0 } => schlick_average(f0),
-            Fresnel::Conductor { .. } => crate::quadrature::gauss_legendre_8()
+            Fresnel::Conductor { .. } => crate::gauss::gauss_legendre_8()
                 .iter()
                 .map(|&(mu, w)| self.eval(mu as f32) * (2.0 * mu * w) as f32)
                 .sum(),

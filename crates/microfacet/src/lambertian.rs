@@ -15,6 +15,13 @@ pub struct Lambertian {
 }
 
 impl Lambertian {
+    /// A Lambertian reflector of directional-hemispherical reflectance
+    /// `reflectance` (the albedo, each channel in [0, 1], dimensionless):
+    /// f = R/pi.
+    pub fn new(reflectance: Vec3) -> Self {
+        Self { reflectance }
+    }
+
     /// R/pi when wi and wo are on the same side, else 0.
     pub fn eval(&self, wi: Vec3, wo: Vec3) -> Vec3 {
         if same_hemisphere(wi, wo) {

@@ -15,10 +15,11 @@
 //! - [`shadowing`]: Smith and V-cavity masking-shadowing.
 //! - [`vndf`]: visible-normal samplers (GGX, Beckmann, V-cavity).
 //! - [`model`]: an NDF with its shadowing model and sampler.
-//! - [`energy`]: albedo tables and the compensation lobe that keeps a
-//!   regularized lobe's energy (Kulla & Conty 2017);
-//!   [`dielectric_energy`]: the same for dielectrics (tables per eta and
-//!   side, a reciprocal reflection/transmission split).
+//! - [`compensation`]: albedo tables and the compensation lobe that keeps a
+//!   regularized lobe's energy (Kulla & Conty 2017), for conductors and
+//!   coats and for dielectrics (tables per eta and side, a reciprocal
+//!   reflection/transmission split); above the lobes' math, which never
+//!   reads it.
 //! - [`fresnel`], [`bounds`], [`frame`], [`special`]: building blocks.
 //! - [`sample`]: what lobes return (a sampled direction) and the transport
 //!   mode; [`lambertian`], [`conductor`], [`dielectric`], [`coated`] (glTF
@@ -37,23 +38,19 @@ pub use glam;
 pub mod bounds;
 pub mod bsdf;
 pub mod coated;
+pub mod compensation;
 pub mod conductor;
 pub mod dielectric;
-pub mod dielectric_energy;
-pub mod dielectric_gain;
-pub mod energy;
 pub mod frame;
 pub mod fresnel;
-pub mod gain;
+mod gauss;
 pub mod lambertian;
 pub mod model;
 pub mod ndf;
-mod quadrature;
 pub mod sample;
 pub mod shadowing;
 pub mod special;
 pub mod thin_dielectric;
-mod vcavity_onsets;
 pub mod vndf;
 
 pub use bsdf::Bsdf;

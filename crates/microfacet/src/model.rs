@@ -3,18 +3,15 @@
 
 use glam::{Vec2, Vec3};
 
-use crate::energy::{AlbedoLookup, Compensation};
+use crate::compensation::reflection::{AlbedoLookup, Compensation};
 use crate::frame::same_hemisphere;
 use crate::ndf::{Ndf, NdfKind};
 use crate::sample::MixturePdf;
-use crate::shadowing::{Shadowing, g1_vcavity};
+use crate::shadowing::Shadowing;
 use crate::vndf;
 
-/// Below this alpha a lobe is a delta (mirror or smooth refraction): its
-/// density would exceed 1/(4 pi alpha^2) = 8e6 per steradian, beyond what
-/// f32 directions resolve usefully, and integrators must not try to connect
-/// through it (SPEC §3) unless regularization widens it first.
-pub const SMOOTH_ALPHA: f32 = 1e-4;
+/// Re-exported where lobes are built (`MicrofacetModel::is_smooth`).
+pub use crate::ndf::SMOOTH_ALPHA;
 
 /// NDF + shadowing: everything a Torrance-Sparrow or Walter lobe needs.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -23,10 +20,8 @@ pub struct MicrofacetModel {
     pub ndf: Ndf,
     /// The masking-shadowing model.
     pub shadowing: Shadowing,
-    /// The energy compensation of a regularized model (`crate::energy`):
-    /// `None` for every model a material defines, and for a regularized
-    /// one built without compensation.
-    pub compensation: Option<Compensation>,
+    /// The energy compensation of a regularized model (`compensation`).
+    pub(crate) compensation: Option<Compensation>,
 }
 
 /// D, G and both microfacet-normal densities of one configuration (wi, wo, h),
@@ -63,6 +58,14 @@ impl MicrofacetModel {
         }
     }
 
+    /// The energy compensation of a regularized model
+    /// (`crate::compensation::reflection`): `None` for every model a material
+    /// defines, and for a regularized one built without compensation. Set
+    /// only by `regularized`, so it always belongs to this model's NDF.
+    pub fn compensation(&self) -> Option<Compensation> {
+        self.compensation
+    }
+
     /// The width alpha.
     pub fn alpha(&self) -> f32 {
         self.ndf.alpha()
@@ -79,28 +82,29 @@ impl MicrofacetModel {
     }
 
     /// The model at `alpha_hat` with the energy compensation that keeps the
-    /// white albedo of this model (`crate::energy`), coloured `tint` (the
+    /// white albedo of this model (`crate::compensation`), coloured `tint` (the
     /// lobe's Fresnel average); without compensation when alpha-hat does
     /// not exceed alpha.
     pub fn regularized(&self, alpha_hat: f32, tint: Vec3) -> Self {
         let mut model = self.with_alpha(alpha_hat);
-        model.compensation =
-            Compensation::new(&model, self.alpha()).map(|c| Compensation { tint, ..c });
+        model.compensation = Compensation::new(&model.ndf, model.shadowing, self.alpha())
+            .map(|c| Compensation { tint, ..c });
         model
     }
 
     /// The probability of sampling the compensation lobe for a query at
     /// macro cosine `mu_i` (0 without compensation).
     pub fn compensation_probability(&self, mu_i: f32) -> f32 {
-        self.compensation.map_or(0.0, |c| c.probability(self, mu_i))
+        self.compensation
+            .map_or(0.0, |c| c.probability(&self.ndf, self.shadowing, mu_i))
     }
 
     /// s(mu_i) s(mu_o), the reciprocal scaling of a widened lobe that gains
-    /// energy (`crate::gain`): multiplies the microfacet lobe's value and a
+    /// energy (`crate::compensation::gain`): multiplies the microfacet lobe's value and a
     /// sample's weight, never its pdf. Exactly 1 for every other model.
     pub fn lobe_scale(&self, mu_i: f32, mu_o: f32) -> f32 {
         match self.compensation {
-            Some(c) if c.scaled => c.terms(self, mu_i, mu_o).0,
+            Some(c) if c.scaled => c.terms(&self.ndf, self.shadowing, mu_i, mu_o).0,
             _ => 1.0,
         }
     }
@@ -126,7 +130,8 @@ impl MicrofacetModel {
     /// without compensation), which `compensation_probability_at` and
     /// `compensation_terms_at` share: one per direction of a query.
     pub(crate) fn compensation_lookup(&self, mu: f32) -> Option<AlbedoLookup> {
-        self.compensation.map(|c| c.lookup(self, mu))
+        self.compensation
+            .map(|c| c.lookup(&self.ndf, self.shadowing, mu))
     }
 
     /// `compensation_probability` from the lookup at mu_i.
@@ -146,7 +151,7 @@ impl MicrofacetModel {
     ) -> (f32, Vec3) {
         match (self.compensation, at_i, at_o) {
             (Some(c), Some(at_i), Some(at_o)) => {
-                let (scale, value) = c.terms_at(self, at_i, at_o);
+                let (scale, value) = c.terms_at(&self.ndf, self.shadowing, at_i, at_o);
                 (scale, c.tint * value)
             }
             _ => (1.0, Vec3::ZERO),
@@ -178,18 +183,13 @@ impl MicrofacetModel {
     /// Masking of `w` by microfacet `h`, zero unless (w.h)(w.n) > 0 (back-facing
     /// microfacets are discarded, SPEC §3).
     pub fn g1(&self, w: Vec3, h: Vec3) -> f32 {
-        match self.shadowing {
-            Shadowing::Smith if w.dot(h) * w.z > 0.0 => self.ndf.g1(w),
-            Shadowing::Smith => 0.0,
-            Shadowing::VCavity => g1_vcavity(w, h),
-        }
+        self.shadowing.masking(&self.ndf, w, h)
     }
 
     /// Shadowing-masking G(wi, wo) for microfacet `h` (SPEC §2): reflection
     /// when wi and wo are on the same side, transmission otherwise. Symmetric.
     pub fn g(&self, wi: Vec3, wo: Vec3, h: Vec3) -> f32 {
-        self.shadowing
-            .g(self.g1(wi, h), self.g1(wo, h), wi.z * wo.z > 0.0)
+        self.shadowing.masking_shadowing(&self.ndf, wi, wo, h)
     }
 
     /// Supremum of G1(w)/|<w,n>| over directions (supp. §2), +infinity for the

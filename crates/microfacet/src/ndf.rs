@@ -13,9 +13,15 @@ use glam::{Vec2, Vec3};
 use crate::frame::sin2_theta;
 use crate::special::{beta_inc_from_front, erfc, ln_gamma, ln_inv_beta};
 
+/// Below this alpha a lobe is a delta (mirror or smooth refraction): its
+/// density would exceed 1/(4 pi alpha^2) = 8e6 per steradian, beyond what
+/// f32 directions resolve usefully, and integrators must not try to connect
+/// through it (SPEC §3) unless regularization widens it first.
+pub const SMOOTH_ALPHA: f32 = 1e-4;
+
 /// Smallest alpha the NDFs accept; smaller values (and NaN) are raised to it.
 /// At 1e-7, 1/(pi alpha^2) = 3.2e13 is still far from f32 overflow, and
-/// every lobe is treated as a delta long before (`SMOOTH_ALPHA` in `model`).
+/// every lobe is treated as a delta long before (`SMOOTH_ALPHA`).
 pub const ALPHA_MIN: f32 = 1e-7;
 
 /// Largest alpha the NDFs accept; larger values are lowered to it. GGX's

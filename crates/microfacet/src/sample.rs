@@ -38,14 +38,14 @@ pub struct BsdfSample {
     /// True when `wo` came from a delta lobe.
     pub is_specular: bool,
     /// `pdf` and `pdf_reverse` split into their parts, for a conductor or
-    /// dielectric lobe with energy compensation (`crate::energy`,
-    /// `crate::dielectric_energy`); `None` for every other sample.
+    /// dielectric lobe with energy compensation (`crate::compensation::energy`,
+    /// `crate::compensation::dielectric_energy`); `None` for every other sample.
     pub compensated: Option<[MixturePdf; 2]>,
 }
 
 /// The density of a lobe with energy compensation, in its parts:
 /// (1 - `p_c`) `p_lobe` + `p_c` `p_compensation`, P_c of the query
-/// direction (module docs of `crate::energy` and `crate::dielectric_energy`).
+/// direction (module docs of `crate::compensation::energy` and `crate::compensation::dielectric_energy`).
 /// A sample carries it so that a density which changes only the microfacet
 /// lobe's part (p-hat of a regularized vertex, paper eq. 13) needs no
 /// second albedo lookup: `with_lobe`.

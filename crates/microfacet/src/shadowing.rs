@@ -6,6 +6,8 @@
 
 use glam::Vec3;
 
+use crate::ndf::Ndf;
+
 /// Which masking-shadowing model a microfacet surface uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Shadowing {
@@ -38,6 +40,30 @@ impl Shadowing {
             Shadowing::VCavity if reflection => g1_wi.min(g1_wo),
             Shadowing::VCavity => (g1_wi + g1_wo - 1.0).max(0.0),
         }
+    }
+
+    /// Masking G1(w, h) of direction `w` by microfacet `h` of `ndf`, zero
+    /// unless (w.h)(w.n) > 0 (back-facing microfacets are discarded, SPEC §3):
+    /// Smith's from the NDF (`Ndf::g1`), V-cavity's from the geometry
+    /// (`g1_vcavity`). What `MicrofacetModel::g1` and the energy tables'
+    /// quadrature (`crate::compensation`) evaluate.
+    pub fn masking(self, ndf: &Ndf, w: Vec3, h: Vec3) -> f32 {
+        match self {
+            Shadowing::Smith if w.dot(h) * w.z > 0.0 => ndf.g1(w),
+            Shadowing::Smith => 0.0,
+            Shadowing::VCavity => g1_vcavity(w, h),
+        }
+    }
+
+    /// Shadowing-masking G(wi, wo) for microfacet `h` of `ndf` (SPEC §2):
+    /// reflection when wi and wo are on the same side, transmission
+    /// otherwise (`g` of the two `masking` terms). Symmetric.
+    pub fn masking_shadowing(self, ndf: &Ndf, wi: Vec3, wo: Vec3, h: Vec3) -> f32 {
+        self.g(
+            self.masking(ndf, wi, h),
+            self.masking(ndf, wo, h),
+            wi.z * wo.z > 0.0,
+        )
     }
 }
 

@@ -54,7 +54,7 @@ pub fn erf(x: f64) -> f64 {
 /// two Newton steps, on erf(x) = y near zero and on ln erfc(x) = ln(1 - |y|)
 /// in the tails, where the second form keeps relative precision. Accuracy is
 /// then that of `erf`/`erfc` (about 1e-7).
-pub fn erf_inv(y: f64) -> f64 {
+pub(crate) fn erf_inv(y: f64) -> f64 {
     if !(-1.0..=1.0).contains(&y) {
         return f64::NAN;
     }
@@ -84,7 +84,7 @@ pub fn erf_inv(y: f64) -> f64 {
 /// Shifts the argument to z >= 8 with Gamma(x) = Gamma(x + k) / (x (x+1) ... (x+k-1))
 /// and applies Stirling's series with terms to z^-9 (A&S 6.1.41), which is
 /// exact to f64 round-off for arguments >= 8.
-pub fn ln_gamma(x: f64) -> f64 {
+pub(crate) fn ln_gamma(x: f64) -> f64 {
     const STIRLING_MIN: f64 = 8.0;
     let mut shift_product = 1.0;
     let mut z = x;
@@ -116,7 +116,8 @@ const RECURRENCE_RESCALE: f64 = 1e150;
 /// Regularized incomplete beta function I_x(a, b), a, b > 0, x in [0, 1].
 ///
 /// Continued fraction of DLMF 8.17.22 (`beta_continued_fraction`), on whichever of x and 1 - x makes it converge fast (DLMF 8.17.4 symmetry).
-pub fn beta_inc(a: f64, b: f64, x: f64) -> f64 {
+#[cfg(test)]
+pub(crate) fn beta_inc(a: f64, b: f64, x: f64) -> f64 {
     if x <= 0.0 {
         return 0.0;
     }
@@ -126,14 +127,14 @@ pub fn beta_inc(a: f64, b: f64, x: f64) -> f64 {
 
 /// ln(1 / B(a, b)) = ln Gamma(a + b) - ln Gamma(a) - ln Gamma(b): the part of
 /// [`beta_inc`]'s front factor that does not depend on x.
-pub fn ln_inv_beta(a: f64, b: f64) -> f64 {
+pub(crate) fn ln_inv_beta(a: f64, b: f64) -> f64 {
     ln_gamma(a + b) - ln_gamma(a) - ln_gamma(b)
 }
 
 /// [`beta_inc`] with its whole front factor x^a (1 - x)^b / B(a, b) (DLMF
 /// 8.17.22) given, for callers that have its powers at hand without
 /// logarithms (`ndf::lambda_blinn_phong`).
-pub fn beta_inc_from_front(a: f64, b: f64, x: f64, front: f64) -> f64 {
+pub(crate) fn beta_inc_from_front(a: f64, b: f64, x: f64, front: f64) -> f64 {
     if x <= 0.0 {
         return 0.0;
     }

@@ -24,7 +24,8 @@ pub struct ThinDielectric {
 }
 
 impl ThinDielectric {
-    /// A clear sheet of relative index `eta`.
+    /// A clear (untinted) sheet of relative index `eta` (the sheet's index
+    /// over the surrounding medium's, dimensionless, > 0).
     pub fn new(eta: f32) -> Self {
         Self {
             eta,

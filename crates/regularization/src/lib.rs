@@ -36,7 +36,7 @@ pub use schedule::{
     DEFAULT_SCHEDULE_EXPONENT, MAX_SCHEDULE_EXPONENT, Schedule, ScheduleError, cone_of_tau,
     tau_of_cone,
 };
-pub use selective::{Energy, Mode, PathRegularization, Subpath, Techniques, UnknownMode};
+pub use selective::{Mode, PathRegularization, Subpath, Techniques, UnknownMode};
 pub use tau::{
-    AlphaHat, Bound, Lobe, StrictError, alpha_hat, alpha_hat_strict, is_bounded, regularize,
+    AlphaHat, Bound, Energy, Lobe, StrictError, alpha_hat, alpha_hat_strict, is_bounded, regularize,
 };

@@ -3,8 +3,8 @@
 //!
 //! [`regularize`] is a pure function of (lobe, tau, energy), and through
 //! alpha-hat of (lobe, alpha-hat, energy). Widening a lobe with
-//! `Energy::Preserved` builds its compensation (`microfacet::energy`,
-//! `microfacet::dielectric_energy`: the deficit's average over both sides'
+//! `Energy::Preserved` builds its compensation (`microfacet::compensation::energy`,
+//! `microfacet::compensation::dielectric_energy`: the deficit's average over both sides'
 //! table rows), microseconds per call. A renderer widens few distinct
 //! lobes: one alpha-hat per material in uniform mode (tau_N is fixed within
 //! an iteration), one per material and rho in selective modes (SPEC §5;
@@ -16,8 +16,7 @@
 
 use microfacet::Bsdf;
 
-use crate::selective::Energy;
-use crate::tau::{AlphaHat, bsdf_alpha_hat, regularize};
+use crate::tau::{AlphaHat, Energy, bsdf_alpha_hat, regularize};
 
 /// Widened lobes a memo keeps: a scene's glossy and specular materials
 /// times the few alpha-hat of one iteration, for one worker thread.

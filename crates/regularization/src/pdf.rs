@@ -23,12 +23,12 @@ use microfacet::{Bsdf, MicrofacetModel, Shadowing};
 ///   mixes both lobes' values); SPEC §6 only needs every technique to use
 ///   the same pdf at the vertex, and this one reduces to eq. 13 where one
 ///   lobe is absent (black or metallic base: the coat alone).
-/// - Energy compensation (`microfacet::energy`): the compensation lobe has
+/// - Energy compensation (`microfacet::compensation::energy`): the compensation lobe has
 ///   no counterpart in the original BSDF (eq. 13's ratio is undefined
 ///   where rho = 0), so the microfacet lobe's p-hat enters the regularized
 ///   lobe's own mixture in its place: (1 - P_c) p-hat + P_c mu_o/pi, by the
 ///   same SPEC §6 argument as the coated mixture. The same for a compensated
-///   dielectric (`microfacet::dielectric_energy`), whose compensation lobe
+///   dielectric (`microfacet::compensation::dielectric_energy`), whose compensation lobe
 ///   reflects and transmits: (1 - P_c) p-hat + P_c p_c(wi, wo).
 ///
 /// 0 where the unregularized BSDF is 0 through its shadowing (G = 0), where

@@ -21,7 +21,7 @@ use std::str::FromStr;
 use microfacet::Bsdf;
 
 use crate::memo::RegularizationMemo;
-use crate::tau::{AlphaHat, is_bounded, regularize};
+use crate::tau::{AlphaHat, Energy, is_bounded, regularize};
 
 /// Floor of rho^2 in tau_N / rho^2 (SPEC §5): keeps tau finite (at most
 /// 1e8 tau_N, far beyond any roughness f32 resolves) while rho = 0.
@@ -123,20 +123,6 @@ pub struct Techniques {
     pub connections: bool,
     /// Vertex merging.
     pub merges: bool,
-}
-
-/// Whether a regularized lobe keeps its original's directional albedo
-/// (`microfacet::energy`, Kulla & Conty 2017 applied to the difference
-/// between the original and the widened lobe) or loses what widening a
-/// single-scattering lobe loses.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum Energy {
-    /// The widened lobe plus a compensation lobe (`Bsdf::regularized`).
-    #[default]
-    Preserved,
-    /// The widened lobe alone (`Bsdf::with_alpha`): darker images, kept for
-    /// comparison.
-    Lost,
 }
 
 /// Regularization state carried along a subpath: yields tau and alpha-hat

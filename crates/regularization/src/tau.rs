@@ -9,7 +9,6 @@
 
 use std::f64::consts::PI;
 
-use crate::selective::Energy;
 use microfacet::bounds::transmission_jacobian_sup;
 use microfacet::{Bsdf, MicrofacetModel, Ndf, NdfKind, Shadowing};
 use thiserror::Error;
@@ -264,6 +263,20 @@ pub fn strict_peak(kind: NdfKind, alpha: f32) -> f64 {
         NdfKind::Ggx => 1.0 / (PI * a4),
         NdfKind::Beckmann | NdfKind::BlinnPhong => 1.0 / a4,
     }
+}
+
+/// Whether a regularized lobe keeps its original's directional albedo
+/// (`microfacet::compensation::energy`, Kulla & Conty 2017 applied to the difference
+/// between the original and the widened lobe) or loses what widening a
+/// single-scattering lobe loses.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Energy {
+    /// The widened lobe plus a compensation lobe (`Bsdf::regularized`).
+    #[default]
+    Preserved,
+    /// The widened lobe alone (`Bsdf::with_alpha`): darker images, kept for
+    /// comparison.
+    Lost,
 }
 
 /// A BSDF with its roughness regularized for a query from `wi` (shading

@@ -8,6 +8,7 @@
 //! [`SceneFeatures`] summarises what a scene contains.
 
 pub mod camera;
+mod checks;
 pub mod environment;
 pub mod error;
 pub mod features;

@@ -433,7 +433,8 @@ impl SceneBuilder {
         element: &str,
         sphere: Sphere,
     ) -> Result<(), SceneError> {
-        crate::validate::check_sphere(&sphere)
+        sphere
+            .check()
             .map_err(|e| SceneError::invalid(path, element.to_owned(), e))?;
         self.spheres.push(sphere);
         Ok(())

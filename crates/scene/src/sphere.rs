@@ -5,6 +5,8 @@ use std::f32::consts::PI;
 
 use glam::{Vec2, Vec3};
 
+use crate::checks::{finite, unit};
+
 /// A full sphere in world space with one material.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sphere {
@@ -22,6 +24,19 @@ pub struct Sphere {
 }
 
 impl Sphere {
+    /// An analytic sphere's geometry: finite centre and axis, a finite
+    /// radius > 0, a unit axis; the message names what is not.
+    pub(crate) fn check(&self) -> Result<(), String> {
+        finite("center", self.center)?;
+        if !(self.radius.is_finite() && self.radius > 0.0) {
+            return Err(format!(
+                "radius must be finite and > 0, got {}",
+                self.radius
+            ));
+        }
+        unit("axis", self.axis)
+    }
+
     /// Surface area 4 pi r^2 (in f64: it overflows f32 only beyond r ~ 5e18).
     pub fn area(&self) -> f64 {
         4.0 * std::f64::consts::PI * f64::from(self.radius) * f64::from(self.radius)

@@ -23,6 +23,7 @@ use std::path::Path;
 use glam::Vec3;
 use microfacet::{Fresnel, MicrofacetModel};
 
+use crate::checks::{finite, unit};
 use crate::error::SceneError;
 use crate::light::Light;
 use crate::material::Surface;
@@ -96,7 +97,9 @@ pub fn validate(scene: &mut Scene, path: &Path, allow: Allow) -> Result<(), Scen
         }
     }
     for (i, sphere) in scene.spheres.iter().enumerate() {
-        check_sphere(sphere).map_err(|e| invalid(format!("sphere {i}"), e))?;
+        sphere
+            .check()
+            .map_err(|e| invalid(format!("sphere {i}"), e))?;
         if scene.materials.get(sphere.material as usize).is_none() {
             return Err(invalid(
                 format!("sphere {i}"),
@@ -204,14 +207,6 @@ fn light_power(power: f64) -> Result<(), String> {
     }
 }
 
-fn unit(name: &str, v: Vec3) -> Result<(), String> {
-    if v.is_finite() && (v.length() - 1.0).abs() < 1e-3 {
-        Ok(())
-    } else {
-        Err(format!("{name} must be a finite unit vector, got {v}"))
-    }
-}
-
 fn check_light(scene: &Scene, light: &Light) -> Result<(), String> {
     let four_pi = 4.0 * std::f64::consts::PI;
     match *light {
@@ -283,24 +278,6 @@ fn check_light(scene: &Scene, light: &Light) -> Result<(), String> {
                 std::f64::consts::PI * f64::from(material.emission.max_element()) * s.area(),
             )
         }
-    }
-}
-
-/// An analytic sphere's geometry: finite centre and axis, a finite
-/// radius > 0, a unit axis.
-pub(crate) fn check_sphere(s: &crate::sphere::Sphere) -> Result<(), String> {
-    finite("center", s.center)?;
-    if !(s.radius.is_finite() && s.radius > 0.0) {
-        return Err(format!("radius must be finite and > 0, got {}", s.radius));
-    }
-    unit("axis", s.axis)
-}
-
-fn finite(name: &str, v: Vec3) -> Result<(), String> {
-    if v.is_finite() {
-        Ok(())
-    } else {
-        Err(format!("{name} must be finite, got {v}"))
     }
 }
 

@@ -1,5 +1,5 @@
 //! Energy compensation of regularized dielectrics
-//! (`microfacet::dielectric_energy`): the albedo tables against brute-force
+//! (`microfacet::compensation::dielectric_energy`): the albedo tables against brute-force
 //! integration, the white furnace of the compensated interface against its
 //! original's energy albedo, chi-square of the compensated sampling, and
 //! reciprocity of the compensated value.
@@ -13,10 +13,10 @@ use crate::common;
 
 use common::*;
 use glam::Vec3;
-use microfacet::dielectric_energy::{
+use microfacet::compensation::dielectric_energy::{
     ABOVE, BELOW, dielectric_albedo_quadrature, dielectric_albedo_table,
 };
-use microfacet::dielectric_gain::scaled_dielectric_albedo_quadrature;
+use microfacet::compensation::dielectric_gain::scaled_dielectric_albedo_quadrature;
 use microfacet::{Bsdf, Dielectric, MicrofacetModel, NdfKind, Shadowing, TransportMode};
 use stats::Pcg32;
 use stats::chi2::sidak;
@@ -148,7 +148,7 @@ const COSINES: [f32; 5] = [1.0, 0.6, 0.25, 0.12, 0.04];
 /// up to 3e-3 at 8192 samples); the sharp test of the tables' 1e-3 is
 /// `compensated_albedo_matches_the_original_by_quadrature`. Where the wider
 /// lobe has *more* energy than the original (the table's dE is negative) it
-/// is scaled (`microfacet::dielectric_gain`) and held to the same bounds;
+/// is scaled (`microfacet::compensation::dielectric_gain`) and held to the same bounds;
 /// the largest gain without the scaling is printed.
 #[test]
 fn compensated_dielectric_keeps_the_original_albedo() {
@@ -234,7 +234,7 @@ const REFERENCE_DENSE: (usize, usize) = (32, 32);
 /// alpha (smooth to 0.3), alpha-hat (to 1), cosines, index ratios near and
 /// far from 1, both sides: within 1e-3 (`TOLERANCE`). Where the wider lobe
 /// gains energy, E(alpha-hat) is that of the scaled lobe, by the same
-/// quadrature with s at every direction (`microfacet::dielectric_gain`).
+/// quadrature with s at every direction (`microfacet::compensation::dielectric_gain`).
 #[test]
 fn compensated_albedo_matches_the_original_by_quadrature() {
     // 0.72 and 0.87 lie just below the total-internal-reflection kinks of
@@ -258,7 +258,7 @@ fn compensated_albedo_matches_the_original_by_quadrature() {
 /// cell fractions linear in the grid's coordinate, missed by up to 1.84e-3
 /// (GGX/Smith, eta 1/1.0017, 0.03 -> 0.3, mu 0.11). Smith shadowing only,
 /// for the test's time: V-cavity's tables there take 12-17 s per model, and
-/// the module docs of `microfacet::dielectric_energy` give their sweep.
+/// the module docs of `microfacet::compensation::dielectric_energy` give their sweep.
 #[test]
 fn nearly_index_matched_compensation_matches_the_original() {
     let cosines = [0.02f32, 0.03, 0.05, 0.07, 0.09, 0.11, 0.3, 0.98];
@@ -306,7 +306,13 @@ fn check_compensated_albedo(models: &[(NdfKind, Shadowing)], etas: &[f32], cosin
                             }
                             let regularized = interface.regularized(alpha_hat);
                             let deficit = regularized.compensation.map_or(0.0, |c| {
-                                f64::from(c.deficit(&regularized.model, eta, side, mu))
+                                f64::from(c.deficit(
+                                    &regularized.model.ndf,
+                                    regularized.model.shadowing,
+                                    eta,
+                                    side,
+                                    mu,
+                                ))
                             });
                             // The widened lobe, scaled where it gains.
                             let scaled = match regularized.compensation {
@@ -318,7 +324,15 @@ fn check_compensated_albedo(models: &[(NdfKind, Shadowing)], etas: &[f32], cosin
                                     side,
                                     f64::from(mu),
                                     nodes,
-                                    |side, mu| c.scale(&regularized.model, eta, side, mu),
+                                    |side, mu| {
+                                        c.scale(
+                                            &regularized.model.ndf,
+                                            regularized.model.shadowing,
+                                            eta,
+                                            side,
+                                            mu,
+                                        )
+                                    },
                                 ),
                                 _ => widened,
                             };
@@ -393,7 +407,8 @@ fn compensation_lobe_carries_the_tabulated_deficit() {
                                     .map(|s| {
                                         let wo = direction(mu_o, 2.0) * Vec3::new(1.0, 1.0, s);
                                         f64::from(c.value(
-                                            &d.model,
+                                            &d.model.ndf,
+                                            d.model.shadowing,
                                             eta,
                                             wi,
                                             wo,
@@ -408,7 +423,13 @@ fn compensation_lobe_carries_the_tabulated_deficit() {
                             * std::f64::consts::TAU
                             / nodes as f64;
                         let side_index = usize::from(side < 0.0);
-                        let deficit = f64::from(c.deficit(&d.model, eta, side_index, mu_i));
+                        let deficit = f64::from(c.deficit(
+                            &d.model.ndf,
+                            d.model.shadowing,
+                            eta,
+                            side_index,
+                            mu_i,
+                        ));
                         let error = (energy - deficit).abs();
                         worst = worst.max(error);
                         assert!(
@@ -520,8 +541,8 @@ fn compensated_dielectric_is_reciprocal() {
                 let (radiance, importance) = (TransportMode::Radiance, TransportMode::Importance);
                 let pairs = [
                     (
-                        c.value(&d.model, eta, wi, wo, radiance),
-                        c.value(&d.model, eta, wo, wi, importance),
+                        c.value(&d.model.ndf, d.model.shadowing, eta, wi, wo, radiance),
+                        c.value(&d.model.ndf, d.model.shadowing, eta, wo, wi, importance),
                     ),
                     (
                         bsdf.eval(wi, wo, radiance).x,
@@ -530,8 +551,8 @@ fn compensated_dielectric_is_reciprocal() {
                 ];
                 if wi.z * wo.z > 0.0 {
                     reflections += 1;
-                    let a = c.value(&d.model, eta, wi, wo, radiance);
-                    let b = c.value(&d.model, eta, wo, wi, radiance);
+                    let a = c.value(&d.model.ndf, d.model.shadowing, eta, wi, wo, radiance);
+                    let b = c.value(&d.model.ndf, d.model.shadowing, eta, wo, wi, radiance);
                     assert!(
                         (a - b).abs() <= 1e-5 * a.max(1.0),
                         "{kind:?}/{shadowing:?} eta {eta}: f_R(wi,wo) {a} != f_R(wo,wi) {b}"
@@ -584,7 +605,8 @@ fn compensated_samples_carry_eval_and_both_pdfs() {
                     let Some(s) = bsdf.sample(wi, uc, rng.uniform_vec2(), mode) else {
                         continue;
                     };
-                    compensation_samples += usize::from(uc < c.probability(&d.model, eta, wi));
+                    compensation_samples +=
+                        usize::from(uc < c.probability(&d.model.ndf, d.model.shadowing, eta, wi));
                     let wo = s.wo;
                     let context =
                         format!("{kind:?}/{shadowing:?} eta {eta} {mode:?} wi {wi} wo {wo}");

@@ -1,5 +1,5 @@
-//! Energy compensation of regularized lobes (`microfacet::energy`,
-//! `microfacet::gain`): the albedo tables against brute-force integration,
+//! Energy compensation of regularized lobes (`microfacet::compensation::energy`,
+//! `microfacet::compensation::gain`): the albedo tables against brute-force integration,
 //! the white furnace of every compensated lobe against its original's
 //! albedo (where widening loses energy and where it gains), chi-square of
 //! the compensated sampling, and reciprocity of the compensated value.
@@ -16,8 +16,8 @@ use crate::common;
 
 use common::*;
 use glam::Vec3;
-use microfacet::energy::{albedo_quadrature, albedo_table};
-use microfacet::gain::scaled_albedo_quadrature;
+use microfacet::compensation::energy::{albedo_quadrature, albedo_table};
+use microfacet::compensation::gain::scaled_albedo_quadrature;
 use microfacet::{Bsdf, Coated, MicrofacetModel, NdfKind, Shadowing, TransportMode};
 use stats::chi2::sidak;
 use stats::{Pcg32, SphericalChi2};
@@ -120,7 +120,7 @@ fn original_albedo(bsdf: &Bsdf, wi: Vec3, seed: u64) -> (f64, f64) {
 /// what the original reflected, within 1e-3, for every NDF x shadowing:
 /// where widening loses energy (the compensation lobe adds it) and where it
 /// gains (V-cavity, and Beckmann/Blinn-Phong near grazing: the widened
-/// lobe is scaled down, `microfacet::gain`). The largest loss and gain of
+/// lobe is scaled down, `microfacet::compensation::gain`). The largest loss and gain of
 /// the plain widened lobe are printed.
 #[test]
 fn compensated_conductor_keeps_the_original_albedo() {
@@ -198,13 +198,16 @@ fn compensated_albedo_matches_the_original_by_quadrature() {
                 let model = MicrofacetModel::new(kind, alpha.max(1e-5), shadowing);
                 for alpha_hat in widened.into_iter().filter(|&a| a > alpha) {
                     let regularized = model.regularized(alpha_hat, Vec3::ONE);
-                    let (deficit, scaled) = regularized.compensation.map_or((0.0, false), |c| {
-                        (f64::from(c.deficit(&regularized, mu)), c.scaled)
+                    let (deficit, scaled) = regularized.compensation().map_or((0.0, false), |c| {
+                        (
+                            f64::from(c.deficit(&regularized.ndf, regularized.shadowing, mu)),
+                            c.scaled,
+                        )
                     });
                     let scale = |mu: f32| {
-                        regularized
-                            .compensation
-                            .map_or(1.0, |c| c.scale(&regularized, mu))
+                        regularized.compensation().map_or(1.0, |c| {
+                            c.scale(&regularized.ndf, regularized.shadowing, mu)
+                        })
                     };
                     let widened = scaled_albedo_quadrature(
                         kind,
@@ -251,7 +254,7 @@ fn compensated_albedo_matches_the_original_by_quadrature() {
 }
 
 /// The compensation lobe alone reflects exactly the tabulated deficit:
-/// int f_c(wi, wo) mu_o dwo = dE(mu_i) (module docs of `microfacet::energy`),
+/// int f_c(wi, wo) mu_o dwo = dE(mu_i) (module docs of `microfacet::compensation::energy`),
 /// up to the midpoint rule in mu_o (f_c depends on wo through mu_o only).
 #[test]
 fn compensation_lobe_carries_the_tabulated_deficit() {
@@ -261,20 +264,20 @@ fn compensation_lobe_carries_the_tabulated_deficit() {
         for (alpha, alpha_hat) in [(0.0f32, 0.1f32), (0.05, 0.45), (0.3, 0.9)] {
             let model = MicrofacetModel::new(kind, alpha.max(1e-5), shadowing)
                 .regularized(alpha_hat, Vec3::ONE);
-            let Some(c) = model.compensation else {
+            let Some(c) = model.compensation() else {
                 continue;
             };
             for mu_i in [0.04f32, 0.3, 0.7, 1.0] {
                 let energy: f64 = (0..nodes)
                     .map(|k| {
                         let mu_o = (k as f32 + 0.5) / nodes as f32;
-                        f64::from(c.value(&model, mu_i, mu_o) * mu_o)
+                        f64::from(c.value(&model.ndf, model.shadowing, mu_i, mu_o) * mu_o)
                     })
                     .sum::<f64>()
                     * 2.0
                     * std::f64::consts::PI
                     / f64::from(nodes);
-                let deficit = f64::from(c.deficit(&model, mu_i));
+                let deficit = f64::from(c.deficit(&model.ndf, model.shadowing, mu_i));
                 worst = worst.max((energy - deficit).abs());
                 assert!(
                     (energy - deficit).abs() < 1e-5,
@@ -360,7 +363,7 @@ fn compensated_sampling_matches_its_pdf() {
 }
 
 /// Widths of each model whose widening gains energy somewhere (the scaled
-/// lobes of `microfacet::gain`) and loses it elsewhere (with a compensation
+/// lobes of `microfacet::compensation::gain`) and loses it elsewhere (with a compensation
 /// lobe too): the largest gains, and a sharp lobe widened a lot.
 const GAINING: [(f32, f32); 3] = [(0.01, 0.09), (0.09, 0.35), (0.11, 0.47)];
 
@@ -379,7 +382,7 @@ fn compensated_lobes_are_reciprocal() {
             scaled += usize::from(
                 model
                     .regularized(alpha_hat, Vec3::ONE)
-                    .compensation
+                    .compensation()
                     .is_some_and(|c| c.scaled),
             );
             let lobes = [
@@ -464,7 +467,7 @@ fn lobes_without_gain_are_unscaled() {
             for &alpha_hat in &widths[n + 1..] {
                 let model = MicrofacetModel::new(kind, alpha.max(1e-5), shadowing);
                 let regularized = model.regularized(alpha_hat, Vec3::ONE);
-                if regularized.compensation.is_some_and(|c| c.scaled) {
+                if regularized.compensation().is_some_and(|c| c.scaled) {
                     scaled += 1;
                     continue;
                 }
@@ -507,7 +510,10 @@ fn scaling_vanishes_as_alpha_hat_reaches_alpha() {
             let near =
                 MicrofacetModel::new(kind, alpha, shadowing).regularized(alpha + 1e-3, Vec3::ONE);
             for mu in [0.02f32, 0.1, 0.3, 0.6, 1.0] {
-                let s = |m: &MicrofacetModel| m.compensation.map_or(1.0, |c| c.scale(m, mu));
+                let s = |m: &MicrofacetModel| {
+                    m.compensation()
+                        .map_or(1.0, |c| c.scale(&m.ndf, m.shadowing, mu))
+                };
                 let (s_far, s_near) = (s(&far), s(&near));
                 assert!(
                     (s_near - 1.0).abs() < 2e-3
@@ -524,10 +530,10 @@ fn scaling_vanishes_as_alpha_hat_reaches_alpha() {
 #[test]
 fn compensation_vanishes_as_alpha_hat_reaches_alpha() {
     let model = MicrofacetModel::new(NdfKind::Ggx, 0.3, Shadowing::Smith);
-    assert_eq!(model.regularized(0.3, Vec3::ONE).compensation, None);
-    assert_eq!(model.regularized(0.2, Vec3::ONE).compensation, None);
-    let near = model.regularized(0.3001, Vec3::ONE).compensation;
+    assert_eq!(model.regularized(0.3, Vec3::ONE).compensation(), None);
+    assert_eq!(model.regularized(0.2, Vec3::ONE).compensation(), None);
+    let near = model.regularized(0.3001, Vec3::ONE).compensation();
     assert!(near.is_none_or(|c| c.deficit_average < 1e-3), "{near:?}");
-    let far = model.regularized(0.9, Vec3::ONE).compensation.unwrap();
+    let far = model.regularized(0.9, Vec3::ONE).compensation().unwrap();
     assert!(far.deficit_average > 0.05, "{far:?}");
 }

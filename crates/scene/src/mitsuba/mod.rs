@@ -38,6 +38,7 @@
 //!   integrator `max_depth` -> max depth, `path` -> our path tracer.
 
 pub mod geometry;
+mod numbers;
 pub mod ply;
 pub mod props;
 pub mod serialized;

@@ -6,7 +6,7 @@
 
 use glam::{DMat3, DMat4, DVec3, DVec4};
 
-use super::xml::{numbers, parse_f64, triple};
+use super::numbers::{numbers, parse_f64, triple};
 
 /// The matrix of one operation element, its attributes read through `attr`.
 pub fn operation<'a>(tag: &str, attr: impl Fn(&str) -> Option<&'a str>) -> Result<DMat4, String> {

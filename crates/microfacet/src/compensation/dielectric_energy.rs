@@ -1,6 +1,6 @@
 //! Energy compensation of regularized dielectric lobes (ARCHITECTURE.md,
 //! "Energy-preserving regularization"): the conductor construction of
-//! `crate::energy` (Kulla & Conty, "Revisiting Physically Based Shading at
+//! `crate::compensation::energy` (Kulla & Conty, "Revisiting Physically Based Shading at
 //! Imageworks", SIGGRAPH 2017 course, §"Energy compensation"), extended to
 //! an interface that reflects and transmits, as Kulla & Conty do for their
 //! dielectrics: albedo tables per eta and per side, and a reflection /
@@ -49,7 +49,7 @@
 //! refracts to the cosine c, so the albedo is smooth in c where it was not in
 //! eta near 1 (`critical_cosine`). Rows of neighbouring c are interpolated at
 //! the same position relative to their kink; bicubic (Catmull-Rom) in
-//! sqrt(alpha) (`crate::energy::alpha_weights`) and c, and cubic in the
+//! sqrt(alpha) (`crate::compensation::energy::alpha_weights`) and c, and cubic in the
 //! node index inside each segment of the `MuGrid` (the dense side's kink
 //! ends one), with dE_avg the exact moment of the interpolated dE
 //! (`MuGrid::positive_part_moment`). An interface outside [1/`ETA_MAX`,
@@ -57,7 +57,7 @@
 //! then restored only approximately (the table's error grows with the
 //! distance), never with a NaN. Computed by quadrature over
 //! microfacet normals (`Quadrature` from the rare side,
-//! `crate::quadrature::SplitQuadrature`, split at the total-internal-reflection
+//! `crate::compensation::quadrature::SplitQuadrature`, split at the total-internal-reflection
 //! curve, from the dense side), serially, one critical-cosine node at its
 //! first use: an interface reads four of the 61 (release build, one core,
 //! eta 1.5: 1.5-2.6 s for Beckmann/Smith, 2.7-3.3 s for GGX/Smith, about
@@ -78,10 +78,10 @@
 //!   3, normal incidence; 5.8e-4 up to 2.4), 6.3e-4 from the dense side
 //!   (1/2.4; 4.6e-4 for 1/1.05 to 1/2.2, 5.2e-4 for 1/1.001 to 1/1.02);
 //!   1.8e-3 at mu 0.01 before the first alpha cell was made linear in
-//!   alpha^2 (`crate::energy::alpha_weights`);
+//!   alpha^2 (`crate::compensation::energy::alpha_weights`);
 //! - V-cavity for mu >= 0.04 up to eta 2.4, its dense rows split at the
 //!   onsets of transmission and of full visibility (`MuGrid`,
-//!   `crate::vcavity_onsets`; 1.75e-3 in one segment below the kink):
+//!   `crate::compensation::vcavity_onsets`; 1.75e-3 in one segment below the kink):
 //!   Beckmann 4.0e-4 from the rare side and 8.3e-4 from the dense side
 //!   (eta 1/1.012; 7.2e-4 at 1/2, where off-plane normals round off the
 //!   onset of transmission), Blinn-Phong 7.9e-4 (1/2.4) and GGX 7.6e-4
@@ -99,7 +99,7 @@
 //! **Sampling.** The compensation is chosen with probability
 //! P_c = dE_s / (E-hat_s + dE_s), then transmission with probability t_s,
 //! cosine-distributed on the chosen side; pdf, reverse pdf and p-hat are the
-//! mixture (as in `crate::energy`).
+//! mixture (as in `crate::compensation::energy`).
 //!
 //! **Quadrature.** From the rare side a product rule over D(h)<h,n> normals,
 //! 32 x 32 (64 x 64 with V-cavity shadowing, `quadrature_rare`), with
@@ -116,30 +116,27 @@
 //!
 //! **Gains.** Where widening raises a side's energy albedo (up to +0.055:
 //! Beckmann, Blinn-Phong, V-cavity; GGX/Smith near grazing) the widened
-//! lobe is scaled by s(wi) s(wo) (`crate::dielectric_gain`), which keeps
+//! lobe is scaled by s(wi) s(wo) (`crate::compensation::dielectric_gain`), which keeps
 //! the generalized reciprocity above.
 //!
 //! **Limits.** The reflection/transmission split is a model choice (the
 //! smooth interface's), not the rough interface's own multiple scattering.
 
-use std::f32::consts::FRAC_1_PI;
 use std::sync::OnceLock;
 
 use glam::{Vec2, Vec3};
 
-use crate::dielectric_gain::dielectric_mean_scale;
-use crate::energy::{
-    GRAZING_MU, MIN_DEFICIT_AVERAGE, MODELS, TABLE_ALPHA, alpha_node, alpha_weights,
-    catmull_rom_cubic, catmull_rom_weights, cell, cubic_at, model_index, spline_moment_weights,
-    spline_positive_moment,
+use crate::compensation::energy::{
+    MODELS, TABLE_ALPHA, alpha_node, alpha_weights, catmull_rom_cubic, catmull_rom_weights, cell,
+    cubic_at, model_index, spline_moment_weights, spline_positive_moment,
 };
+use crate::compensation::gain::{Kernel, MIN_GAIN};
+use crate::compensation::quadrature::{GRAZING_MU, SmithG1Table, SplitQuadrature};
 use crate::frame::refract_f64;
 use crate::fresnel;
-use crate::gain::{Kernel, MIN_GAIN, kept_share};
-use crate::model::MicrofacetModel;
-use crate::ndf::NdfKind;
-use crate::quadrature::{SmithG1Table, SplitQuadrature, gauss_legendre, gauss_legendre_8};
-use crate::sample::{MixturePdf, TransportMode};
+use crate::gauss::{gauss_legendre, gauss_legendre_8};
+use crate::ndf::{Ndf, NdfKind};
+
 use crate::shadowing::Shadowing;
 
 /// Largest index ratio of the tables (and 1/`ETA_MAX` the smallest): glass
@@ -193,7 +190,7 @@ const VCAVITY_UPPER_CELLS: usize = 47;
 /// Table nodes in mu per row with V-cavity shadowing: every row of a table
 /// has the same length, so its rare side has them too (uniform in sqrt(mu)).
 /// A V-cavity interface's tables take 1.4x (albedo) and 1.6-1.7x (gain
-/// slices, `crate::dielectric_gain`) the time they took with 64 (eta 1.5,
+/// slices, `crate::compensation::dielectric_gain`) the time they took with 64 (eta 1.5,
 /// one core: 4.4 -> 6.4 s and 3.2 -> 5.1 s for GGX, 3.2 -> 4.7 s and 4.1 ->
 /// 6.9 s for Beckmann) with 88 nodes, and with these 104 1.2x and 1.5x that
 /// (6.4 -> 7.4 s and 5.1 -> 7.5 s for GGX, 4.7 -> 5.5 s and 7.0 -> 10.3 s
@@ -335,7 +332,7 @@ pub(crate) fn critical_cell(c: f32) -> (usize, f32) {
 
 /// The nodes in mu of one table row (`table_mu_nodes` of its shadowing).
 ///
-/// - `Rare`: uniform in sqrt(mu), as the conductor tables (`crate::energy`):
+/// - `Rare`: uniform in sqrt(mu), as the conductor tables (`crate::compensation::energy`):
 ///   the albedo changes fastest near grazing.
 /// - `Dense { critical: c, lower }`: segments that meet at the kink mu = c
 ///   (total internal reflection of the smooth interface), a node at every
@@ -374,7 +371,7 @@ pub(crate) enum Lower {
     Whole,
     /// V-cavity: three segments of `VCAVITY_LOWER_CELLS` cells, split at
     /// the onsets [x0, x1] of transmission and of full visibility, where
-    /// the albedo has kinks (`crate::vcavity_onsets`; at c, `onsets_at`).
+    /// the albedo has kinks (`crate::compensation::vcavity_onsets`; at c, `onsets_at`).
     /// The first segment's cells grow from grazing (`Spacing::Start`), the
     /// others cluster at both ends (`Spacing::BothEnds`), at the onsets and
     /// at the critical cosine.
@@ -625,7 +622,7 @@ impl MuGrid {
 
     /// 2 int_0^1 max(0, y) mu dmu for y the cubic spline of each segment
     /// through the node values `nodes` (as `DielectricAlbedoTable::albedo`
-    /// interpolates), exact (`crate::energy::spline_positive_moment`: the
+    /// interpolates), exact (`crate::compensation::energy::spline_positive_moment`: the
     /// integrands, a cubic times `measure`, have degree at most 10, which
     /// 8-point Gauss-Legendre integrates exactly). So dE_avg is the moment
     /// of the very dE that `DielectricCompensation::deficit` interpolates,
@@ -732,7 +729,7 @@ impl MomentParts {
     }
 }
 
-/// The onsets of V-cavity transmission (`crate::vcavity_onsets::onsets`)
+/// The onsets of V-cavity transmission (`crate::compensation::vcavity_onsets::onsets`)
 /// for critical cosine `c`: the Catmull-Rom interpolation in c of those of
 /// the critical-cosine nodes (`critical_weights`, as the rows'), so that a
 /// node's row splits at its own onsets and neighbouring rows are read at
@@ -740,7 +737,9 @@ impl MomentParts {
 fn onsets_at(c: f32) -> [f64; 2] {
     static NODES: OnceLock<[[f64; 2]; TABLE_CRITICAL]> = OnceLock::new();
     let nodes = NODES.get_or_init(|| {
-        std::array::from_fn(|i| crate::vcavity_onsets::onsets(f64::from(critical_node(i))))
+        std::array::from_fn(|i| {
+            crate::compensation::vcavity_onsets::onsets(f64::from(critical_node(i)))
+        })
     });
     critical_weights(c)
         .iter()
@@ -1026,7 +1025,7 @@ impl DielectricAlbedoTable {
 
     /// `albedo` at each of `alphas`, sharing the weights in c and mu and
     /// the slices: the tricubic as a sum of weighted table entries.
-    fn albedos<const N: usize>(&self, mu: f32, alphas: [f32; N], eta: f32) -> [f32; N] {
+    pub(crate) fn albedos<const N: usize>(&self, mu: f32, alphas: [f32; N], eta: f32) -> [f32; N] {
         let (medium, c) = critical_cosine(eta);
         let in_mu = MuGrid::of(self.shadowing, medium, c).weights(mu);
         let in_alpha = alphas.map(alpha_weights);
@@ -1068,7 +1067,7 @@ impl DielectricAlbedoTable {
     /// 2 int_0^1 max(0, dE(mu)) mu dmu of dE = E(mu, alpha, eta) -
     /// E(mu, alpha_hat, eta), interpolated as `albedo` does, and whether
     /// the widened lobe gains (dE below -`MIN_GAIN` at a node).
-    fn deficit_average(&self, alpha: f32, alpha_hat: f32, eta: f32) -> (f64, bool) {
+    pub(crate) fn deficit_average(&self, alpha: f32, alpha_hat: f32, eta: f32) -> (f64, bool) {
         let (medium, c) = critical_cosine(eta);
         // Whole rows weighted and summed (contiguous: vectorized), as `row`
         // weights them node by node.
@@ -1091,12 +1090,12 @@ impl DielectricAlbedoTable {
     }
 }
 
-/// The azimuth-integrated kernel (`crate::gain::Kernel`) of the white
+/// The azimuth-integrated kernel (`crate::compensation::gain::Kernel`) of the white
 /// interface of width `alpha > 0` with the critical cosine of node `i`, by
 /// the tables' quadrature rules (its rows sum to the table's nodes): rows
 /// and bins in two blocks, the rare medium's ([`RARE`]) and the dense
 /// one's, each on its `MuGrid`; reflection stays in its block, refraction
-/// lands in the other (`crate::dielectric_gain`).
+/// lands in the other (`crate::compensation::dielectric_gain`).
 pub(crate) fn dielectric_kernel(
     kind: NdfKind,
     shadowing: Shadowing,
@@ -1158,14 +1157,15 @@ pub(crate) fn eta_of(medium: usize, c: f32) -> f32 {
 /// weights: one set per alpha, shared by every mu and eta of the table. The
 /// rule of the rare side, whose integrand has no total internal reflection.
 struct Quadrature {
-    model: MicrofacetModel,
+    ndf: Ndf,
+    shadowing: Shadowing,
     normals: Vec<(Vec3, f64)>,
     smith_g1: SmithG1Table,
 }
 
 impl Quadrature {
     fn new(kind: NdfKind, shadowing: Shadowing, alpha: f32, radial: usize, azimuth: usize) -> Self {
-        let model = MicrofacetModel::new(kind, alpha, shadowing);
+        let ndf = Ndf::new(kind, alpha);
         let rule = gauss_legendre(radial);
         let mut normals = Vec::with_capacity(radial * azimuth);
         for &(v, w) in &rule {
@@ -1181,15 +1181,16 @@ impl Quadrature {
                 // Half azimuth [0, 1/2) of the sampler's u.y (doubled by the
                 // symmetry about the plane of incidence).
                 let u2 = (m as f64 + 0.5) / (2 * azimuth) as f64;
-                let h = model.ndf.sample_d_cos(Vec2::new(u1 as f32, u2 as f32));
+                let h = ndf.sample_d_cos(Vec2::new(u1 as f32, u2 as f32));
                 if h.z > 0.0 {
                     normals.push((h, w1 / azimuth as f64));
                 }
             }
         }
-        let smith_g1 = SmithG1Table::new(&model, shadowing);
+        let smith_g1 = SmithG1Table::new(&ndf, shadowing);
         Self {
-            model,
+            ndf,
+            shadowing,
             normals,
             smith_g1,
         }
@@ -1213,17 +1214,17 @@ impl Quadrature {
     fn albedo_with(&self, mu: f64, eta: f64, mut visit: impl FnMut(f64, f64)) -> f64 {
         let mu = mu.max(GRAZING_MU);
         let wi = Vec3::new((1.0 - mu * mu).max(0.0).sqrt() as f32, 0.0, mu as f32);
-        let model = &self.model;
+        let (ndf, shadowing) = (&self.ndf, self.shadowing);
         // Smith's G1(wi) does not depend on h (given <wi,h> > 0).
-        let g1_wi = match model.shadowing {
-            Shadowing::Smith => model.ndf.g1(wi),
+        let g1_wi = match shadowing {
+            Shadowing::Smith => ndf.g1(wi),
             Shadowing::VCavity => 0.0,
         };
         // Both directions below are valid for their side (checked), so
         // Smith's G1(wo) is the tabulated G1 of |<wo,n>|.
-        let g = |wo: Vec3, h: Vec3| match model.shadowing {
+        let g = |wo: Vec3, h: Vec3| match shadowing {
             Shadowing::Smith => g1_wi * self.smith_g1.at(wo.z.abs()),
-            Shadowing::VCavity => model.g(wi, wo, h),
+            Shadowing::VCavity => shadowing.masking_shadowing(ndf, wi, wo, h),
         };
         let mut sum = 0.0;
         for &(h, weight) in &self.normals {
@@ -1312,284 +1313,6 @@ pub fn transmittance_above(eta: f32) -> f32 {
     } else {
         eta * eta * t_rare
     }) as f32
-}
-
-/// The compensation lobe of a regularized dielectric (module docs): what it
-/// needs beyond the lobe (its model at alpha-hat and its eta).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct DielectricCompensation {
-    /// The original (unregularized) alpha.
-    pub alpha: f32,
-    /// dE_avg of each side ([`ABOVE`], [`BELOW`]); 0 for a side whose
-    /// deficit is below `MIN_DEFICIT_AVERAGE` (then its dE is taken as 0).
-    pub deficit_average: [f32; 2],
-    /// T_s, the smooth interface's hemispherical transmittance seen from
-    /// each side.
-    pub transmittance: [f32; 2],
-    /// True when the widened lobe gains energy on a side (by more than
-    /// `gain::MIN_GAIN` at a table node) and is scaled by s(wi) s(wo)
-    /// (`crate::dielectric_gain`); false keeps it unscaled, bit for bit.
-    pub scaled: bool,
-}
-
-/// E and E-hat (white, Importance mode) at one direction of a query, with
-/// its side and cosine: the one table lookup that the deficit, P_c and the
-/// gain scale of that direction share (`DielectricCompensation::lookup`).
-/// A sample reads them at wi and wo only, for its value and both densities.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct AlbedoLookup {
-    side: usize,
-    mu: f32,
-    /// [E, E-hat], or `None` where no term reads them.
-    albedos: Option<[f32; 2]>,
-}
-
-impl DielectricCompensation {
-    /// The compensation of `model` (at alpha-hat) for an interface of width
-    /// `alpha` and index ratio `eta`, or `None` when it would carry nothing
-    /// (alpha-hat <= alpha, a smooth model, an invalid eta, or both deficits
-    /// below `MIN_DEFICIT_AVERAGE`).
-    pub fn new(model: &MicrofacetModel, alpha: f32, eta: f32) -> Option<Self> {
-        let alpha_hat = model.alpha();
-        if !(alpha_hat > alpha) || model.is_smooth() || !(eta > 0.0 && eta.is_finite()) {
-            return None;
-        }
-        let table = dielectric_albedo_table(model.ndf.kind(), model.shadowing);
-        let mut scaled = false;
-        let deficit_average = [ABOVE, BELOW].map(|s| {
-            let (average, gains) = table.deficit_average(alpha, alpha_hat, seen(eta, s));
-            scaled |= gains;
-            let average = average as f32;
-            if average > MIN_DEFICIT_AVERAGE {
-                average
-            } else {
-                0.0
-            }
-        });
-        if deficit_average == [0.0, 0.0] && !scaled {
-            return None;
-        }
-        let above = transmittance_above(eta);
-        Some(Self {
-            alpha,
-            deficit_average,
-            transmittance: [above, above / (eta * eta)],
-            scaled,
-        })
-    }
-
-    /// dE_s(mu) of the regularized `model` (alpha-hat) on `side`.
-    pub fn deficit(&self, model: &MicrofacetModel, eta: f32, side: usize, mu: f32) -> f32 {
-        if self.deficit_average[side] == 0.0 {
-            return 0.0;
-        }
-        let [e, e_hat] = self.albedos(model, eta, side, mu);
-        (e - e_hat).max(0.0)
-    }
-
-    /// E_s(mu) at alpha and at alpha-hat (the regularized `model`) on
-    /// `side`, from one lookup of both.
-    fn albedos(&self, model: &MicrofacetModel, eta: f32, side: usize, mu: f32) -> [f32; 2] {
-        dielectric_albedo_table(model.ndf.kind(), model.shadowing).albedos(
-            mu,
-            [self.alpha, model.alpha()],
-            seen(eta, side),
-        )
-    }
-
-    /// E_s(mu) at alpha-hat (white, Importance mode) on `side`.
-    pub fn regularized_albedo(
-        &self,
-        model: &MicrofacetModel,
-        eta: f32,
-        side: usize,
-        mu: f32,
-    ) -> f32 {
-        dielectric_albedo_table(model.ndf.kind(), model.shadowing).albedo(
-            mu,
-            model.alpha(),
-            seen(eta, side),
-        )
-    }
-
-    /// t_s = T_s min(1, dE_avg,s' / dE_avg,s): the share of side s's
-    /// compensated energy that is transmitted.
-    pub fn transmitted_share(&self, side: usize) -> f32 {
-        let (own, other) = (self.deficit_average[side], self.deficit_average[1 - side]);
-        if own == 0.0 {
-            return 0.0;
-        }
-        self.transmittance[side] * (other / own).min(1.0)
-    }
-
-    /// s_s(mu) = m / s-bar of the widened lobe on `side`
-    /// (`crate::dielectric_gain`), m = min(1, E_alpha / E_alpha-hat);
-    /// exactly 1 unless it gains.
-    pub fn scale(&self, model: &MicrofacetModel, eta: f32, side: usize, mu: f32) -> f32 {
-        let albedos = self.scaled.then(|| self.albedos(model, eta, side, mu));
-        self.scale_at(model, eta, &AlbedoLookup { side, mu, albedos })
-    }
-
-    /// (s(wi) s(wo), the compensation value), sharing the albedo lookups:
-    /// the factor of the widened lobe (1 unless it gains) and `value`.
-    pub fn terms(
-        &self,
-        model: &MicrofacetModel,
-        eta: f32,
-        wi: Vec3,
-        wo: Vec3,
-        mode: TransportMode,
-    ) -> (f32, f32) {
-        let at_i = self.lookup(model, eta, wi);
-        let at_o = self.lookup(model, eta, wo);
-        self.terms_at(model, eta, &at_i, &at_o, mode)
-    }
-
-    /// What the compensation reads at direction `w`: E and E-hat there,
-    /// looked up once when a term needs them (the deficit of a side that
-    /// has one, or the gain scale), for `terms_at` and `probability_at`.
-    pub(crate) fn lookup(&self, model: &MicrofacetModel, eta: f32, w: Vec3) -> AlbedoLookup {
-        let (side, mu) = (side(w), w.z.abs());
-        let needed = self.deficit_average[side] != 0.0 || self.scaled;
-        AlbedoLookup {
-            side,
-            mu,
-            albedos: needed.then(|| self.albedos(model, eta, side, mu)),
-        }
-    }
-
-    /// `terms` from the lookups at wi and wo.
-    pub(crate) fn terms_at(
-        &self,
-        model: &MicrofacetModel,
-        eta: f32,
-        at_i: &AlbedoLookup,
-        at_o: &AlbedoLookup,
-        mode: TransportMode,
-    ) -> (f32, f32) {
-        let scale = self.scale_at(model, eta, at_i) * self.scale_at(model, eta, at_o);
-        let d_i = self.deficit_at(at_i);
-        let value = if at_i.mu == 0.0 || at_o.mu == 0.0 || d_i == 0.0 {
-            0.0
-        } else {
-            let d_o = self.deficit_at(at_o);
-            self.value_of_deficits(eta, (at_i.side, d_i), (at_o.side, d_o), mode)
-        };
-        (scale, value)
-    }
-
-    /// dE_s(mu) from a lookup (`deficit`).
-    fn deficit_at(&self, at: &AlbedoLookup) -> f32 {
-        match at.albedos {
-            Some([e, e_hat]) if self.deficit_average[at.side] != 0.0 => (e - e_hat).max(0.0),
-            _ => 0.0,
-        }
-    }
-
-    /// s_s(mu) from a lookup (`scale`): 1 unless the lobe gains.
-    fn scale_at(&self, model: &MicrofacetModel, eta: f32, at: &AlbedoLookup) -> f32 {
-        let Some([e, e_hat]) = at.albedos.filter(|_| self.scaled) else {
-            return 1.0;
-        };
-        let (kind, shadowing) = (model.ndf.kind(), model.shadowing);
-        let mean = dielectric_mean_scale(
-            kind,
-            shadowing,
-            self.alpha,
-            model.alpha(),
-            seen(eta, at.side),
-            at.mu,
-        );
-        kept_share(e, e_hat) / mean
-    }
-
-    /// The compensation value for `wi`, `wo` (untinted), in `mode`: f_R on
-    /// one side, f_T across (module docs), 0 at grazing.
-    pub fn value(
-        &self,
-        model: &MicrofacetModel,
-        eta: f32,
-        wi: Vec3,
-        wo: Vec3,
-        mode: TransportMode,
-    ) -> f32 {
-        self.terms(model, eta, wi, wo, mode).1
-    }
-
-    /// `value` from the sides and deficits of wi and wo.
-    fn value_of_deficits(
-        &self,
-        eta: f32,
-        (s_i, d_i): (usize, f32),
-        (s_o, d_o): (usize, f32),
-        mode: TransportMode,
-    ) -> f32 {
-        if s_i == s_o {
-            let reflected = 1.0 - self.transmitted_share(s_i);
-            return reflected * d_i * d_o * FRAC_1_PI / self.deficit_average[s_i];
-        }
-        let largest = self.deficit_average[0].max(self.deficit_average[1]);
-        let importance = self.transmittance[s_i] * d_i * d_o * FRAC_1_PI / largest;
-        match mode {
-            TransportMode::Importance => importance,
-            // (eta_i/eta_t)^2 = 1/eta_seen^2, as the lobe's refraction.
-            TransportMode::Radiance => importance / seen(eta, s_i).powi(2),
-        }
-    }
-
-    /// P_c(mu_i) = dE_s / (E_hat,s + dE_s): the probability of sampling the
-    /// compensation lobe for a query from `wi`, its share of the energy albedo.
-    pub fn probability(&self, model: &MicrofacetModel, eta: f32, wi: Vec3) -> f32 {
-        let (side, mu) = (side(wi), wi.z.abs());
-        if self.deficit_average[side] == 0.0 {
-            return 0.0;
-        }
-        let albedos = Some(self.albedos(model, eta, side, mu));
-        self.probability_at(&AlbedoLookup { side, mu, albedos })
-    }
-
-    /// `probability` from the lookup at wi.
-    pub(crate) fn probability_at(&self, at_i: &AlbedoLookup) -> f32 {
-        let deficit = self.deficit_at(at_i);
-        let Some([_, e_hat]) = at_i.albedos else {
-            return 0.0;
-        };
-        let total = deficit + e_hat;
-        if deficit > 0.0 && total > 0.0 {
-            (deficit / total).clamp(0.0, 1.0)
-        } else {
-            0.0
-        }
-    }
-
-    /// The mixture density (1 - `p_c`) `p_lobe` + `p_c` p_c(wi, wo), with
-    /// `p_c` = P_c(mu_i) (`probability`), in its parts; `p_lobe` alone
-    /// (`p_c` taken as 0) for a direction in the interface's plane.
-    pub(crate) fn mixture_pdf(&self, p_c: f32, wi: Vec3, wo: Vec3, p_lobe: f32) -> MixturePdf {
-        let p_c = if wi.z == 0.0 || wo.z == 0.0 { 0.0 } else { p_c };
-        let p_compensation = if p_c == 0.0 {
-            0.0
-        } else {
-            self.sampling_pdf(wi, wo)
-        };
-        MixturePdf {
-            p_c,
-            p_compensation,
-            p_lobe,
-        }
-    }
-
-    /// Density of the compensation lobe's sampler: cosine on the side that
-    /// the coin picks (transmission with probability t_s).
-    pub fn sampling_pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        let s = side(wi);
-        let share = if s == side(wo) {
-            1.0 - self.transmitted_share(s)
-        } else {
-            self.transmitted_share(s)
-        };
-        share * wo.z.abs() * FRAC_1_PI
-    }
 }
 
 #[cfg(test)]

@@ -1,67 +1,24 @@
 //! Directional albedos of microfacet lobes by quadrature, for the energy
-//! tables of `crate::energy` (conductors) and `crate::dielectric_energy`
+//! tables of `crate::compensation::energy` (conductors) and `crate::compensation::dielectric_energy`
 //! (dielectrics): Gauss-Legendre rules and a rule over microfacet normals
 //! split where the integrand is not smooth (`SplitQuadrature`).
 
-use std::sync::OnceLock;
-
 use glam::{DVec3, Vec3};
 
-use crate::energy::{GRAZING_MU, lerp};
 use crate::frame::refract_f64;
 use crate::fresnel;
-use crate::model::MicrofacetModel;
-use crate::ndf::NdfKind;
+use crate::gauss::gauss_legendre;
+use crate::ndf::{Ndf, NdfKind};
 use crate::shadowing::Shadowing;
 
-/// The 8-point Gauss-Legendre rule on [0, 1] (exact for polynomials of
-/// degree 15), for the Fresnel average of `Fresnel::average` and the
-/// moments of the dielectric tables' interpolated deficit
-/// (`crate::dielectric_energy`).
-pub(crate) fn gauss_legendre_8() -> &'static [(f64, f64)] {
-    static NODES: OnceLock<Vec<(f64, f64)>> = OnceLock::new();
-    NODES.get_or_init(|| gauss_legendre(8))
-}
+/// The mu = 0 column is evaluated at this cosine: exactly grazing
+/// directions have no reflection to integrate (every lobe returns 0 there).
+pub(crate) const GRAZING_MU: f64 = 1e-3;
 
-/// The 4-point Gauss-Legendre rule on [0, 1] (exact for polynomials of
-/// degree 7), for the moments of the interpolated energy deficit.
-pub(crate) fn gauss_legendre_4() -> &'static [(f64, f64)] {
-    static NODES: OnceLock<Vec<(f64, f64)>> = OnceLock::new();
-    NODES.get_or_init(|| gauss_legendre(4))
-}
-
-/// n-point Gauss-Legendre rule on [0, 1]: roots of P_n by Newton's method
-/// from Tricomi's initial guess cos(pi (i - 1/4)/(n + 1/2)) (Abramowitz &
-/// Stegun 25.4.29; Numerical Recipes §4.6), mapped from [-1, 1].
-pub(crate) fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
-    (0..n)
-        .map(|i| {
-            let mut x = (std::f64::consts::PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-            for _ in 0..100 {
-                let (p, dp) = legendre(n, x);
-                let dx = p / dp;
-                x -= dx;
-                if dx.abs() < 1e-15 {
-                    break;
-                }
-            }
-            let (_, dp) = legendre(n, x);
-            let weight = 2.0 / ((1.0 - x * x) * dp * dp);
-            (0.5 * (1.0 - x), 0.5 * weight)
-        })
-        .collect()
-}
-
-/// (P_n(x), P_n'(x)) by the three-term recurrence.
-fn legendre(n: usize, x: f64) -> (f64, f64) {
-    let (mut p0, mut p1) = (1.0, x);
-    for k in 2..=n {
-        let k = k as f64;
-        let p2 = ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k;
-        p0 = p1;
-        p1 = p2;
-    }
-    (p1, n as f64 * (x * p1 - p0) / (x * x - 1.0))
+/// Linear interpolation from `a` (t = 0) to `b` (t = 1), shared by every
+/// table of the compensation.
+pub(crate) fn lerp(a: f32, b: f32, t: f32) -> f32 {
+    a + (b - a) * t
 }
 
 /// Smith's G1 at |<w,n>| = i/(`SMITH_G1_NODES` - 1), linear between (empty
@@ -77,15 +34,13 @@ pub(crate) struct SmithG1Table(Vec<f32>);
 const SMITH_G1_NODES: usize = 4097;
 
 impl SmithG1Table {
-    /// The table of `model`'s G1 (empty for V-cavity shadowing).
-    pub(crate) fn new(model: &MicrofacetModel, shadowing: Shadowing) -> Self {
+    /// The table of `ndf`'s Smith G1 (empty for V-cavity shadowing).
+    pub(crate) fn new(ndf: &Ndf, shadowing: Shadowing) -> Self {
         Self(match shadowing {
             Shadowing::Smith => (0..SMITH_G1_NODES)
                 .map(|i| {
                     let mu = i as f32 / (SMITH_G1_NODES - 1) as f32;
-                    model
-                        .ndf
-                        .g1(Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu))
+                    ndf.g1(Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu))
                 })
                 .collect(),
             Shadowing::VCavity => Vec::new(),
@@ -144,14 +99,15 @@ fn flattened_rule(nodes: usize) -> Vec<(f64, f64)> {
 /// The remaining kinks (V-cavity's min() of a refraction, the refracted
 /// direction's horizon) are not split.
 pub(crate) struct SplitQuadrature {
-    model: MicrofacetModel,
+    ndf: Ndf,
+    shadowing: Shadowing,
     radial: Vec<(f64, f64)>,
     azimuth: Vec<(f64, f64)>,
     smith_g1: SmithG1Table,
 }
 
 impl SplitQuadrature {
-    /// The rule for `model`'s NDF at `alpha` with `nodes` = (radial,
+    /// The rule for the NDF `kind` at `alpha` with `shadowing` with `nodes` = (radial,
     /// azimuthal) Gauss-Legendre nodes per piece.
     pub(crate) fn new(
         kind: NdfKind,
@@ -159,10 +115,11 @@ impl SplitQuadrature {
         alpha: f32,
         nodes: (usize, usize),
     ) -> Self {
-        let model = MicrofacetModel::new(kind, alpha, shadowing);
-        let smith_g1 = SmithG1Table::new(&model, shadowing);
+        let ndf = Ndf::new(kind, alpha);
+        let smith_g1 = SmithG1Table::new(&ndf, shadowing);
         Self {
-            model,
+            ndf,
+            shadowing,
             radial: flattened_rule(nodes.0),
             azimuth: flattened_rule(nodes.1),
             smith_g1,
@@ -174,7 +131,7 @@ impl SplitQuadrature {
     /// u1 for GGX and Beckmann and falls for Blinn-Phong (cos^2 = u1^(alpha^2)).
     fn radial_uniform(&self, theta: f64) -> f64 {
         let cos2 = theta.cos().powi(2);
-        let cos2_of = |u1: f64| self.model.ndf.d_cos_polar(u1).0;
+        let cos2_of = |u1: f64| self.ndf.d_cos_polar(u1).0;
         let rising = cos2_of(1.0) > cos2_of(0.0);
         let (mut lo, mut hi) = (0.0f64, 1.0f64);
         for _ in 0..BISECTION_STEPS {
@@ -200,7 +157,7 @@ impl SplitQuadrature {
     /// to `visit(cos_o, share)`, with cos_o the cosine of the reflected
     /// (> 0) or refracted (< 0) direction: the shares sum to the albedo, and
     /// binned by cos_o they give the azimuth-integrated kernels of
-    /// `crate::gain` and `crate::dielectric_gain`. The returned albedo is
+    /// `crate::compensation::gain` and `crate::compensation::dielectric_gain`. The returned albedo is
     /// `albedo`'s, bit for bit.
     pub(crate) fn albedo_with(
         &self,
@@ -228,10 +185,10 @@ impl SplitQuadrature {
             self.radial_uniform(quarter_pi + 0.5 * theta_i),
             self.radial_uniform(quarter_pi - 0.5 * theta_i),
         ];
-        if self.model.ndf.kind() == NdfKind::Ggx {
+        if self.ndf.kind() == NdfKind::Ggx {
             breaks.extend(TAIL_BREAKS.iter().map(|&k| 1.0 - 10f64.powi(-k)));
         }
-        if self.model.shadowing == Shadowing::VCavity {
+        if self.shadowing == Shadowing::VCavity {
             breaks.extend(vcavity_tangent_rings(mu, theta_i).map(|t| self.radial_uniform(t)));
         }
         if let Some(c) = tir {
@@ -243,8 +200,8 @@ impl SplitQuadrature {
             }
         }
         breaks.sort_by(f64::total_cmp);
-        let g1_wi = match self.model.shadowing {
-            Shadowing::Smith => self.model.ndf.g1(wi.as_vec3()),
+        let g1_wi = match self.shadowing {
+            Shadowing::Smith => self.ndf.g1(wi.as_vec3()),
             Shadowing::VCavity => 0.0,
         };
         let mut sum = 0.0;
@@ -255,7 +212,7 @@ impl SplitQuadrature {
             }
             for &(x, w) in &self.radial {
                 let u1 = a + (b - a) * x;
-                let (cos2, sin2) = self.model.ndf.d_cos_polar(u1);
+                let (cos2, sin2) = self.ndf.d_cos_polar(u1);
                 let (sin_h, cos_h) = (sin2.max(0.0).sqrt(), cos2.max(0.0).sqrt());
                 let weight = w * (b - a);
                 let ring = (sin_i, mu, sin_h, cos_h);
@@ -297,7 +254,7 @@ impl SplitQuadrature {
         if let Some(c) = tir {
             breaks.push(azimuth_of(c).min(back));
         }
-        if self.model.shadowing == Shadowing::VCavity {
+        if self.shadowing == Shadowing::VCavity {
             breaks.extend(
                 vcavity_kinks(cos_i, cos_h)
                     .into_iter()
@@ -355,7 +312,7 @@ impl SplitQuadrature {
         let reflected_z = 2.0 * wi_h * h.z - mu;
         // (cos_o, F G or (1 - F) G) of the reflection and the refraction.
         let mut scattered = [None, None];
-        match self.model.shadowing {
+        match self.shadowing {
             Shadowing::Smith => {
                 let g = |cos_o: f64| f64::from(g1_wi * self.smith_g1.at(cos_o.abs() as f32));
                 if reflected_z > 0.0 {
@@ -373,13 +330,16 @@ impl SplitQuadrature {
                 let (wi32, h32) = (wi.as_vec3(), h.as_vec3());
                 if reflected_z > 0.0 {
                     let wo = (2.0 * wi_h * h - wi).as_vec3();
-                    scattered[0] = Some((reflected_z, f * f64::from(self.model.g(wi32, wo, h32))));
+                    scattered[0] = Some((
+                        reflected_z,
+                        f * f64::from(self.shadowing.masking_shadowing(&self.ndf, wi32, wo, h32)),
+                    ));
                 }
                 if t > 0.0
                     && let Some(wo) = refract_f64(wi32, h32, eta)
                     && wo.z < 0.0
                 {
-                    let g = f64::from(self.model.g(wi32, wo, h32));
+                    let g = f64::from(self.shadowing.masking_shadowing(&self.ndf, wi32, wo, h32));
                     scattered[1] = Some((f64::from(wo.z), t * g));
                 }
             }
@@ -467,17 +427,3 @@ const BISECTION_STEPS: usize = 52;
 /// from a dielectric's dense side 2.9e-4 without, 1.4e-4 with them.
 /// Beckmann's and Blinn-Phong's tails need none (within 1e-5).
 const TAIL_BREAKS: [i32; 3] = [2, 4, 6];
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn gauss_legendre_integrates_polynomials_exactly() {
-        let rule = gauss_legendre(8);
-        let sum: f64 = rule.iter().map(|&(x, w)| w * x.powi(15)).sum();
-        assert!((sum - 1.0 / 16.0).abs() < 1e-14, "{sum}");
-        let total: f64 = rule.iter().map(|&(_, w)| w).sum();
-        assert!((total - 1.0).abs() < 1e-14);
-    }
-}

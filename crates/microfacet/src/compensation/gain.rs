@@ -1,4 +1,4 @@
-//! Reciprocal scaling of a widened lobe that gains energy (`crate::energy`,
+//! Reciprocal scaling of a widened lobe that gains energy (`crate::compensation::energy`,
 //! "Gains").
 //!
 //! Where widening alpha to alpha-hat raises the white albedo,
@@ -12,7 +12,7 @@
 //! with s > 0 chosen so that the scaled lobe reflects E_s(mu) = min(E_alpha,
 //! E_alpha-hat)(mu) at every mu, and f_c Kulla & Conty's compensation lobe
 //! (2017) on the deficit dE = E_alpha - E_s = max(0, E_alpha - E_alpha-hat),
-//! as without gains (`crate::energy`). f' is symmetric (reciprocal) and
+//! as without gains (`crate::compensation::energy`). f' is symmetric (reciprocal) and
 //! non-negative, and reflects E_s + dE = E_alpha. With
 //! K(mu_i, mu_o) = int_0^2pi f-hat(wi, wo) mu_o dphi_o the azimuth-integrated
 //! kernel of the white (F = 1) widened lobe, s solves
@@ -86,12 +86,12 @@
 
 use std::sync::OnceLock;
 
-use crate::energy::{
-    MODELS, TABLE_ALPHA, TABLE_ALPHA_MAX, TABLE_MU, albedo_table, alpha_node, cell, lerp,
-    model_index, mu_node,
+use crate::compensation::energy::{
+    MODELS, TABLE_ALPHA, TABLE_ALPHA_MAX, TABLE_MU, albedo_table, alpha_node, cell, model_index,
+    mu_node,
 };
+use crate::compensation::quadrature::{SplitQuadrature, lerp};
 use crate::ndf::NdfKind;
-use crate::quadrature::SplitQuadrature;
 use crate::shadowing::Shadowing;
 
 /// A gain of the white albedo below this (at every mu node) is left alone:
@@ -323,7 +323,7 @@ pub fn scaled_albedo_quadrature(
 /// `k[i][b]` = int f(wi_i, wo) |mu_o| hat_b(wo) dwo for wi_i at row (node) i
 /// and the hat functions of the bins. Rows and bins come in `blocks` of
 /// `nodes` table nodes each (one for a conductor; a dielectric's two sides,
-/// `crate::dielectric_gain`), a block's bins `subdivisions` per cell of its
+/// `crate::compensation::dielectric_gain`), a block's bins `subdivisions` per cell of its
 /// nodes' coordinate, every `subdivisions`-th on a node.
 pub(crate) struct Kernel {
     blocks: usize,

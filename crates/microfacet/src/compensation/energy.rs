@@ -50,7 +50,7 @@
 //! (V-cavity, Beckmann and Blinn-Phong; GGX/Smith below mu = 0.1: up to
 //! +0.061 of white albedo) a non-negative lobe cannot remove the gain.
 //! There the widened lobe is scaled reciprocally instead
-//! (`crate::gain`): f' = s(mu_i) s(mu_o) f-hat + f_c, s the symmetric
+//! (`crate::compensation::gain`): f' = s(mu_i) s(mu_o) f-hat + f_c, s the symmetric
 //! Sinkhorn-Knopp balancing of the azimuth-integrated kernel of f-hat that
 //! makes it reflect min(E_alpha, E_alpha-hat)(mu), with f_c on dE as
 //! above, so that f' reflects E_alpha at every mu. Only a lobe whose pair
@@ -58,23 +58,19 @@
 //! scaled; every other one is unchanged bit for bit. Such a lobe may carry
 //! the scaling alone: `Compensation` then has no f_c (dE_avg = 0,
 //! `Compensation::has_lobe`). Compensated and scaled, the albedo is within
-//! 4.2e-4 of the original's for mu >= 0.04 (`crate::gain`, "Accuracy").
+//! 4.2e-4 of the original's for mu >= 0.04 (`crate::compensation::gain`, "Accuracy").
 //!
 //! **Cost** per regularized vertex: 2 x 64 cubic table lookups (4 rows each)
 //! and a Fresnel average (8 Fresnel evaluations for complex-index
 //! conductors); 4 cubic lookups per evaluation and 2 per sampling
 //! probability, and two lookups of the scaling's table for a scaled lobe
-//! (`crate::gain`, "Cost").
+//! (`crate::compensation::gain`, "Cost").
 
-use std::f32::consts::FRAC_1_PI;
 use std::sync::OnceLock;
 
-use glam::Vec3;
-
-use crate::gain::{MIN_GAIN, kept_share, mean_scale_table};
-use crate::model::MicrofacetModel;
+use crate::compensation::quadrature::{GRAZING_MU, SplitQuadrature};
+use crate::gauss::gauss_legendre_4;
 use crate::ndf::NdfKind;
-use crate::quadrature::{SplitQuadrature, gauss_legendre_4};
 use crate::shadowing::Shadowing;
 
 /// Table nodes in mu = cos theta, uniform in sqrt(mu) on [0, 1]: the albedo
@@ -91,9 +87,6 @@ pub const TABLE_ALPHA: usize = 40;
 /// Largest tabulated alpha: regularization never raises alpha beyond 1
 /// (SPEC §5's alpha_max), and a lobe already wider is left unchanged.
 pub const TABLE_ALPHA_MAX: f32 = 1.0;
-/// The mu = 0 column is evaluated at this cosine: exactly grazing
-/// directions have no reflection to integrate (every lobe returns 0 there).
-pub(crate) const GRAZING_MU: f64 = 1e-3;
 /// (radial, azimuthal) Gauss-Legendre nodes per piece of the tables'
 /// quadrature (`SplitQuadrature`): within 5e-5 of 64 x 64 for every NDF
 /// and shadowing model (`tests/microfacet/energy_compensation.rs`, `REFERENCE`).
@@ -169,7 +162,7 @@ impl AlbedoTable {
     /// before clamping, at every mu node: whole rows of the table weighted
     /// and summed (contiguous, so the compiler vectorizes it), as `row`
     /// weights them node by node.
-    fn deficit_nodes(&self, alpha: f32, alpha_hat: f32) -> [f32; TABLE_MU] {
+    pub(crate) fn deficit_nodes(&self, alpha: f32, alpha_hat: f32) -> [f32; TABLE_MU] {
         let mut nodes = [0.0; TABLE_MU];
         for (alpha, sign) in [(alpha, 1.0), (alpha_hat, -1.0)] {
             for (r, w) in alpha_weights(alpha) {
@@ -283,10 +276,6 @@ pub(crate) fn alpha_weights(alpha: f32) -> [(usize, f32); 4] {
     [(0, 1.0 - w), (1, w), (0, 0.0), (0, 0.0)]
 }
 
-pub(crate) fn lerp(a: f32, b: f32, t: f32) -> f32 {
-    a + (b - a) * t
-}
-
 /// E(mu, alpha) = int f(wi, wo) <wo,n> dwo of a white (F = 1) lobe by the
 /// tables' quadrature rule with `nodes` (radial, azimuthal) Gauss-Legendre
 /// nodes per piece (the tables use `QUADRATURE`); 1 for alpha = 0, the
@@ -306,184 +295,6 @@ pub fn albedo_quadrature(
         return 1.0;
     }
     SplitQuadrature::new(kind, shadowing, alpha, nodes).albedo(mu, None)
-}
-
-/// The compensation lobe of a regularized model: what it needs beyond the
-/// model itself (the original alpha, dE_avg, the colour).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Compensation {
-    /// The original (unregularized) alpha.
-    pub alpha: f32,
-    /// dE_avg = 2 int_0^1 dE(mu) mu dmu; 0 when the compensation lobe is
-    /// left out (below `MIN_DEFICIT_AVERAGE`: the lobe only gains).
-    pub deficit_average: f32,
-    /// The colour of the compensated energy: the lobe's Fresnel average
-    /// F_avg = 2 int F(mu) mu dmu (Kulla & Conty's choice for their
-    /// multiple-scattering colour; direction-independent, so f_c stays
-    /// reciprocal); white until the lobe sets it.
-    pub tint: Vec3,
-    /// True when the widened lobe gains energy at some mu (by more than
-    /// `gain::MIN_GAIN` at a table node) and is scaled by s(mu_i) s(mu_o)
-    /// (`crate::gain`); false keeps it unscaled, bit for bit.
-    pub scaled: bool,
-}
-
-impl Compensation {
-    /// The compensation of `model` (at alpha-hat) for a lobe of width
-    /// `alpha`, or `None` when it would change nothing (alpha-hat <= alpha,
-    /// or dE_avg below `MIN_DEFICIT_AVERAGE` and no gain).
-    pub fn new(model: &MicrofacetModel, alpha: f32) -> Option<Self> {
-        let alpha_hat = model.alpha();
-        if !(alpha_hat > alpha) || model.is_smooth() {
-            return None;
-        }
-        let table = albedo_table(model.ndf.kind(), model.shadowing);
-        let nodes = table.deficit_nodes(alpha, alpha_hat);
-        let average = positive_part_moment(&nodes) as f32;
-        let scaled = nodes.iter().any(|&d| d < -MIN_GAIN);
-        let deficit_average = if average > MIN_DEFICIT_AVERAGE {
-            average
-        } else {
-            0.0
-        };
-        (deficit_average > 0.0 || scaled).then_some(Self {
-            alpha,
-            deficit_average,
-            tint: Vec3::ONE,
-            scaled,
-        })
-    }
-
-    /// True when the compensation lobe f_c is present (dE_avg above
-    /// `MIN_DEFICIT_AVERAGE`).
-    pub fn has_lobe(&self) -> bool {
-        self.deficit_average > 0.0
-    }
-
-    /// dE(mu) of the regularized `model` (its alpha is alpha-hat): what the
-    /// compensation lobe reflects (0 without it).
-    pub fn deficit(&self, model: &MicrofacetModel, mu: f32) -> f32 {
-        if !self.has_lobe() {
-            return 0.0;
-        }
-        let (e, e_hat) = self.albedos(model, mu);
-        (e - e_hat).max(0.0)
-    }
-
-    /// s(mu) = m(mu) / s-bar(mu) of the widened lobe (`crate::gain`),
-    /// m = min(1, E_alpha / E_alpha-hat); exactly 1 unless it gains.
-    pub fn scale(&self, model: &MicrofacetModel, mu: f32) -> f32 {
-        let albedos = self.scaled.then(|| self.albedos(model, mu));
-        self.scale_at(model, &AlbedoLookup { mu, albedos })
-    }
-
-    /// What the compensation reads at cosine `mu`: E and E-hat there,
-    /// looked up once when a term needs them (the deficit, or the gain
-    /// scale), for `terms_at` and `probability_at`.
-    pub(crate) fn lookup(&self, model: &MicrofacetModel, mu: f32) -> AlbedoLookup {
-        let needed = self.has_lobe() || self.scaled;
-        AlbedoLookup {
-            mu,
-            albedos: needed.then(|| self.albedos(model, mu)),
-        }
-    }
-
-    /// dE(mu) from a lookup (`deficit`).
-    fn deficit_at(&self, at: &AlbedoLookup) -> f32 {
-        match at.albedos {
-            Some((e, e_hat)) if self.has_lobe() => (e - e_hat).max(0.0),
-            _ => 0.0,
-        }
-    }
-
-    /// s(mu) from a lookup (`scale`).
-    fn scale_at(&self, model: &MicrofacetModel, at: &AlbedoLookup) -> f32 {
-        let Some((e, e_hat)) = at.albedos.filter(|_| self.scaled) else {
-            return 1.0;
-        };
-        let mean = mean_scale_table(model.ndf.kind(), model.shadowing).mean_scale(
-            self.alpha,
-            model.alpha(),
-            at.mu,
-        );
-        kept_share(e, e_hat) / mean
-    }
-
-    /// (E_alpha(mu), E_alpha-hat(mu)) (white) of the regularized `model`.
-    fn albedos(&self, model: &MicrofacetModel, mu: f32) -> (f32, f32) {
-        let table = albedo_table(model.ndf.kind(), model.shadowing);
-        (
-            table.albedo(mu, self.alpha),
-            table.albedo(mu, model.alpha()),
-        )
-    }
-
-    /// E_alpha-hat(mu) (white) of the regularized `model`.
-    pub fn regularized_albedo(&self, model: &MicrofacetModel, mu: f32) -> f32 {
-        albedo_table(model.ndf.kind(), model.shadowing).albedo(mu, model.alpha())
-    }
-
-    /// f_c(wi, wo) = dE(mu_i) dE(mu_o) / (pi dE_avg), untinted (0 without
-    /// the lobe).
-    pub fn value(&self, model: &MicrofacetModel, mu_i: f32, mu_o: f32) -> f32 {
-        self.terms(model, mu_i, mu_o).1
-    }
-
-    /// (s(mu_i) s(mu_o), f_c(wi, wo) untinted): the scaling of the widened
-    /// lobe and the compensation lobe's value, sharing the albedo lookups.
-    pub fn terms(&self, model: &MicrofacetModel, mu_i: f32, mu_o: f32) -> (f32, f32) {
-        self.terms_at(model, &self.lookup(model, mu_i), &self.lookup(model, mu_o))
-    }
-
-    /// `terms` from the lookups at mu_i and mu_o.
-    pub(crate) fn terms_at(
-        &self,
-        model: &MicrofacetModel,
-        at_i: &AlbedoLookup,
-        at_o: &AlbedoLookup,
-    ) -> (f32, f32) {
-        let scale = self.scale_at(model, at_i) * self.scale_at(model, at_o);
-        let value = if self.has_lobe() {
-            self.deficit_at(at_i) * self.deficit_at(at_o) * FRAC_1_PI / self.deficit_average
-        } else {
-            0.0
-        };
-        (scale, value)
-    }
-
-    /// The probability of sampling the compensation lobe for a query at
-    /// `mu_i`: its share dE / (E_alpha-hat + dE) of the white albedo.
-    pub fn probability(&self, model: &MicrofacetModel, mu_i: f32) -> f32 {
-        if !self.has_lobe() {
-            return 0.0;
-        }
-        self.probability_at(&self.lookup(model, mu_i))
-    }
-
-    /// `probability` from the lookup at mu_i.
-    pub(crate) fn probability_at(&self, at_i: &AlbedoLookup) -> f32 {
-        let deficit = self.deficit_at(at_i);
-        let Some((_, e_hat)) = at_i.albedos.filter(|_| self.has_lobe()) else {
-            return 0.0;
-        };
-        let total = deficit + e_hat;
-        if total > 0.0 {
-            (deficit / total).clamp(0.0, 1.0)
-        } else {
-            0.0
-        }
-    }
-}
-
-/// E and E-hat (white) at one cosine: the one lookup of both albedos that
-/// the deficit, P_c and the gain scale at that cosine share
-/// (`Compensation::lookup`). A sample reads them at mu_i and mu_o only,
-/// for its value and both densities.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct AlbedoLookup {
-    mu: f32,
-    /// (E, E-hat), or `None` where no term reads them.
-    albedos: Option<(f32, f32)>,
 }
 
 /// 2 int_0^1 max(0, y) mu dmu for y the Catmull-Rom cubic in s = sqrt(mu)
@@ -615,7 +426,7 @@ pub(crate) fn cubic_at(c: [f64; 4], t: f64) -> f64 {
 /// (bisection inside each monotone piece), and every piece where y > 0 is
 /// integrated by the Gauss-Legendre `rule`, exact for y m up to its degree
 /// (4 points: degree 7, the conductor tables' cubic measure; 8 points:
-/// degree 15, the dielectric's of degree 7, `crate::dielectric_energy`).
+/// degree 15, the dielectric's of degree 7, `crate::compensation::dielectric_energy`).
 /// So dE_avg is the moment of the very dE the tables interpolate, and the
 /// furnace identity holds for it.
 pub(crate) fn positive_part_integral(

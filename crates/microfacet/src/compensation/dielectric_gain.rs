@@ -1,8 +1,8 @@
 //! Reciprocal scaling of a widened dielectric interface that gains energy:
-//! `crate::gain`'s construction on the two sides of an interface.
+//! `crate::compensation::gain`'s construction on the two sides of an interface.
 //!
 //! Where widening alpha to alpha-hat raises the white energy albedo of a
-//! side, E_s(mu, alpha-hat) above E_s(mu, alpha) (`crate::dielectric_energy`;
+//! side, E_s(mu, alpha-hat) above E_s(mu, alpha) (`crate::compensation::dielectric_energy`;
 //! up to +0.058 near grazing, Beckmann and Blinn-Phong, and V-cavity
 //! shadowing), no non-negative compensation lobe can take the gain away.
 //! The widened lobe f-hat (reflection and transmission) is scaled instead:
@@ -10,7 +10,7 @@
 //! f'(wi, wo) = s_a(mu_i) s_b(mu_o) f-hat(wi, wo) + f_c(wi, wo),
 //!
 //! a and b the sides of wi and wo, with s_s > 0 chosen so that the scaled
-//! interface's energy albedo (Importance mode, `crate::dielectric_energy`)
+//! interface's energy albedo (Importance mode, `crate::compensation::dielectric_energy`)
 //! is E'_s(mu) = min(E_s(mu, alpha), E_s(mu, alpha-hat)) from each side,
 //! and f_c the compensation lobe on the deficit
 //! dE_s = max(0, E_s(alpha) - E_s(alpha-hat)), unchanged. Then f' carries
@@ -26,11 +26,11 @@
 //! Importance mode's. That reciprocity makes n_a^2 mu_i K_ab(mu_i, mu_o)
 //! symmetric under (a, mu_i) <-> (b, mu_o), so the equation above is a
 //! symmetric balancing (one diagonal scaling on both sides, with targets
-//! n_a^2 mu_i E'_a) as for a conductor, and `crate::gain::balance` (Knight
+//! n_a^2 mu_i E'_a) as for a conductor, and `crate::compensation::gain::balance` (Knight
 //! 2008's damped fixed point, in which the weights n^2 mu cancel) solves it
 //! on the two sides at once.
 //!
-//! **What is tabulated**, as in `crate::gain`: s = m / s-bar with m =
+//! **What is tabulated**, as in `crate::compensation::gain`: s = m / s-bar with m =
 //! min(1, E_alpha / E_alpha-hat) from the albedo tables at the lobe's own
 //! alpha, alpha-hat, eta and mu, and s-bar, the kernel's mean of s, per side.
 //! Per critical-cosine node c_i of the albedo tables (the interface's two
@@ -38,7 +38,7 @@
 //! of alpha nodes that gains (above `MIN_GAIN` at a node of either side),
 //! s-bar at the `MuGrid` nodes of both sides; every other pair keeps
 //! s-bar = 1, and below the diagonal the table holds the odd continuation
-//! 2 - s-bar (`crate::gain`'s reasons). s-bar is interpolated linearly in c,
+//! 2 - s-bar (`crate::compensation::gain`'s reasons). s-bar is interpolated linearly in c,
 //! sqrt(alpha), sqrt(alpha-hat) and the `MuGrid` coordinate of the query's c
 //! (kink to kink on the dense side, as the albedo table).
 //!
@@ -51,23 +51,26 @@
 
 use std::sync::OnceLock;
 
-use crate::dielectric_energy::{
+use crate::compensation::dielectric_energy::{
     DENSE, MuGrid, RARE, TABLE_CRITICAL, critical_cell, critical_cosine,
     dielectric_albedo_quadrature_with, dielectric_albedo_table, dielectric_kernel, seen,
     table_mu_nodes,
 };
-use crate::energy::{MODELS, TABLE_ALPHA, TABLE_ALPHA_MAX, alpha_node, cell, lerp, model_index};
-use crate::gain::{BalanceStatistics, MIN_GAIN, kept_share};
+use crate::compensation::energy::{
+    MODELS, TABLE_ALPHA, TABLE_ALPHA_MAX, alpha_node, cell, model_index,
+};
+use crate::compensation::gain::{BalanceStatistics, MIN_GAIN, kept_share};
+use crate::compensation::quadrature::lerp;
 use crate::ndf::NdfKind;
 use crate::shadowing::Shadowing;
 
-/// Bins of the kernel per `MuGrid` cell (`crate::gain::SUBDIVISIONS`' reason:
+/// Bins of the kernel per `MuGrid` cell (`crate::compensation::gain::SUBDIVISIONS`' reason:
 /// m has a kink inside a cell where the albedos cross).
 const SUBDIVISIONS: usize = 8;
 
 /// The balancing stops when every node's scaled albedo is within this of
 /// its target: 1e-3 of the furnace tolerance and a fiftieth of the tables'
-/// own quadrature error (5e-5). Not `crate::gain`'s 1e-9: near the
+/// own quadrature error (5e-5). Not `crate::compensation::gain`'s 1e-9: near the
 /// index-matched interface almost everything is transmitted, the kernel is
 /// nearly bipartite (side to side), and its one slow mode (the ratio of the
 /// two sides' scales, which a bipartite balancing leaves free) settles by
@@ -155,7 +158,7 @@ impl MeanScaleSlice {
                 previous = Some(means);
             }
         }
-        // The odd continuation below the diagonal (`crate::gain`).
+        // The odd continuation below the diagonal (`crate::compensation::gain`).
         for k in 0..TABLE_ALPHA - 1 {
             if let Some(upper) = slice.row(k, k + 1) {
                 let lower = upper.iter().map(|mean| 2.0 - mean).collect();
@@ -222,7 +225,7 @@ pub fn slices_read(eta: f32) -> [usize; 2] {
 /// s-bar(mu) of an interface of width `alpha` widened to `alpha_hat`,
 /// queried from the side that sees the index ratio `eta`: linear in c
 /// between the slices of its cell (module docs).
-pub fn dielectric_mean_scale(
+pub(crate) fn dielectric_mean_scale(
     kind: NdfKind,
     shadowing: Shadowing,
     alpha: f32,
@@ -292,7 +295,7 @@ mod tests {
                 let (slice, statistics) = MeanScaleSlice::compute(kind, shadowing, i);
                 println!("{kind:?}/{shadowing:?} c node {i}: {statistics:?}");
                 assert!(statistics.pairs > 0, "{kind:?}/{shadowing:?} {i}: no gain");
-                assert!(statistics.max_iterations < crate::gain::MAX_ITERATIONS);
+                assert!(statistics.max_iterations < crate::compensation::gain::MAX_ITERATIONS);
                 let (low, high) = statistics.scale_range;
                 assert!(
                     low > 0.9 && high < 1.02,

@@ -1,5 +1,5 @@
 //! Where the energy albedo of a V-cavity dielectric seen from the dense side
-//! has kinks below the critical cosine (`crate::dielectric_energy`, `MuGrid`).
+//! has kinks below the critical cosine (`crate::compensation::dielectric_energy`, `MuGrid`).
 //!
 //! V-cavity transmission has G = max(0, G1v(wi) + G1v(wo) - 1), G1v(w) =
 //! min(1, |2<n,h><n,w>/<w,h>|) (SPEC §2). Seen from the dense side at a
