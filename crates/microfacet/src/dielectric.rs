@@ -133,17 +133,10 @@ impl Dielectric {
     pub fn eval(&self, wi: Vec3, wo: Vec3, mode: TransportMode) -> Vec3 {
         let refracted = wi.z * wo.z < 0.0;
         let lobe = self.evaluate(wi, wo, mode).map_or(0.0, |t| t.f);
-        let Some(c) = self.compensation else {
+        if self.compensation.is_none() {
             return self.colour(lobe, refracted);
-        };
-        let (scale, compensation) = c.terms(
-            &self.model.ndf,
-            self.model.shadowing,
-            self.eta,
-            wi,
-            wo,
-            mode,
-        );
+        }
+        let (scale, compensation) = self.compensation_terms(wi, wo, mode);
         self.colour(scale * lobe + compensation, refracted)
     }
 
@@ -171,15 +164,24 @@ impl Dielectric {
     /// (`eval` is `tint`-coloured (scale f + f_c) through refraction); (1, 0)
     /// without compensation.
     pub fn compensation_terms(&self, wi: Vec3, wo: Vec3, mode: TransportMode) -> (f32, f32) {
-        self.compensation
-            .map_or((1.0, 0.0), |c| c.terms(&self.model, self.eta, wi, wo, mode))
+        self.compensation.map_or((1.0, 0.0), |c| {
+            c.terms(
+                &self.model.ndf,
+                self.model.shadowing,
+                self.eta,
+                wi,
+                wo,
+                mode,
+            )
+        })
     }
 
     /// P_c(wi), the probability of sampling the compensation lobe for a
     /// query from `wi` (0 without compensation).
     pub fn compensation_probability(&self, wi: Vec3) -> f32 {
-        self.compensation
-            .map_or(0.0, |c| c.probability(&self.model, self.eta, wi))
+        self.compensation.map_or(0.0, |c| {
+            c.probability(&self.model.ndf, self.model.shadowing, self.eta, wi)
+        })
     }
 
     /// The mixture density (1 - P_c(wi)) `p_lobe` + P_c(wi) p_c(wi, wo) of a
@@ -189,13 +191,8 @@ impl Dielectric {
         let Some(c) = self.compensation else {
             return p_lobe;
         };
-        c.mixture_pdf(
-            c.probability(&self.model.ndf, self.model.shadowing, self.eta, wi),
-            wi,
-            wo,
-            p_lobe,
-        )
-        .pdf()
+        c.mixture_pdf(self.compensation_probability(wi), wi, wo, p_lobe)
+            .pdf()
     }
 
     /// Samples reflection or refraction through a sampled microfacet normal

@@ -123,6 +123,17 @@ pub enum Fresnel {
 }
 
 impl Fresnel {
+    /// A physical conductor with complex index of refraction eta + i k per
+    /// RGB channel (relative to the outside medium; e.g. gold
+    /// (0.143, 0.374, 1.442) + i (3.983, 2.385, 1.603)), untinted.
+    pub const fn conductor(eta: Vec3, k: Vec3) -> Self {
+        Fresnel::Conductor {
+            eta,
+            k,
+            tint: Vec3::ONE,
+        }
+    }
+
     /// Reflectance for a microfacet at cosine `cos_theta_i` to the direction.
     pub fn eval(&self, cos_theta_i: f32) -> Vec3 {
         match *self {

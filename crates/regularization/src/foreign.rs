@@ -13,8 +13,7 @@ use glam::Vec3;
 use microfacet::{Dielectric, MicrofacetModel, NdfKind, Shadowing, TransportMode};
 
 use crate::pdf::shadowing_ratio;
-use crate::selective::Energy;
-use crate::tau::{AlphaHat, Lobe, alpha_hat};
+use crate::tau::{AlphaHat, Energy, Lobe, alpha_hat};
 
 /// What regularization needs to know of a microfacet lobe.
 ///
