@@ -8,13 +8,7 @@
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use glam::Vec3;
-use microfacet::compensation::dielectric_energy::{DielectricAlbedoTable, dielectric_albedo_table};
-use microfacet::compensation::dielectric_gain::{
-    mean_scale_slice, mean_scale_slice_is_built, slices_read,
-};
-use microfacet::compensation::energy::{albedo_table, albedo_table_is_built};
-use microfacet::compensation::gain::{mean_scale_table, mean_scale_table_is_built};
-use microfacet::{NdfKind, Shadowing};
+use microfacet::compensation::EnergyTable;
 use mis::Techniques;
 use rayon::prelude::*;
 use regularization::{Energy, Mode};
@@ -243,26 +237,23 @@ impl Renderer {
     }
 
     /// Builds now, in parallel, the energy-compensation tables
-    /// (`microfacet::compensation::energy`, `microfacet::compensation::gain`, `microfacet::compensation::dielectric_energy`,
-    /// `microfacet::compensation::dielectric_gain`) of every lobe of the scene that
-    /// regularization may widen; nothing when it is off or loses energy.
-    /// Otherwise each table is built at its first use, inside the first
-    /// iteration that widens such a lobe (release build, one core: 0.25-1.7 s
-    /// for a reflection table and 0.4-3.2 s for its gain scaling; for a
-    /// dielectric at one eta, 1.3-18 s for the four critical-cosine slices
-    /// of its albedo and 0.1-10 s for its gain scaling), so timed
+    /// (`microfacet::compensation::EnergyTable`) of every lobe of the scene
+    /// that regularization may widen; nothing when it is off or loses
+    /// energy. Otherwise each table is built at its first use, inside the
+    /// first iteration that widens such a lobe (seconds each:
+    /// `microfacet::compensation::tables` gives the cost), so timed
     /// comparisons call this first: no configuration then pays
     /// for tables in its measured time, whichever ran before it in the
     /// process. Returns the number of tables (or slices) it asked for,
     /// built now or before.
     pub fn prepare_energy_tables(&self) -> usize {
-        let [albedos, gains] = self.energy_tables();
-        let count = albedos.len() + gains.len();
+        let tables = self.energy_tables();
         // The albedo tables first, the gain scalings (which read them) next.
-        for tables in [albedos, gains] {
-            tables.into_par_iter().for_each(Table::build);
+        let (albedos, gains): (Vec<_>, Vec<_>) = tables.iter().partition(|t| !t.reads_albedos());
+        for phase in [albedos, gains] {
+            phase.into_par_iter().for_each(EnergyTable::build);
         }
-        count
+        tables.len()
     }
 
     /// How many of the tables that `prepare_energy_tables` would build are
@@ -271,30 +262,28 @@ impl Renderer {
     /// (`reads_energy_tables` false), to say where their time went.
     pub fn energy_tables_built(&self) -> usize {
         self.energy_tables()
-            .iter()
-            .flatten()
+            .into_iter()
             .filter(|table| table.is_built())
             .count()
     }
 
     /// The energy-compensation tables of every lobe of the scene that
-    /// regularization may widen, [albedos, gain scalings]; none when it is
-    /// off or loses energy.
-    fn energy_tables(&self) -> [Vec<Table>; 2] {
+    /// regularization may widen, each once; none when it is off or loses
+    /// energy.
+    fn energy_tables(&self) -> Vec<EnergyTable> {
         let regularization = &self.ctx.config.regularization;
         if regularization.mode == Mode::Off || regularization.energy == Energy::Lost {
-            return [Vec::new(), Vec::new()];
+            return Vec::new();
         }
-        let (mut albedos, mut gains) = (Vec::new(), Vec::new());
+        let mut tables = Vec::new();
         for material in &self.ctx.scene.materials {
             let surface = &material.surface;
             let Some(model) = surface.microfacet() else {
                 continue;
             };
-            let model = (model.ndf.kind(), model.shadowing);
+            let (kind, shadowing) = (model.ndf.kind(), model.shadowing);
             if !matches!(surface, scene::Surface::Dielectric { .. }) {
-                Table::Albedo(model).add_to(&mut albedos);
-                Table::MeanScale(model).add_to(&mut gains);
+                tables.extend(EnergyTable::of_reflection(kind, shadowing));
             }
             if surface.may_transmit() {
                 let eta = match *surface {
@@ -302,15 +291,12 @@ impl Renderer {
                     scene::Surface::Textured(pbr) => pbr.ior,
                     _ => 1.0,
                 };
-                for i in DielectricAlbedoTable::nodes_read(eta) {
-                    Table::DielectricAlbedo(model, i).add_to(&mut albedos);
-                }
-                for i in slices_read(eta) {
-                    Table::DielectricMeanScale(model, i).add_to(&mut gains);
-                }
+                tables.extend(EnergyTable::of_interface(kind, shadowing, eta));
             }
         }
-        [albedos, gains]
+        let mut seen = std::collections::HashSet::new();
+        tables.retain(|t| seen.insert(*t));
+        tables
     }
 
     /// Number of samples so far that were NaN or infinite and were replaced
@@ -323,56 +309,5 @@ impl Renderer {
     /// throughput figures (`cargo xtask bench`).
     pub fn rays_traced(&self) -> u64 {
         self.ctx.rays_traced()
-    }
-}
-
-/// One energy-compensation table (or slice of one) that
-/// `Renderer::prepare_energy_tables` builds: (NDF, shadowing) and, for a
-/// dielectric's, the critical-cosine node.
-#[derive(Clone, Copy, PartialEq)]
-enum Table {
-    Albedo((NdfKind, Shadowing)),
-    MeanScale((NdfKind, Shadowing)),
-    DielectricAlbedo((NdfKind, Shadowing), usize),
-    DielectricMeanScale((NdfKind, Shadowing), usize),
-}
-
-impl Table {
-    /// Appends the table to `list` unless it is there.
-    fn add_to(self, list: &mut Vec<Self>) {
-        if !list.contains(&self) {
-            list.push(self);
-        }
-    }
-
-    fn build(self) {
-        match self {
-            Self::Albedo((kind, shadowing)) => {
-                albedo_table(kind, shadowing);
-            }
-            Self::MeanScale((kind, shadowing)) => {
-                mean_scale_table(kind, shadowing);
-            }
-            Self::DielectricAlbedo((kind, shadowing), i) => {
-                dielectric_albedo_table(kind, shadowing).prepare_node(i)
-            }
-            Self::DielectricMeanScale((kind, shadowing), i) => {
-                mean_scale_slice(kind, shadowing, i);
-            }
-        }
-    }
-
-    /// True once the table is built (never builds it).
-    fn is_built(self) -> bool {
-        match self {
-            Self::Albedo((kind, shadowing)) => albedo_table_is_built(kind, shadowing),
-            Self::MeanScale((kind, shadowing)) => mean_scale_table_is_built(kind, shadowing),
-            Self::DielectricAlbedo((kind, shadowing), i) => {
-                dielectric_albedo_table(kind, shadowing).node_is_built(i)
-            }
-            Self::DielectricMeanScale((kind, shadowing), i) => {
-                mean_scale_slice_is_built(kind, shadowing, i)
-            }
-        }
     }
 }

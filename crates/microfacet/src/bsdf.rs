@@ -9,9 +9,11 @@
 use glam::{Vec2, Vec3};
 
 use crate::coated::Coated;
+use crate::compensation::EnergyTable;
 use crate::conductor::Conductor;
 use crate::dielectric::Dielectric;
 use crate::lambertian::Lambertian;
+use crate::model::MicrofacetModel;
 use crate::sample::{BsdfSample, TransportMode};
 use crate::thin_dielectric::ThinDielectric;
 
@@ -105,6 +107,10 @@ impl Bsdf {
     /// the energy albedo, split between reflection and transmission
     /// (`crate::compensation::dielectric_energy`). Lambertian lobes and thin sheets are
     /// unchanged.
+    ///
+    /// First use: builds the energy tables it reads, once per process
+    /// (`crate::compensation::tables`: seconds in a release build, 10-20x
+    /// longer unoptimised); [`crate::prepare_tables`] builds them ahead.
     pub fn regularized(&self, alpha_hat: f32) -> Self {
         match *self {
             Bsdf::Conductor(c) => Bsdf::Conductor(Conductor {
@@ -117,6 +123,24 @@ impl Bsdf {
             }),
             Bsdf::Dielectric(d) => Bsdf::Dielectric(d.regularized(alpha_hat)),
             Bsdf::Lambertian(_) | Bsdf::ThinDielectric(_) => self.with_alpha(alpha_hat),
+        }
+    }
+
+    /// The energy tables that `regularized` reads for this lobe, which it
+    /// builds at their first use in the process (seconds for a dielectric:
+    /// `crate::compensation::tables`); none for a Lambertian lobe, a thin
+    /// sheet and an index-matched interface. [`crate::prepare_tables`]
+    /// builds them ahead.
+    pub fn energy_tables(&self) -> Vec<EnergyTable> {
+        let reflection =
+            |m: &MicrofacetModel| EnergyTable::of_reflection(m.ndf.kind(), m.shadowing).to_vec();
+        match self {
+            Bsdf::Conductor(c) => reflection(&c.model),
+            Bsdf::Coated(c) => reflection(&c.model),
+            Bsdf::Dielectric(d) if !d.is_index_matched() => {
+                EnergyTable::of_interface(d.model.ndf.kind(), d.model.shadowing, d.eta)
+            }
+            Bsdf::Dielectric(_) | Bsdf::Lambertian(_) | Bsdf::ThinDielectric(_) => Vec::new(),
         }
     }
 

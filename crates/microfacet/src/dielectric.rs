@@ -79,6 +79,10 @@ impl Dielectric {
     /// that keeps its energy albedo (`crate::compensation::dielectric_energy`); without
     /// compensation when alpha-hat does not exceed alpha, and for an
     /// index-matched interface (a pass-through that regularization skips).
+    ///
+    /// First use: builds the energy tables it reads, once per process
+    /// (`crate::compensation::tables`: seconds in a release build, 10-20x
+    /// longer unoptimised); [`crate::prepare_tables`] builds them ahead.
     pub fn regularized(&self, alpha_hat: f32) -> Self {
         let model = self.model.with_alpha(alpha_hat);
         let compensation = if self.is_index_matched() {

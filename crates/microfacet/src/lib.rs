@@ -55,6 +55,7 @@ pub mod vndf;
 
 pub use bsdf::Bsdf;
 pub use coated::Coated;
+pub use compensation::prepare_tables;
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use fresnel::Fresnel;

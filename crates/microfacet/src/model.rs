@@ -85,6 +85,10 @@ impl MicrofacetModel {
     /// white albedo of this model (`crate::compensation`), coloured `tint` (the
     /// lobe's Fresnel average); without compensation when alpha-hat does
     /// not exceed alpha.
+    ///
+    /// First use: builds the energy tables it reads, once per process
+    /// (`crate::compensation::tables`: seconds in a release build, 10-20x
+    /// longer unoptimised); [`crate::prepare_tables`] builds them ahead.
     pub fn regularized(&self, alpha_hat: f32, tint: Vec3) -> Self {
         let mut model = self.with_alpha(alpha_hat);
         model.compensation = Compensation::new(&model.ndf, model.shadowing, self.alpha())

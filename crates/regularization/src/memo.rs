@@ -63,6 +63,10 @@ impl RegularizationMemo {
     /// again); tau and alpha-hat compared bit for bit, a lobe holding a NaN
     /// never matches and is widened anew. Lobes that tau leaves as they
     /// are, and `Energy::Lost`, which widens in nanoseconds, are not kept.
+    ///
+    /// First use: with `Energy::Preserved`, builds the energy tables of the
+    /// lobe's model once per process (seconds in a release build, 10-20x
+    /// longer unoptimised); `microfacet::prepare_tables` builds them ahead.
     pub fn regularize(
         &mut self,
         bsdf: &Bsdf,

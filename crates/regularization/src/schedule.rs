@@ -13,6 +13,7 @@ use thiserror::Error;
 
 /// Invalid input to the schedule.
 #[derive(Clone, Copy, Debug, PartialEq, Error)]
+#[non_exhaustive]
 pub enum ScheduleError {
     /// tau_0 must exceed 1/(2 pi), the inverse solid angle of a hemisphere.
     #[error(

@@ -185,6 +185,10 @@ impl PathRegularization {
     /// The next vertex's BSDF, regularized, and its alpha-hat (`None` for
     /// lobes without roughness). Store the result in the vertex: every later
     /// use must see the same alpha-hat (SPEC §5).
+    ///
+    /// First use: with `Energy::Preserved`, builds the energy tables of the
+    /// lobe's model once per process (seconds in a release build, 10-20x
+    /// longer unoptimised); `microfacet::prepare_tables` builds them ahead.
     pub fn regularize(&self, bsdf: &Bsdf) -> (Bsdf, Option<AlphaHat>) {
         match self.mode {
             Mode::Off => (*bsdf, None),
@@ -202,6 +206,10 @@ impl PathRegularization {
 
     /// `regularize`, with the widened lobe from `memo` when it holds it
     /// (bit for bit the same result).
+    ///
+    /// First use: with `Energy::Preserved`, builds the energy tables of the
+    /// lobe's model once per process (seconds in a release build, 10-20x
+    /// longer unoptimised); `microfacet::prepare_tables` builds them ahead.
     pub fn regularize_with(
         &self,
         bsdf: &Bsdf,

@@ -211,6 +211,7 @@ fn round_up(x: f64) -> f32 {
 
 /// The strict variant is defined for Smith shadowing only.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Error)]
+#[non_exhaustive]
 pub enum StrictError {
     /// V-cavity's G/|cos cos| is unbounded at grazing (supp. §2).
     #[error(
@@ -279,8 +280,8 @@ pub enum Energy {
     Lost,
 }
 
-/// A BSDF with its roughness regularized for a query from `wi` (shading
-/// frame) under bound `tau`, and the alpha-hat used; `None` for lobes without
+/// A BSDF with its roughness regularized under bound `tau`, and the
+/// alpha-hat used; `None` for lobes without
 /// a microfacet roughness (Lambertian), which are returned unchanged.
 ///
 /// Conductors and coated lobes bound their (specular) reflection; dielectrics both lobes, refraction
@@ -294,9 +295,20 @@ pub enum Energy {
 /// `integrators::bidir`). The cost: rays leaving the dense medium are
 /// blurred by eta more in alpha than their own bound needs.
 ///
+/// `tau` is a solid-angle density in 1/sr (module docs): the largest
+/// density the widened lobe may scatter with, so 1/tau is the solid angle of
+/// its blur cone. tau = 30 (the renderer's default tau_0) gives GGX
+/// reflection alpha-hat = 1/sqrt(4 pi 30) = 0.052; the paper's schedule
+/// (`Schedule`) multiplies tau_0 by N^(1/3) at iteration N; tau = infinity
+/// leaves every lobe unchanged.
+///
 /// A smooth (delta) lobe becomes glossy when alpha-hat rises above
 /// `microfacet::SMOOTH_ALPHA`. With `Energy::Preserved` the widened lobe
 /// keeps the original's white albedo (`Bsdf::regularized`).
+///
+/// First use: with `Energy::Preserved`, builds the energy tables of the
+/// lobe's model once per process (seconds in a release build, 10-20x
+/// longer unoptimised); `microfacet::prepare_tables` builds them ahead.
 pub fn regularize(bsdf: &Bsdf, tau: f64, energy: Energy) -> (Bsdf, Option<AlphaHat>) {
     let Some(hat) = bsdf_alpha_hat(bsdf, tau) else {
         return (*bsdf, None);

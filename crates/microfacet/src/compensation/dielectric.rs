@@ -54,6 +54,10 @@ impl DielectricCompensation {
     /// `alpha` and index ratio `eta`, or `None` when it would carry nothing
     /// (alpha-hat <= alpha, a smooth NDF, an invalid eta, or both deficits
     /// below `MIN_DEFICIT_AVERAGE`).
+    ///
+    /// First use: builds the energy tables it reads, once per process
+    /// (`crate::compensation::tables`: seconds in a release build, 10-20x
+    /// longer unoptimised); [`crate::prepare_tables`] builds them ahead.
     pub fn new(ndf: &Ndf, shadowing: Shadowing, alpha: f32, eta: f32) -> Option<Self> {
         let alpha_hat = ndf.alpha();
         if !(alpha_hat > alpha) || ndf.alpha() < SMOOTH_ALPHA || !(eta > 0.0 && eta.is_finite()) {

@@ -990,19 +990,19 @@ impl DielectricAlbedoTable {
     /// Computes the slice of critical-cosine node `i` now, if not yet (for
     /// callers that compute the slices in parallel, as `nodes_read` lists
     /// them, before any timed work).
-    pub fn prepare_node(&self, i: usize) {
+    pub(crate) fn prepare_node(&self, i: usize) {
         self.slice(i);
     }
 
     /// True once the slice of critical-cosine node `i` has been computed
     /// (never computes it).
-    pub fn node_is_built(&self, i: usize) -> bool {
+    pub(crate) fn node_is_built(&self, i: usize) -> bool {
         self.slices[i].get().is_some()
     }
 
     /// The critical-cosine nodes that queries at index ratio `eta` read,
     /// from either side of the interface (the Catmull-Rom support in c).
-    pub fn nodes_read(eta: f32) -> impl Iterator<Item = usize> {
+    pub(crate) fn nodes_read(eta: f32) -> impl Iterator<Item = usize> {
         critical_weights(critical_cosine(eta).1)
             .into_iter()
             .map(|(i, _)| i)
@@ -1132,6 +1132,9 @@ pub(crate) fn dielectric_kernel(
 }
 
 /// The shared dielectric table of `kind` with `shadowing`, computed at first use.
+/// Each critical-cosine slice is computed at the first lookup that reads it
+/// (`crate::compensation::tables` gives the cost; [`crate::prepare_tables`]
+/// builds them ahead).
 pub fn dielectric_albedo_table(
     kind: NdfKind,
     shadowing: Shadowing,

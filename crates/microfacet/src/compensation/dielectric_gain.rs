@@ -201,13 +201,17 @@ impl MeanScaleSlice {
 
 /// The shared slice of critical-cosine node `i` of `kind` with `shadowing`,
 /// computed at first use.
-pub fn mean_scale_slice(kind: NdfKind, shadowing: Shadowing, i: usize) -> &'static MeanScaleSlice {
+pub(crate) fn mean_scale_slice(
+    kind: NdfKind,
+    shadowing: Shadowing,
+    i: usize,
+) -> &'static MeanScaleSlice {
     SLICES[model_index(kind, shadowing)][i]
         .get_or_init(|| MeanScaleSlice::compute(kind, shadowing, i).0)
 }
 
 /// True once `mean_scale_slice(kind, shadowing, i)` has been computed (never computes it).
-pub fn mean_scale_slice_is_built(kind: NdfKind, shadowing: Shadowing, i: usize) -> bool {
+pub(crate) fn mean_scale_slice_is_built(kind: NdfKind, shadowing: Shadowing, i: usize) -> bool {
     SLICES[model_index(kind, shadowing)][i].get().is_some()
 }
 
@@ -217,7 +221,7 @@ static SLICES: [[OnceLock<MeanScaleSlice>; TABLE_CRITICAL]; MODELS] =
 /// The slices an interface of index ratio `eta` reads, from either side
 /// (those of the critical-cosine cell of its c): for callers that compute
 /// them (`mean_scale_slice`) before any timed work.
-pub fn slices_read(eta: f32) -> [usize; 2] {
+pub(crate) fn slices_read(eta: f32) -> [usize; 2] {
     let (i, _) = critical_cell(critical_cosine(eta).1);
     [i, i + 1]
 }

@@ -177,13 +177,17 @@ impl AlbedoTable {
 }
 
 /// The shared table of `kind` with `shadowing`, computed at first use.
+///
+/// First use: builds the energy tables it reads, once per process
+/// (`crate::compensation::tables`: seconds in a release build, 10-20x
+/// longer unoptimised); [`crate::prepare_tables`] builds them ahead.
 pub fn albedo_table(kind: NdfKind, shadowing: Shadowing) -> &'static AlbedoTable {
     ALBEDO_TABLES[model_index(kind, shadowing)]
         .get_or_init(|| AlbedoTable::compute(kind, shadowing))
 }
 
 /// True once `albedo_table(kind, shadowing)` has been computed (never computes it).
-pub fn albedo_table_is_built(kind: NdfKind, shadowing: Shadowing) -> bool {
+pub(crate) fn albedo_table_is_built(kind: NdfKind, shadowing: Shadowing) -> bool {
     ALBEDO_TABLES[model_index(kind, shadowing)].get().is_some()
 }
 

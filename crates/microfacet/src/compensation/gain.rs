@@ -275,13 +275,13 @@ impl BalanceStatistics {
 
 /// The shared table of `kind` with `shadowing`, computed at first use
 /// (serially; after the albedo table it reads).
-pub fn mean_scale_table(kind: NdfKind, shadowing: Shadowing) -> &'static MeanScaleTable {
+pub(crate) fn mean_scale_table(kind: NdfKind, shadowing: Shadowing) -> &'static MeanScaleTable {
     MEAN_SCALE_TABLES[model_index(kind, shadowing)]
         .get_or_init(|| MeanScaleTable::compute(kind, shadowing))
 }
 
 /// True once `mean_scale_table(kind, shadowing)` has been computed (never computes it).
-pub fn mean_scale_table_is_built(kind: NdfKind, shadowing: Shadowing) -> bool {
+pub(crate) fn mean_scale_table_is_built(kind: NdfKind, shadowing: Shadowing) -> bool {
     MEAN_SCALE_TABLES[model_index(kind, shadowing)]
         .get()
         .is_some()

@@ -21,7 +21,9 @@
 //! - `reflection` (`Compensation`, held by a regularized `MicrofacetModel`
 //!   for conductors and coats) and `dielectric` (`DielectricCompensation`,
 //!   held by a regularized `Dielectric`): what a lobe evaluates, from the
-//!   tables.
+//!   tables;
+//! - `tables`: the list of tables a lobe reads, to build them ahead of
+//!   their first use ([`prepare_tables`]).
 
 pub mod dielectric;
 pub mod dielectric_energy;
@@ -30,7 +32,9 @@ pub mod energy;
 pub mod gain;
 mod quadrature;
 pub mod reflection;
+pub mod tables;
 mod vcavity_onsets;
 
 pub use dielectric::DielectricCompensation;
 pub use reflection::Compensation;
+pub use tables::{EnergyTable, prepare_tables};

@@ -39,6 +39,10 @@ impl Compensation {
     /// The compensation of the widened NDF `ndf` (at alpha-hat) with `shadowing` for a lobe of width
     /// `alpha`, or `None` when it would change nothing (alpha-hat <= alpha,
     /// or dE_avg below `MIN_DEFICIT_AVERAGE` and no gain).
+    ///
+    /// First use: builds the energy tables it reads, once per process
+    /// (`crate::compensation::tables`: seconds in a release build, 10-20x
+    /// longer unoptimised); [`crate::prepare_tables`] builds them ahead.
     pub fn new(ndf: &Ndf, shadowing: Shadowing, alpha: f32) -> Option<Self> {
         let alpha_hat = ndf.alpha();
         if !(alpha_hat > alpha) || ndf.alpha() < SMOOTH_ALPHA {
