@@ -3,14 +3,16 @@
 //! the first `Bsdf::regularized` call that needs them.
 //!
 //! Every table is computed by quadrature once per process and shared
-//! (`OnceLock`): there are no data files. Their cost, measured in release
-//! builds on one core of a 2-core x86-64 machine: a reflection model's
-//! albedo table 0.25-1.7 s and its gain scaling 0.4-3.2 s (by NDF and
-//! shadowing); for a dielectric at one index ratio, the four critical-cosine
-//! slices of its albedo 1.3-18 s and its gain scaling 0.1-10 s (in total;
-//! GGX/Smith glass at eta 1.5 takes about 2 s). An unoptimised (debug)
-//! build of this crate takes 10-20 times longer: a dependent can optimise
-//! it alone with `[profile.dev.package.rlt-microfacet] opt-level = 3`.
+//! (`OnceLock`): there are no data files. Their cost, release build, one
+//! core of a 2-core x86-64 machine: a reflection model's albedo table
+//! 0.25-1.7 s and its gain scaling 0.4-3.2 s (by NDF and shadowing); for a
+//! dielectric at one index ratio, the four critical-cosine slices of its
+//! albedo 1.3-18 s and its gain scaling 0.1-10 s. From a dependent crate
+//! (2 cores under load), the first regularization of a GGX conductor took
+//! 0.26 s and of smooth glass 2.5 s; unoptimised (debug) builds of this
+//! crate take about ten times longer (2.9 s, 23 s): a dependent can
+//! optimise it alone with `[profile.dev.package.rlt-microfacet]
+//! opt-level = 3`.
 
 use crate::bsdf::Bsdf;
 use crate::compensation::dielectric_energy::{DielectricAlbedoTable, dielectric_albedo_table};
