@@ -14,7 +14,7 @@
 //! costs live only on the recursion's stack (a node's costs are read by its
 //! parent alone), and the node list grows as needed: 14 bytes per primitive.
 //!
-//! Licence: adapted from obvhs 0.4.0 (https://github.com/DGriffin91/obvhs),
+//! Licence: adapted from obvhs 0.4.0 (<https://github.com/DGriffin91/obvhs>),
 //! MIT OR Apache-2.0 like this crate; its copyright and licence notices
 //! apply to the adapted parts (README, "Credits").
 

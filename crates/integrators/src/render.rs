@@ -23,7 +23,7 @@ use crate::merge_radius::MergeRadius;
 use crate::pt::PathTracer;
 
 /// The integrator of a configuration: a new algorithm is a new file with
-/// a type that implements [`Integrator`], and one arm here.
+/// a type that implements `Integrator`, and one arm here.
 #[derive(Clone, Debug)]
 pub enum AnyIntegrator {
     /// Path tracing (`pt`).

@@ -123,8 +123,10 @@ impl RegularizedLobe {
     /// P_c(wi): the probability with which a sampler picks the compensation
     /// lobe instead of the foreign lobe (0 without compensation). The
     /// compensation lobe samples a cosine-weighted direction: on wi's side
-    /// for a reflection lobe; for an interface on the side chosen as
-    /// [`compensation_pdf`](Self::compensation_pdf) says.
+    /// for a reflection lobe; for an interface on a side it chooses by the
+    /// share of its energy that it transmits
+    /// (`microfacet::compensation::DielectricCompensation::transmitted_share`).
+    /// [`pdf`](Self::pdf) is the density of that mixture.
     pub fn compensation_probability(&self, wi: Vec3) -> f32 {
         match self.widened {
             Widened::Reflection(model) => model.compensation_probability(wi.z.abs()),

@@ -909,7 +909,7 @@ const ONSETS_SEGMENT: Segment<{ VCAVITY_LOWER_CELLS[1] + 1 }> = Segment::new(Spa
 const VISIBLE_SEGMENT: Segment<{ VCAVITY_LOWER_CELLS[2] + 1 }> = Segment::new(Spacing::BothEnds);
 
 /// Energy albedo E(mu, alpha, eta) of a white rough dielectric (module
-/// docs): per medium of the query ([`RARE`], [`DENSE`]), `TABLE_CRITICAL`
+/// docs): per medium of the query (`RARE`, `DENSE`), `TABLE_CRITICAL`
 /// x `TABLE_ALPHA` x `table_mu_nodes` nodes in (c, alpha, `MuGrid` of c),
 /// each critical-cosine node's slice computed at first use: an interface
 /// reads the four nodes around its own c (`nodes_read`), so a scene of one

@@ -24,16 +24,16 @@
 //! duplicate silently replaces the first and the records are misread, and
 //! it accepts `obj_info` lines, which Mitsuba refuses. Its errors quote
 //! whole lines over several lines. So, before the crate reads anything,
-//! [`check_header_lines`] refuses duplicates and the lines Mitsuba
+//! `check_header_lines` refuses duplicates and the lines Mitsuba
 //! refuses; after it has parsed the header and before it reads a record,
-//! [`check_sizes`] checks every element's count against the bytes after
-//! the header ([`min_record_bytes`]); binary elements without properties
+//! `check_sizes` checks every element's count against the bytes after
+//! the header (`min_record_bytes`); binary elements without properties
 //! are not handed to it at all (they occupy no bytes). Records go into our
-//! own small types ([`Vertex`], 32 bytes, [`Face`], 24 bytes), not the
+//! own small types (`Vertex`, 32 bytes, `Face`, 24 bytes), not the
 //! crate's map per record, so memory stays within about 24 times the
 //! file's size (a face record takes one byte at least). Then every face
 //! must be a triangle, indices must name a vertex and positions must be
-//! finite. Errors are one line, the crate's cut to [`MAX_ERROR_CHARS`].
+//! finite. Errors are one line, the crate's cut to `MAX_ERROR_CHARS`.
 
 use std::collections::HashSet;
 

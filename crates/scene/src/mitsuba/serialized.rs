@@ -11,7 +11,7 @@
 //! triangles (`u32` indices). All values are little-endian.
 //!
 //! The input may be hostile: every count is checked against what the
-//! compressed bytes can inflate to ([`MAX_INFLATE_RATIO`]) and against
+//! compressed bytes can inflate to (`MAX_INFLATE_RATIO`) and against
 //! [`MAX_MESH_BYTES`] before anything is allocated, the stream is read
 //! through [`Read::take`] with that bound, indices are checked against the
 //! vertex count and positions must be finite. Errors are one line.
