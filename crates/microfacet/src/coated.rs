@@ -77,7 +77,7 @@ use crate::sample::{BsdfSample, ONE_MINUS_EPSILON};
 /// microfacet angles: a floor keeps every lobe that can be non-zero sampled
 /// (the estimator stays unbiased), and bounds the weight f |cos| / pdf of
 /// the rarer lobe by 1/0.05 = 20 times its share.
-pub const MIN_LOBE_PROBABILITY: f32 = 0.05;
+pub(crate) const MIN_LOBE_PROBABILITY: f32 = 0.05;
 
 /// A glTF metallic-roughness lobe (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -27,7 +27,7 @@ pub struct MicrofacetModel {
 /// D, G and both microfacet-normal densities of one configuration (wi, wo, h),
 /// computed once for a lobe's value, forward pdf and reverse pdf.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FacetTerms {
+pub(crate) struct FacetTerms {
     /// D(h).
     pub d: f32,
     /// G(wi, wo) for reflection or transmission, as the sides of wi and wo say.
@@ -231,7 +231,7 @@ impl MicrofacetModel {
     /// above the surface (wi.z > 0), wo on either side and h.z > 0. Equal to
     /// `d(h)`, `g(wi, wo, h)`, `pdf_h(wi, h)` and `pdf_h(wo_up, h)` with
     /// wo_up = wo flipped above the surface, at the cost of one D and two G1.
-    pub fn facet_terms(&self, wi: Vec3, wo: Vec3, h: Vec3) -> FacetTerms {
+    pub(crate) fn facet_terms(&self, wi: Vec3, wo: Vec3, h: Vec3) -> FacetTerms {
         let d = self.d(h);
         let (g1_wi, g1_wo) = (self.g1(wi, h), self.g1(wo, h));
         let g = self.shadowing.g(g1_wi, g1_wo, wo.z > 0.0);

@@ -162,7 +162,7 @@ pub const TABLE_CRITICAL: usize = 61;
 /// nodes (22 below the kink, uniform in sqrt(mu/c)) the compensated albedo
 /// missed it by up to 1.3e-3 (GGX/Smith, eta 1/2.2, 0.03 -> 0.15, mu 0.86),
 /// with 64 by 7.1e-4.
-pub const TABLE_MU_DIELECTRIC: usize = 64;
+pub(crate) const TABLE_MU_DIELECTRIC: usize = 64;
 /// mu cells of a Smith dense-side row below its critical cosine
 /// (`Lower::Whole`); the other `UPPER_CELLS` lie above it.
 const DENSE_LOWER_CELLS: usize = 32;
@@ -195,7 +195,7 @@ const VCAVITY_UPPER_CELLS: usize = 47;
 /// 6.9 s for Beckmann) with 88 nodes, and with these 104 1.2x and 1.5x that
 /// (6.4 -> 7.4 s and 5.1 -> 7.5 s for GGX, 4.7 -> 5.5 s and 7.0 -> 10.3 s
 /// for Beckmann; side by side on an idle host).
-pub const TABLE_MU_VCAVITY: usize = VCAVITY_LOWER_CELLS[0]
+pub(crate) const TABLE_MU_VCAVITY: usize = VCAVITY_LOWER_CELLS[0]
     + VCAVITY_LOWER_CELLS[1]
     + VCAVITY_LOWER_CELLS[2]
     + VCAVITY_UPPER_CELLS
@@ -204,7 +204,7 @@ pub const TABLE_MU_VCAVITY: usize = VCAVITY_LOWER_CELLS[0]
 const MAX_MU_NODES: usize = TABLE_MU_VCAVITY;
 
 /// Table nodes in mu per row of `shadowing`'s tables.
-pub fn table_mu_nodes(shadowing: Shadowing) -> usize {
+pub(crate) fn table_mu_nodes(shadowing: Shadowing) -> usize {
     match shadowing {
         Shadowing::Smith => TABLE_MU_DIELECTRIC,
         Shadowing::VCavity => TABLE_MU_VCAVITY,
@@ -1302,7 +1302,7 @@ pub(crate) fn dielectric_albedo_quadrature_with(
 /// rarer side, where 1 - F is smooth (no total internal reflection), by
 /// Gauss-Legendre; the denser side's follows from n_+^2 T_+ = n_-^2 T_-
 /// (module docs), T_+ = eta^2 T_-.
-pub fn transmittance_above(eta: f32) -> f32 {
+pub(crate) fn transmittance_above(eta: f32) -> f32 {
     static NODES: OnceLock<Vec<(f64, f64)>> = OnceLock::new();
     let nodes = NODES.get_or_init(|| gauss_legendre(TRANSMITTANCE_NODES));
     let eta = f64::from(eta);

@@ -88,7 +88,7 @@ const UNSCALED: u32 = u32::MAX;
 /// s-bar at one critical-cosine node, for every pair of alpha nodes
 /// (module docs).
 #[derive(Clone, Debug)]
-pub struct MeanScaleSlice {
+pub(crate) struct MeanScaleSlice {
     /// `index[a * TABLE_ALPHA + k]`: the row of alpha node a widened to
     /// node k in `rows`, or `UNSCALED`.
     index: Vec<u32>,

@@ -78,15 +78,15 @@ use crate::shadowing::Shadowing;
 /// nodes in mu missed it by 9e-3, and 40 nodes linear in sqrt(mu) by
 /// 3.4e-3 (at mu 0.03, alpha 0.02; 64 nodes: 1.1e-3; cubic: 8.1e-4 at mu
 /// 0.043).
-pub const TABLE_MU: usize = 64;
+pub(crate) const TABLE_MU: usize = 64;
 /// Table nodes in alpha, uniform in sqrt(alpha) on [0, `TABLE_ALPHA_MAX`]
 /// (small widths change the albedo near grazing fastest, as above);
 /// interpolated by a cubic, which took the largest error at mu >= 0.1 from
 /// 2.1e-3 (linear) to 2.4e-4.
-pub const TABLE_ALPHA: usize = 40;
+pub(crate) const TABLE_ALPHA: usize = 40;
 /// Largest tabulated alpha: regularization never raises alpha beyond 1
 /// (SPEC §5's alpha_max), and a lobe already wider is left unchanged.
-pub const TABLE_ALPHA_MAX: f32 = 1.0;
+pub(crate) const TABLE_ALPHA_MAX: f32 = 1.0;
 /// (radial, azimuthal) Gauss-Legendre nodes per piece of the tables'
 /// quadrature (`SplitQuadrature`): within 5e-5 of 64 x 64 for every NDF
 /// and shadowing model (`tests/microfacet/energy_compensation.rs`, `REFERENCE`).
@@ -106,7 +106,7 @@ pub struct AlbedoTable {
 
 impl AlbedoTable {
     /// Computes the table by quadrature (see `albedo_quadrature`).
-    pub fn compute(kind: NdfKind, shadowing: Shadowing) -> Self {
+    pub(crate) fn compute(kind: NdfKind, shadowing: Shadowing) -> Self {
         let mut e = Vec::with_capacity(TABLE_ALPHA * TABLE_MU);
         for k in 0..TABLE_ALPHA {
             let alpha = alpha_node(k);

@@ -157,7 +157,7 @@ pub struct MeanScaleTable {
 impl MeanScaleTable {
     /// Computes the table: one kernel per alpha-hat node that has a pair
     /// which gains, one balancing per such pair (module docs).
-    pub fn compute(kind: NdfKind, shadowing: Shadowing) -> Self {
+    pub(crate) fn compute(kind: NdfKind, shadowing: Shadowing) -> Self {
         Self::compute_with_statistics(kind, shadowing).0
     }
 
