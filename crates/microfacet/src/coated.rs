@@ -201,8 +201,8 @@ impl Coated {
 
     /// P_s(mu): the probability of sampling the specular lobe for a query
     /// at macro cosine `mu`, the channel mean of F(mu) against that of
-    /// (1 - m) base T(mu), kept in [`MIN_LOBE_PROBABILITY`],
-    /// 1 - [`MIN_LOBE_PROBABILITY`] when both lobes reflect.
+    /// (1 - m) base T(mu), kept in `MIN_LOBE_PROBABILITY`,
+    /// 1 - `MIN_LOBE_PROBABILITY` when both lobes reflect.
     pub fn specular_probability(&self, mu: f32) -> f32 {
         match (self.has_specular(), self.has_diffuse()) {
             (false, _) => 0.0,
