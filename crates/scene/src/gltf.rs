@@ -671,8 +671,6 @@ impl Loader<'_> {
         Ok(())
     }
 
-    /// Checks every accessor `primitive` reads (see [`validate`]) and returns
-    /// them with their labels.
     /// Grows the scene's arrays for `primitive` (its accessors checked
     /// against their buffers, so the counts are real) before its attributes
     /// are read into temporary arrays: freed later, those leave no hole under
@@ -687,6 +685,8 @@ impl Loader<'_> {
         self.builder.reserve(triangles, vertices);
     }
 
+    /// Checks every accessor `primitive` reads (see [`validate`]) and returns
+    /// them with their labels.
     fn check_primitive(
         &self,
         mesh: usize,
