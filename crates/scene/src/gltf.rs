@@ -326,6 +326,19 @@ struct PrimitiveAccessors {
     indices: Option<(usize, String)>,
 }
 
+/// A triangle primitive as read from its accessors.
+struct PrimitiveData {
+    /// Positions, in object space.
+    positions: Vec<Vec3>,
+    /// Normals, in object space.
+    normals: Option<Vec<Vec3>>,
+    /// Texture coordinates (set 0).
+    uvs: Option<Vec<Vec2>>,
+    /// Tangents, in world space; read only under a normal map.
+    tangents: Option<Vec<Vec4>>,
+    /// Three vertex indices per triangle.
+    indices: Vec<u32>,
+}
 /// `(NaN, 0, 1) ` for a message.
 fn fmt_vec(v: Vec3) -> String {
     format!("({}, {}, {}) ", v.x, v.y, v.z)
@@ -401,9 +414,9 @@ impl Loader<'_> {
         Ok(())
     }
 
+    /// Adds the triangle primitives of `mesh`, placed by `world`; a
+    /// primitive of another mode is skipped with a warning.
     fn add_mesh(&mut self, mesh: &gltf::Mesh, world: Mat4) -> Result<(), SceneError> {
-        let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
-        let flips = Mat3::from_mat4(world).determinant() < 0.0;
         for primitive in mesh.primitives() {
             let element = format!(
                 "mesh {} ({}), primitive {}",
@@ -419,157 +432,245 @@ impl Loader<'_> {
                 ));
                 continue;
             }
-            let material = self.material(&primitive.material())?;
-            let accessors = self.check_primitive(mesh.index(), &primitive, &element)?;
-            self.reserve(&primitive);
-            let reader = primitive.reader(|b| self.buffers.get(b.index()).map(|d| &d.0[..]));
-            let unreadable = |(index, label): &(usize, String)| {
-                SceneError::malformed(
-                    self.path,
-                    format!("{label}: accessor {index} could not be read"),
-                )
-            };
-            let raw_positions: Vec<Vec3> = reader
-                .read_positions()
-                .ok_or_else(|| unreadable(&accessors.position))?
-                .map(Vec3::from_array)
-                .collect();
-            let raw_normals: Option<Vec<Vec3>> = match &accessors.normal {
-                Some(a) => Some(
-                    reader
-                        .read_normals()
-                        .ok_or_else(|| unreadable(a))?
-                        .map(Vec3::from_array)
-                        .collect(),
-                ),
-                None => None,
-            };
-            let uvs: Option<Vec<Vec2>> = match &accessors.tex_coord {
-                Some(a) => Some(
-                    reader
-                        .read_tex_coords(0)
-                        .ok_or_else(|| unreadable(a))?
-                        .into_f32()
-                        .map(Vec2::from_array)
-                        .collect(),
-                ),
-                None => None,
-            };
-            // Tangents matter only under a normal map.
-            let tangents: Option<Vec<Vec4>> = match &accessors.tangent {
-                Some(a)
-                    if self.builder.materials[material as usize]
-                        .maps
-                        .normal
-                        .is_some() =>
-                {
-                    let read: Vec<Vec4> = reader
-                        .read_tangents()
-                        .ok_or_else(|| unreadable(a))?
-                        .map(Vec4::from_array)
-                        .collect();
-                    let (tangents, replaced) = world_tangents(&read, world);
-                    if replaced > 0 {
-                        self.builder.report.warnings.push(format!(
-                            "{}: {}: {replaced} zero or non-finite tangents replaced by ones derived from the texture coordinates",
-                            self.path.display(),
-                            a.1
-                        ));
-                    }
-                    Some(tangents)
-                }
-                _ => None,
-            };
-            let indices: Vec<u32> = match &accessors.indices {
-                Some(a) => reader
-                    .read_indices()
-                    .ok_or_else(|| unreadable(a))?
-                    .into_u32()
-                    .collect(),
-                None => (0..raw_positions.len() as u32).collect(),
-            };
-            if !indices.len().is_multiple_of(3) {
-                return Err(SceneError::malformed(
-                    self.path,
-                    format!(
-                        "{element}: {} indices is not a multiple of 3",
-                        indices.len()
-                    ),
-                ));
-            }
-            for attribute in [
-                raw_normals.as_ref().map(Vec::len),
-                uvs.as_ref().map(Vec::len),
-                tangents.as_ref().map(Vec::len),
-            ]
-            .into_iter()
-            .flatten()
-            {
-                if attribute != raw_positions.len() {
-                    return Err(SceneError::malformed(
-                        self.path,
-                        format!(
-                            "{element}: attribute count {attribute} differs from {} positions",
-                            raw_positions.len()
-                        ),
-                    ));
-                }
-            }
-            let vertex_count = raw_positions.len();
-            if let Some(k) = indices.iter().position(|&i| i as usize >= vertex_count) {
-                let label = accessors.indices.as_ref().map_or(&element, |(_, l)| l);
-                return Err(SceneError::malformed(
-                    self.path,
-                    format!(
-                        "{label}: index {k} (triangle {}) uses vertex {}, but {} has {vertex_count}",
-                        k / 3,
-                        indices[k],
-                        accessors.position.1
-                    ),
-                ));
-            }
-            let positions: Vec<Vec3> = raw_positions
-                .iter()
-                .map(|&p| world.transform_point3(p))
-                .collect();
-            let normals: Option<Vec<Vec3>> = raw_normals
-                .as_ref()
-                .map(|ns| ns.iter().map(|&n| normal_matrix * n).collect());
-            self.check_finite(&accessors.position.1, &raw_positions, &positions, &indices)?;
-            if let (Some((_, label)), Some(raw)) = (&accessors.normal, &raw_normals) {
-                // World-space normals are not checked: a singular transform
-                // (a scale of 0 hides a node) makes them NaN, and the scene
-                // builder replaces those with the geometric normal.
-                self.check_finite(label, raw, raw, &indices)?;
-            }
-            self.builder.begin_shared_vertices(positions.len());
-            for (t, tri) in indices.chunks_exact(3).enumerate() {
-                let mut ids = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
-                if flips {
-                    ids.swap(1, 2);
-                }
-                let element = || format!("{element}, triangle {t}");
-                let p = ids.map(|i| positions[i]);
-                let n = normals.as_ref().map(|ns| ids.map(|i| ns[i]));
-                let uv = uvs.as_ref().map(|us| ids.map(|i| us[i]));
-                let t = tangents.as_ref().map(|ts| ids.map(|i| ts[i]));
-                self.builder.add_indexed_triangle(
-                    self.path,
-                    &element,
-                    ids.map(|i| i as u32),
-                    p,
-                    n,
-                    uv,
-                    t,
-                    material,
-                )?;
-            }
+            self.add_primitive(mesh.index(), &primitive, &element, world)?;
         }
         Ok(())
     }
 
-    /// Checks every accessor `primitive` reads (see [`validate`]) and returns
-    /// them with their labels.
+    /// Adds one triangle primitive of mesh `mesh`: its material, its
+    /// accessors checked and read, its indices and values checked, then its
+    /// triangles in world space. `element` names it in messages.
+    fn add_primitive(
+        &mut self,
+        mesh: usize,
+        primitive: &gltf::Primitive,
+        element: &str,
+        world: Mat4,
+    ) -> Result<(), SceneError> {
+        let material = self.material(&primitive.material())?;
+        let accessors = self.check_primitive(mesh, primitive, element)?;
+        self.reserve(primitive);
+        let data = self.read_primitive(primitive, &accessors, material, world)?;
+        self.check_indices(element, &accessors, &data)?;
+        let (positions, normals) = self.world_vertices(&accessors, &data, world)?;
+        let flips = Mat3::from_mat4(world).determinant() < 0.0;
+        self.add_triangles(
+            element,
+            &data,
+            &positions,
+            normals.as_deref(),
+            flips,
+            material,
+        )
+    }
+
+    /// Reads the attributes and indices of a checked primitive (without
+    /// an index accessor, its vertices in order). Tangents are read only
+    /// when `material` has a normal map, the only use of them.
+    fn read_primitive(
+        &mut self,
+        primitive: &gltf::Primitive,
+        accessors: &PrimitiveAccessors,
+        material: u32,
+        world: Mat4,
+    ) -> Result<PrimitiveData, SceneError> {
+        let (path, buffers) = (self.path, self.buffers);
+        let reader = primitive.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+        let unreadable = |(index, label): &(usize, String)| {
+            SceneError::malformed(path, format!("{label}: accessor {index} could not be read"))
+        };
+        let positions: Vec<Vec3> = reader
+            .read_positions()
+            .ok_or_else(|| unreadable(&accessors.position))?
+            .map(Vec3::from_array)
+            .collect();
+        let normals: Option<Vec<Vec3>> = match &accessors.normal {
+            Some(a) => Some(
+                reader
+                    .read_normals()
+                    .ok_or_else(|| unreadable(a))?
+                    .map(Vec3::from_array)
+                    .collect(),
+            ),
+            None => None,
+        };
+        let uvs: Option<Vec<Vec2>> = match &accessors.tex_coord {
+            Some(a) => Some(
+                reader
+                    .read_tex_coords(0)
+                    .ok_or_else(|| unreadable(a))?
+                    .into_f32()
+                    .map(Vec2::from_array)
+                    .collect(),
+            ),
+            None => None,
+        };
+        // Tangents matter only under a normal map.
+        let tangents: Option<Vec<Vec4>> = match &accessors.tangent {
+            Some(a)
+                if self.builder.materials[material as usize]
+                    .maps
+                    .normal
+                    .is_some() =>
+            {
+                let read: Vec<Vec4> = reader
+                    .read_tangents()
+                    .ok_or_else(|| unreadable(a))?
+                    .map(Vec4::from_array)
+                    .collect();
+                Some(self.tangents_to_world(&read, &a.1, world))
+            }
+            _ => None,
+        };
+        let indices: Vec<u32> = match &accessors.indices {
+            Some(a) => reader
+                .read_indices()
+                .ok_or_else(|| unreadable(a))?
+                .into_u32()
+                .collect(),
+            None => (0..positions.len() as u32).collect(),
+        };
+        Ok(PrimitiveData {
+            positions,
+            normals,
+            uvs,
+            tangents,
+            indices,
+        })
+    }
+
+    /// The tangents of accessor `label` in world space ([`world_tangents`]),
+    /// with a warning counting those replaced by ones the renderer derives.
+    fn tangents_to_world(&mut self, read: &[Vec4], label: &str, world: Mat4) -> Vec<Vec4> {
+        let (tangents, replaced) = world_tangents(read, world);
+        if replaced > 0 {
+            self.builder.report.warnings.push(format!(
+                "{}: {}: {replaced} zero or non-finite tangents replaced by ones derived from the texture coordinates",
+                self.path.display(),
+                label
+            ));
+        }
+        tangents
+    }
+
+    /// Refuses indices that do not make whole triangles or that name a
+    /// vertex past the positions, and an attribute whose count differs from
+    /// the positions': triangles are then read without bounds failures.
+    fn check_indices(
+        &self,
+        element: &str,
+        accessors: &PrimitiveAccessors,
+        data: &PrimitiveData,
+    ) -> Result<(), SceneError> {
+        let indices = &data.indices;
+        if !indices.len().is_multiple_of(3) {
+            return Err(SceneError::malformed(
+                self.path,
+                format!(
+                    "{element}: {} indices is not a multiple of 3",
+                    indices.len()
+                ),
+            ));
+        }
+        let vertex_count = data.positions.len();
+        for attribute in [
+            data.normals.as_ref().map(Vec::len),
+            data.uvs.as_ref().map(Vec::len),
+            data.tangents.as_ref().map(Vec::len),
+        ]
+        .into_iter()
+        .flatten()
+        {
+            if attribute != vertex_count {
+                return Err(SceneError::malformed(
+                    self.path,
+                    format!(
+                        "{element}: attribute count {attribute} differs from {vertex_count} positions"
+                    ),
+                ));
+            }
+        }
+        if let Some(k) = indices.iter().position(|&i| i as usize >= vertex_count) {
+            let label = accessors.indices.as_ref().map_or(element, |(_, l)| l);
+            return Err(SceneError::malformed(
+                self.path,
+                format!(
+                    "{label}: index {k} (triangle {}) uses vertex {}, but {} has {vertex_count}",
+                    k / 3,
+                    indices[k],
+                    accessors.position.1
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The primitive's positions and normals in world space. A non-finite
+    /// position (as read or once placed) or normal (as read) is refused.
+    fn world_vertices(
+        &self,
+        accessors: &PrimitiveAccessors,
+        data: &PrimitiveData,
+        world: Mat4,
+    ) -> Result<(Vec<Vec3>, Option<Vec<Vec3>>), SceneError> {
+        let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
+        let positions: Vec<Vec3> = data
+            .positions
+            .iter()
+            .map(|&p| world.transform_point3(p))
+            .collect();
+        let normals: Option<Vec<Vec3>> = data
+            .normals
+            .as_ref()
+            .map(|ns| ns.iter().map(|&n| normal_matrix * n).collect());
+        let indices = &data.indices;
+        self.check_finite(&accessors.position.1, &data.positions, &positions, indices)?;
+        if let (Some((_, label)), Some(raw)) = (&accessors.normal, &data.normals) {
+            // World-space normals are not checked: a singular transform
+            // (a scale of 0 hides a node) makes them NaN, and the scene
+            // builder replaces those with the geometric normal.
+            self.check_finite(label, raw, raw, indices)?;
+        }
+        Ok((positions, normals))
+    }
+
+    /// Adds the primitive's triangles, sharing its vertices, with their
+    /// winding reversed where the transform mirrors (`flips`) so that they
+    /// keep facing the way the file has them.
+    fn add_triangles(
+        &mut self,
+        element: &str,
+        data: &PrimitiveData,
+        positions: &[Vec3],
+        normals: Option<&[Vec3]>,
+        flips: bool,
+        material: u32,
+    ) -> Result<(), SceneError> {
+        self.builder.begin_shared_vertices(positions.len());
+        for (t, tri) in data.indices.chunks_exact(3).enumerate() {
+            let mut ids = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+            if flips {
+                ids.swap(1, 2);
+            }
+            let element = || format!("{element}, triangle {t}");
+            let p = ids.map(|i| positions[i]);
+            let n = normals.map(|ns| ids.map(|i| ns[i]));
+            let uv = data.uvs.as_ref().map(|us| ids.map(|i| us[i]));
+            let t = data.tangents.as_ref().map(|ts| ids.map(|i| ts[i]));
+            self.builder.add_indexed_triangle(
+                self.path,
+                &element,
+                ids.map(|i| i as u32),
+                p,
+                n,
+                uv,
+                t,
+                material,
+            )?;
+        }
+        Ok(())
+    }
+
     /// Grows the scene's arrays for `primitive` (its accessors checked
     /// against their buffers, so the counts are real) before its attributes
     /// are read into temporary arrays: freed later, those leave no hole under
@@ -584,6 +685,8 @@ impl Loader<'_> {
         self.builder.reserve(triangles, vertices);
     }
 
+    /// Checks every accessor `primitive` reads (see [`validate`]) and returns
+    /// them with their labels.
     fn check_primitive(
         &self,
         mesh: usize,

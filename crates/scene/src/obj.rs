@@ -84,6 +84,34 @@ pub fn load(
     // keeps the holes: 29 MB of a million-triangle load was such).
     let mut builder = SceneBuilder::default();
     builder.reserve(triangles, vertices);
+    let Parsed {
+        models,
+        materials,
+        origins,
+        splits,
+    } = parse(path, policy)?;
+    warn_undefined_usemtl(path, usemtl, &materials, &mut builder);
+    let material_ids = add_materials(path, policy, &materials, &origins, &mut builder)?;
+    add_models(path, models, &splits, &material_ids, &mut builder)?;
+    Ok(builder)
+}
+
+/// What tobj made of the OBJ file and its MTL files.
+struct Parsed {
+    /// The file's objects and groups, long runs of faces cut into several by [`Chunked`].
+    models: Vec<tobj::Model>,
+    /// The materials of every MTL file, in tobj's order.
+    materials: Vec<tobj::Material>,
+    /// Where each material was defined.
+    origins: Origins,
+    /// The number of triangles read before each cut [`Chunked`] made, increasing.
+    splits: Vec<usize>,
+}
+
+/// Parses the OBJ file with tobj, streamed through [`Chunked`], and its MTL
+/// files with [`load_mtl`]. An MTL file's own error is returned as it is:
+/// tobj's material loader can only say that one failed.
+fn parse(path: &Path, policy: &crate::paths::ReferencePolicy) -> Result<Parsed, SceneError> {
     let options = tobj::LoadOptions {
         single_index: true,
         triangulate: true,
@@ -122,7 +150,7 @@ pub fn load(
         return Err(SceneError::io(path, e));
     }
     let (models, materials) = loaded.map_err(|e| SceneError::malformed(path, describe(&e)))?;
-    let mtl_materials = match materials {
+    let materials = match materials {
         Ok(m) => m,
         Err(e) => {
             return Err(SceneError::malformed(
@@ -134,10 +162,25 @@ pub fn load(
             ));
         }
     };
-    let origins = origins.into_inner();
+    Ok(Parsed {
+        models,
+        materials,
+        origins: origins.into_inner(),
+        splits: reader.splits,
+    })
+}
+
+/// Warns of each `usemtl` (at its first line) that names no material of
+/// the MTL files: its faces get the default material.
+fn warn_undefined_usemtl(
+    path: &Path,
+    usemtl: Vec<(usize, String)>,
+    materials: &[tobj::Material],
+    builder: &mut SceneBuilder,
+) {
     for (line, name) in usemtl
         .into_iter()
-        .filter(|(_, name)| !mtl_materials.iter().any(|m| m.name == *name))
+        .filter(|(_, name)| !materials.iter().any(|m| m.name == *name))
     {
         builder.report.warnings.push(format!(
             "{}: line {line}: usemtl {} names no material of its MTL files: the default \
@@ -146,9 +189,21 @@ pub fn load(
             quoted(&name)
         ));
     }
+}
+
+/// Adds the MTL materials to the scene ([`map_material`]), each naming in
+/// its errors the MTL file and `newmtl` line it came from (the OBJ file and
+/// no line if unknown). Returns their scene ids, in tobj's order.
+fn add_materials(
+    path: &Path,
+    policy: &crate::paths::ReferencePolicy,
+    materials: &[tobj::Material],
+    origins: &Origins,
+    builder: &mut SceneBuilder,
+) -> Result<Vec<u32>, SceneError> {
     let mut texture_cache: TextureCache = HashMap::new();
-    let mut material_ids = Vec::with_capacity(mtl_materials.len());
-    for m in &mtl_materials {
+    let mut material_ids = Vec::with_capacity(materials.len());
+    for m in materials {
         let (mtl_file, line) = origins
             .get(&m.name)
             .cloned()
@@ -158,91 +213,132 @@ pub fn load(
             line,
             policy,
         };
-        let material = map_material(&source, m, &mut builder, &mut texture_cache)?;
+        let material = map_material(&source, m, builder, &mut texture_cache)?;
         material_ids.push(builder.add_material(material));
     }
+    Ok(material_ids)
+}
+
+/// Adds tobj's models to the scene in order, each freed once copied. A
+/// triangle is numbered in its object as if [`Chunked`] had made no cuts, so
+/// that errors name it as the file has it.
+fn add_models(
+    path: &Path,
+    models: Vec<tobj::Model>,
+    splits: &[usize],
+    material_ids: &[u32],
+    builder: &mut SceneBuilder,
+) -> Result<(), SceneError> {
     let mut default_id = None;
     // Triangles of the models so far, and of the ones before this one of
     // the same run of faces (those `Chunked` cut it into).
     let (mut triangles, mut first_triangle) = (0, 0);
-    let mut splits = reader.splits.iter().peekable();
+    let mut splits = splits.iter().peekable();
     // Each model is freed once in the scene.
     for model in models {
-        let mesh = &model.mesh;
-        let count = mesh.indices.len() / 3;
+        let count = model.mesh.indices.len() / 3;
         if count > 0 {
             if splits.next_if_eq(&&triangles).is_none() {
                 first_triangle = 0;
             }
             triangles += count;
         }
-        let material = match mesh.material_id {
-            Some(id) => *material_ids.get(id).ok_or_else(|| {
-                SceneError::malformed(
-                    path,
-                    format!(
-                        "object {} uses material {id}, which the MTL does not define",
-                        quoted(&model.name)
-                    ),
-                )
-            })?,
-            None => *default_id.get_or_insert_with(|| builder.add_material(default_material())),
-        };
-        let vertex = |i: u32| -> Option<Vec3> {
-            let i = i as usize * 3;
-            mesh.positions
-                .get(i..i + 3)
-                .map(|p| Vec3::new(p[0], p[1], p[2]))
-        };
-        let normal = |i: u32| -> Option<Vec3> {
-            let i = i as usize * 3;
-            mesh.normals
-                .get(i..i + 3)
-                .map(|p| Vec3::new(p[0], p[1], p[2]))
-        };
-        let uv = |i: u32| -> Option<Vec2> {
-            let i = i as usize * 2;
-            // OBJ's v runs upwards; textures store the top row first.
-            mesh.texcoords
-                .get(i..i + 2)
-                .map(|t| Vec2::new(t[0], 1.0 - t[1]))
-        };
-        // tobj's `single_index`: one index per corner for every attribute,
-        // so the file's vertices are shared as they are.
-        builder.begin_shared_vertices(mesh.positions.len() / 3);
-        for (f, face) in mesh.indices.chunks_exact(3).enumerate() {
-            let f = first_triangle + f;
-            let element = || format!("object {}, triangle {f}", quoted(&model.name));
-            let get = |g: &dyn Fn(u32) -> Option<Vec3>| -> Option<[Vec3; 3]> {
-                Some([g(face[0])?, g(face[1])?, g(face[2])?])
-            };
-            let positions = get(&vertex).ok_or_else(|| {
-                SceneError::malformed(path, format!("{}: vertex index out of range", element()))
-            })?;
-            let normals = if mesh.normals.is_empty() {
-                None
-            } else {
-                get(&normal)
-            };
-            let uvs = if mesh.texcoords.is_empty() {
-                None
-            } else {
-                (|| Some([uv(face[0])?, uv(face[1])?, uv(face[2])?]))()
-            };
-            builder.add_indexed_triangle(
-                path,
-                &element,
-                [face[0], face[1], face[2]],
-                positions,
-                normals,
-                uvs,
-                None,
-                material,
-            )?;
-        }
+        let material = model_material(path, &model, material_ids, &mut default_id, builder)?;
+        add_model_triangles(path, &model, first_triangle, material, builder)?;
         first_triangle += count;
     }
-    Ok(builder)
+    Ok(())
+}
+
+/// The scene material of a model's faces: its MTL material, or the default
+/// material for faces without one (added to the scene at its first use,
+/// then kept in `default_id`).
+fn model_material(
+    path: &Path,
+    model: &tobj::Model,
+    material_ids: &[u32],
+    default_id: &mut Option<u32>,
+    builder: &mut SceneBuilder,
+) -> Result<u32, SceneError> {
+    Ok(match model.mesh.material_id {
+        Some(id) => *material_ids.get(id).ok_or_else(|| {
+            SceneError::malformed(
+                path,
+                format!(
+                    "object {} uses material {id}, which the MTL does not define",
+                    quoted(&model.name)
+                ),
+            )
+        })?,
+        None => *default_id.get_or_insert_with(|| builder.add_material(default_material())),
+    })
+}
+
+/// Adds the triangles of one model, with the file's vertices shared as they
+/// are, its normals and texture coordinates where it has them.
+/// `first_triangle` is the number of its first triangle in its object, for
+/// error messages.
+fn add_model_triangles(
+    path: &Path,
+    model: &tobj::Model,
+    first_triangle: usize,
+    material: u32,
+    builder: &mut SceneBuilder,
+) -> Result<(), SceneError> {
+    let mesh = &model.mesh;
+    let vertex = |i: u32| -> Option<Vec3> {
+        let i = i as usize * 3;
+        mesh.positions
+            .get(i..i + 3)
+            .map(|p| Vec3::new(p[0], p[1], p[2]))
+    };
+    let normal = |i: u32| -> Option<Vec3> {
+        let i = i as usize * 3;
+        mesh.normals
+            .get(i..i + 3)
+            .map(|p| Vec3::new(p[0], p[1], p[2]))
+    };
+    let uv = |i: u32| -> Option<Vec2> {
+        let i = i as usize * 2;
+        // OBJ's v runs upwards; textures store the top row first.
+        mesh.texcoords
+            .get(i..i + 2)
+            .map(|t| Vec2::new(t[0], 1.0 - t[1]))
+    };
+    // tobj's `single_index`: one index per corner for every attribute,
+    // so the file's vertices are shared as they are.
+    builder.begin_shared_vertices(mesh.positions.len() / 3);
+    for (f, face) in mesh.indices.chunks_exact(3).enumerate() {
+        let f = first_triangle + f;
+        let element = || format!("object {}, triangle {f}", quoted(&model.name));
+        let get = |g: &dyn Fn(u32) -> Option<Vec3>| -> Option<[Vec3; 3]> {
+            Some([g(face[0])?, g(face[1])?, g(face[2])?])
+        };
+        let positions = get(&vertex).ok_or_else(|| {
+            SceneError::malformed(path, format!("{}: vertex index out of range", element()))
+        })?;
+        let normals = if mesh.normals.is_empty() {
+            None
+        } else {
+            get(&normal)
+        };
+        let uvs = if mesh.texcoords.is_empty() {
+            None
+        } else {
+            (|| Some([uv(face[0])?, uv(face[1])?, uv(face[2])?]))()
+        };
+        builder.add_indexed_triangle(
+            path,
+            &element,
+            [face[0], face[1], face[2]],
+            positions,
+            normals,
+            uvs,
+            None,
+            material,
+        )?;
+    }
+    Ok(())
 }
 
 /// The OBJ file as tobj reads it, with a `g` line of the current object's
