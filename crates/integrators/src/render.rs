@@ -3,7 +3,7 @@
 //!
 //! Modules depend downwards only: `render` -> `bidir` -> `pt` -> `nee`,
 //! `walk` -> `roulette`, `vertex` -> `context` -> `lights`, `camera`,
-//! `geometry`, `sampler`; each integrator implements [`Integrator`].
+//! `geometry`, `sampler`; each integrator implements `Integrator`.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 

@@ -1,8 +1,8 @@
 //! Wavefront OBJ/MTL loading with `tobj` (mapping: see `material` module docs).
 //!
 //! The file is streamed, never held whole: one pass checks its values
-//! ([`check_lines`]), then tobj parses it through [`Chunked`], which cuts
-//! long runs of faces into models of at most [`CHUNK_TRIANGLES`]
+//! (`check_lines`), then tobj parses it through `Chunked`, which cuts
+//! long runs of faces into models of at most `CHUNK_TRIANGLES`
 //! triangles (tobj keeps 104 bytes per face of the model it is reading),
 //! and the models go into the scene one by one, each freed once copied.
 //! A 999,698-triangle height field peaked at about 200 bytes per triangle
