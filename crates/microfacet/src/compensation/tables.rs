@@ -110,10 +110,9 @@ impl EnergyTable {
 /// likes, or lists the tables with [`Bsdf::energy_tables`] and builds them
 /// with [`EnergyTable::build`].
 pub fn prepare_tables(bsdf: &Bsdf) {
-    let tables = bsdf.energy_tables();
-    let (albedos, gains): (Vec<_>, Vec<_>) = tables.iter().partition(|t| !t.reads_albedos());
-    albedos
-        .into_iter()
-        .chain(gains)
-        .for_each(EnergyTable::build);
+    // On one thread the order does not matter: a gain table builds the
+    // albedos it reads if they are not built yet.
+    for table in bsdf.energy_tables() {
+        table.build();
+    }
 }
