@@ -48,7 +48,7 @@ fn bench(c: &mut criterion::Criterion) {
     ] {
         let ray_sets = common::ray_sets(scene, RAYS);
         let mut group = c.benchmark_group(format!("variants/{scene}"));
-        for layout in [Layout::Wide, Layout::Binary] {
+        for layout in Layout::ALL {
             for quality in BuildQuality::ALL {
                 let options = BuildOptions { layout, quality };
                 let id = name(options);

@@ -17,7 +17,10 @@ use obvhs::{
     triangle::Triangle,
 };
 
+use fearless_simd::Level;
+
 use crate::binned::{self, PrimRef};
+use crate::bvh8::{Bvh8, Isa, traverse8};
 use crate::convert::bvh2_to_cwbvh;
 use crate::sphere::Sphere;
 use crate::traverse::{NodeRay, traverse_binary, traverse_wide};
@@ -30,7 +33,7 @@ pub const MAX_COORDINATE: f32 = 1e15;
 /// Deepest CWBVH this crate traverses: obvhs' CWBVH traversal stack holds 32
 /// entries and silently overwrites the last one when full, so deeper trees
 /// (only seen with adversarial inputs) are traversed as a BVH2 instead.
-const MAX_WIDE_DEPTH: usize = 24;
+pub(crate) const MAX_WIDE_DEPTH: usize = 24;
 
 /// A ray hit: distance, caller primitive id and barycentrics.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -56,11 +59,21 @@ pub struct Hit {
 pub enum Layout {
     /// 8-wide compressed BVH (Ylitie et al. 2017, 80 bytes per node), built by
     /// converting the binary tree; SIMD node tests. Fastest traversal.
-    #[default]
     Wide,
+    /// The same 8-wide tree with float child boxes in structure-of-arrays
+    /// form (Embree's BVH8 node, 256 bytes), all eight children tested in
+    /// one SIMD operation on the best instruction set of the CPU
+    /// ([`Isa`]), nearest child first.
+    #[default]
+    Bvh8,
     /// Binary BVH (the builder's tree, reinsertion, leaf collapse). Faster
     /// to build.
     Binary,
+}
+
+impl Layout {
+    /// Every layout.
+    pub const ALL: [Self; 3] = [Self::Wide, Self::Bvh8, Self::Binary];
 }
 
 /// The builder: this crate's binned SAH builder (the default), or an
@@ -131,6 +144,7 @@ pub struct BuildOptions {
 enum Tree {
     Empty,
     Wide(CwBvh),
+    Bvh8(Bvh8),
     /// With its number of levels.
     Binary(Bvh2, usize),
 }
@@ -161,6 +175,8 @@ pub struct Bvh {
     bounds: (Vec3, Vec3),
     /// floor(log2) of the largest coordinate magnitude of the scene.
     scene_exponent: i32,
+    /// The instruction set of [`Layout::Bvh8`]'s node tests.
+    isa: Level,
 }
 
 impl Default for Bvh {
@@ -328,6 +344,7 @@ impl Bvh {
             spheres: spheres.to_vec(),
             bounds,
             scene_exponent: 0,
+            isa: Level::new(),
         };
         if prims.is_empty() {
             return bvh;
@@ -362,13 +379,8 @@ impl Bvh {
         };
         // The references are no longer needed (28 bytes per primitive).
         drop(prims);
-        let mut tree = finish_tree(bvh2, options);
         // The traversals report slots; the slot -> id map moves here.
-        bvh.ids = match &mut tree {
-            Tree::Wide(wide) => std::mem::take(&mut wide.primitive_indices),
-            Tree::Binary(bvh2, _) => std::mem::take(&mut bvh2.primitive_indices),
-            Tree::Empty => unreachable!("a tree over at least one primitive"),
-        };
+        (bvh.tree, bvh.ids) = finish_tree(bvh2, options);
         bvh.triangles = bvh
             .ids
             .iter()
@@ -380,7 +392,6 @@ impl Bvh {
                 }
             })
             .collect();
-        bvh.tree = tree;
         let scene_scale = bounds.0.abs().max(bounds.1.abs()).max_element();
         bvh.scene_exponent = exponent(scene_scale).clamp(-100, 100);
         bvh
@@ -416,12 +427,21 @@ impl Bvh {
         self.bounds
     }
 
+    /// Chooses the instruction set of [`Layout::Bvh8`]'s node tests (other
+    /// layouts ignore it). Every choice gives the same results bit for bit;
+    /// this is for measuring and for testing that they do. Returns `false`,
+    /// changing nothing, when the CPU lacks `isa`.
+    pub fn set_isa(&mut self, isa: Isa) -> bool {
+        isa.level().map(|level| self.isa = level).is_some()
+    }
+
     /// The layout actually built: [`Layout::Binary`] when the BVH is empty or
     /// when a wide tree came out too deep for obvhs' fixed traversal stack.
     #[must_use]
     pub fn layout(&self) -> Layout {
         match self.tree {
             Tree::Wide(_) => Layout::Wide,
+            Tree::Bvh8(_) => Layout::Bvh8,
             Tree::Binary(..) | Tree::Empty => Layout::Binary,
         }
     }
@@ -503,6 +523,7 @@ impl Bvh {
         match &self.tree {
             Tree::Empty => {}
             Tree::Wide(bvh) => traverse_wide(bvh, &r.node, r.t_max, test),
+            Tree::Bvh8(bvh) => traverse8::<true>(self.isa, bvh, &r.node, r.t_max, test),
             Tree::Binary(bvh, depth) => traverse_binary(bvh, *depth, &r.node, r.t_max, test),
         }
         let (slot, b1, b2) = best?;
@@ -683,6 +704,7 @@ impl Bvh {
         match &self.tree {
             Tree::Empty => {}
             Tree::Wide(bvh) => traverse_wide(bvh, &r.node, r.t_max, test),
+            Tree::Bvh8(bvh) => traverse8::<false>(self.isa, bvh, &r.node, r.t_max, test),
             Tree::Binary(bvh, depth) => traverse_binary(bvh, *depth, &r.node, r.t_max, test),
         }
         occluded
@@ -834,16 +856,24 @@ fn build_bvh2_split(triangles: &[Triangle], options: BuildOptions) -> Bvh2 {
     bvh2
 }
 
-/// The tree of `options.layout` from `bvh2`.
-fn finish_tree(mut bvh2: Bvh2, options: BuildOptions) -> Tree {
+/// The tree of `options.layout` from `bvh2`, and the caller id of each
+/// primitive slot.
+fn finish_tree(mut bvh2: Bvh2, options: BuildOptions) -> (Tree, Vec<u32>) {
     let config = options.quality.params();
-    if options.layout == Layout::Wide {
+    if matches!(options.layout, Layout::Wide | Layout::Bvh8) {
         // The binary tree's bookkeeping of the reinsertion is not needed.
         bvh2.parents = Vec::new();
         bvh2.primitives_to_nodes = Vec::new();
-        let wide = bvh2_to_cwbvh(&bvh2, config.max_prims_per_leaf.clamp(1, 3));
-        if wide_depth(&wide) <= MAX_WIDE_DEPTH {
-            return Tree::Wide(wide);
+        let mut wide = bvh2_to_cwbvh(&bvh2, config.max_prims_per_leaf.clamp(1, 3));
+        let depth = wide_depth(&wide);
+        if depth <= MAX_WIDE_DEPTH {
+            let ids = std::mem::take(&mut wide.primitive_indices);
+            if options.layout == Layout::Bvh8
+                && let Some(float) = Bvh8::from_cwbvh(&wide, ids.len(), depth)
+            {
+                return (Tree::Bvh8(float), ids);
+            }
+            return (Tree::Wide(wide), ids);
         }
     }
     let mut reinsertion = ReinsertionOptimizer::default();
@@ -858,7 +888,8 @@ fn finish_tree(mut bvh2: Bvh2, options: BuildOptions) -> Tree {
         None,
     );
     let depth = binary_depth(&bvh2);
-    Tree::Binary(bvh2, depth)
+    let ids = std::mem::take(&mut bvh2.primitive_indices);
+    (Tree::Binary(bvh2, depth), ids)
 }
 
 /// Number of node levels of a CWBVH (0 when empty).

@@ -6,8 +6,10 @@
 //! crate only:
 //!
 //! - [`Bvh`]: a triangle BVH (this crate's binned SAH builder, or [obvhs]'
-//!   PLOC with reinsertion, converted to an 8-wide compressed BVH in
-//!   obvhs' node format), with closest-hit ([`Bvh::intersect`]) and
+//!   PLOC with reinsertion, converted to an 8-wide BVH, by default with
+//!   float child boxes tested eight at a time on the CPU's best SIMD
+//!   instruction set ([`Layout::Bvh8`], [`Isa`]), or in obvhs' compressed
+//!   node format), with closest-hit ([`Bvh::intersect`]) and
 //!   any-hit ([`Bvh::occluded`]) queries that return caller triangle ids and
 //!   barycentrics. The ray/triangle test is this crate's own watertight test
 //!   (Woop et al. 2013); obvhs only traverses nodes.
@@ -30,8 +32,11 @@
 //!   reciprocal), see [`Bvh::intersect`].
 //!
 //! # Choice of layout and preset
-//! The default layout (wide CWBVH) was picked from the `cargo bench -p
-//! accel` numbers (`benches/bvh.rs`); the default builder,
+//! The default layout ([`Layout::Bvh8`]) replaced the compressed one
+//! ([`Layout::Wide`], the same tree) for its fewer instructions per ray
+//! (no 8-bit plane decoding, one 8-lane slab test per node, nearest child
+//! first; docs/benchmarks.md has the figures), at 3.2 times the node
+//! memory (256 bytes a node against 80); the default builder,
 //! [`BuildQuality::Binned`], replaced obvhs' `medium` preset for its
 //! memory, with trees that trace as fast or faster (its documentation
 //! has the measurements).
@@ -46,6 +51,7 @@ pub use glam;
 
 mod binned;
 mod bvh;
+mod bvh8;
 mod convert;
 mod grid;
 mod offset;
@@ -54,6 +60,7 @@ mod traverse;
 mod triangle;
 
 pub use bvh::{BuildOptions, BuildQuality, Bvh, Hit, Layout, MAX_COORDINATE};
+pub use bvh8::Isa;
 pub use grid::HashGrid;
 pub use offset::{offset_ray_origin, offset_ray_origin_bounded, offset_ray_origin_scaled};
 pub use sphere::{HIT_POINT_RELATIVE_ERROR, Sphere};

@@ -28,7 +28,7 @@ use obvhs::{
 /// distances (a few ulps of the terms they are computed from) and the slack
 /// of the watertight test, whose transformed vertices carry a few ulps of
 /// their distance from the origin.
-const WIDEN: f32 = 32.0 * f32::EPSILON;
+pub(crate) const WIDEN: f32 = 32.0 * f32::EPSILON;
 
 /// A ray prepared for node tests, in the triangle test's `t` units.
 #[derive(Clone, Copy, Debug)]

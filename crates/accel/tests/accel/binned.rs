@@ -12,9 +12,9 @@ use common::*;
 use glam::Vec3;
 use stats::Pcg32;
 
-/// The binned builder in both layouts (the first is the default).
-fn options() -> [BuildOptions; 2] {
-    [Layout::Wide, Layout::Binary].map(|layout| BuildOptions {
+/// The binned builder in every layout (the first is the default).
+fn options() -> [BuildOptions; 3] {
+    Layout::ALL.map(|layout| BuildOptions {
         layout,
         quality: BuildQuality::Binned,
     })

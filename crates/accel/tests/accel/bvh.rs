@@ -11,7 +11,7 @@ use stats::Pcg32;
 /// Every layout, with the fastest and the default preset, plus a pre-split one.
 fn option_sets() -> Vec<BuildOptions> {
     let mut v = Vec::new();
-    for layout in [Layout::Wide, Layout::Binary] {
+    for layout in Layout::ALL {
         for quality in [
             BuildQuality::Binned,
             BuildQuality::Fastest,
@@ -432,7 +432,7 @@ fn axis_parallel_rays_and_extreme_scales() {
         let tris = cube_sphere(6, 1.0)
             .transformed(scale, Vec3::ZERO)
             .triangles();
-        let bvhs: Vec<Bvh> = [Layout::Wide, Layout::Binary]
+        let bvhs: Vec<Bvh> = Layout::ALL
             .into_iter()
             .map(|layout| {
                 Bvh::build_with(

@@ -6,4 +6,5 @@ mod binned;
 mod bvh;
 mod common;
 mod grid;
+mod isa;
 mod sphere;

@@ -10,8 +10,8 @@ use common::*;
 use glam::Vec3;
 use stats::Pcg32;
 
-fn layouts() -> [BuildOptions; 2] {
-    [Layout::Wide, Layout::Binary].map(|layout| BuildOptions {
+fn layouts() -> [BuildOptions; 3] {
+    Layout::ALL.map(|layout| BuildOptions {
         layout,
         quality: BuildQuality::Medium,
     })

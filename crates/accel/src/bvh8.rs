@@ -1,0 +1,320 @@
+//! An 8-wide BVH with uncompressed child boxes in structure-of-arrays form
+//! (Embree's BVH8 `AABBNode`: Wald, Woop, Benthin, Johnson and Ernst,
+//! "Embree: A Kernel Framework for Efficient CPU Ray Tracing", ACM TOG
+//! 33(4), 2014), whose node test checks a ray against all eight child boxes
+//! in one `f32x8` operation per step, on the best instruction set the CPU
+//! has (chosen at run time with `fearless_simd`; SSE4.2 at least).
+//!
+//! The tree is the compressed BVH's (`convert.rs`): the same nodes, children
+//! and leaves, with each child's quantized box decoded to floats rounded
+//! outwards, so a child box here contains the quantized one, which contains
+//! the child's primitives. What changes is the work per node: no 8-bit plane
+//! decoding (48 integer-to-float conversions a node, see
+//! ../shared/notes/simd-and-wavefront.md §3), one 8-lane slab test instead
+//! of two 4-lane ones, and children visited nearest first by their entry
+//! distance (the compressed traversal's octant order only approximates it),
+//! popped entries beyond the closest hit so far culled. Nodes are 256 bytes
+//! (80 compressed).
+//!
+//! **The same bits on every instruction set.** The node test uses only
+//! subtraction, multiplication, addition, `abs`, `min`, `max` and a
+//! comparison over finite values, each correctly rounded or exact in every
+//! SSE, AVX2 and AVX-512 encoding, on a fixed logical width of 8 lanes, and
+//! no fused multiply-add (nothing here asks for one and rustc never contracts
+//! `a * b + c`). `min`/`max` may pick either zero of `+0`/`-0` depending on
+//! the encoding; both compare equal, so the hit mask and the visiting order
+//! are the same. Which children are visited, in which order, and hence
+//! which hit is reported, are thus the same at every [`Isa`]
+//! (`tests/accel/isa.rs` compares every query's bits across them).
+
+use std::ops::ControlFlow;
+
+use fearless_simd::{Level, Simd, SimdFrom, dispatch, f32x8};
+use obvhs::cwbvh::CwBvh;
+
+use crate::bvh::MAX_WIDE_DEPTH;
+use crate::traverse::{NodeRay, WIDEN};
+
+/// Children per node: the logical SIMD width of every node test.
+const LANES: usize = 8;
+
+/// A child reference with this bit set is a leaf: its bits 2..31 are the first
+/// primitive slot, its two low bits the primitive count (1 to 3, the
+/// compressed BVH's leaf size).
+const LEAF: u32 = 1 << 31;
+
+/// Leaf slots must fit in 29 bits of a child reference.
+const MAX_SLOTS: usize = 1 << 29;
+
+/// Traversal stack entries for every tree traversed wide (at most
+/// `MAX_WIDE_DEPTH` levels, see `bvh.rs`): each level below the root leaves
+/// at most seven siblings of the child taken. A fixed array, zeroed per
+/// ray: a per-thread vector's access and borrow measured slower.
+const DEEP_STACK: usize = (LANES - 1) * MAX_WIDE_DEPTH + 1;
+
+/// The stack of trees of up to nine levels (8^9 leaves: any scene that
+/// is not adversarial), a quarter of [`DEEP_STACK`]'s bytes to zero per ray:
+/// measurable on small scenes, where a ray costs little else.
+const SHALLOW_STACK: usize = 64;
+
+/// The instruction set of the node tests (see the module documentation: the
+/// results are the same at every one).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum Isa {
+    /// The best this CPU has (detected once per process).
+    #[default]
+    Best,
+    /// SSE4.2 on x86-64 (the build's baseline, x86-64-v2), the platform's
+    /// baseline SIMD elsewhere: 8 lanes as two 4-lane halves.
+    Baseline,
+    /// AVX2 (x86-64-v3): 8 lanes in one register.
+    Avx2,
+    /// AVX-512 (Ice Lake class).
+    Avx512,
+}
+
+impl Isa {
+    /// Every choice.
+    pub const ALL: [Self; 4] = [Self::Best, Self::Baseline, Self::Avx2, Self::Avx512];
+
+    /// The `fearless_simd` level of this choice, `None` when the CPU lacks it.
+    pub(crate) fn level(self) -> Option<Level> {
+        let best = Level::new();
+        match self {
+            Self::Best => Some(best),
+            #[cfg(any(target_arch = "x86", target_arch = "x86_64"))]
+            Self::Baseline => best.as_sse4_2().map(Level::Sse4_2),
+            #[cfg(any(target_arch = "x86", target_arch = "x86_64"))]
+            Self::Avx2 => best.as_avx2().map(Level::Avx2),
+            #[cfg(any(target_arch = "x86", target_arch = "x86_64"))]
+            Self::Avx512 => best.as_avx512().map(Level::Avx512),
+            #[cfg(not(any(target_arch = "x86", target_arch = "x86_64")))]
+            Self::Baseline => Some(best),
+            #[cfg(not(any(target_arch = "x86", target_arch = "x86_64")))]
+            Self::Avx2 | Self::Avx512 => None,
+        }
+    }
+}
+
+/// One node: per axis the lower and upper planes of the eight child boxes,
+/// and the eight child references (an inner node's index, or a [`LEAF`]).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+pub(crate) struct Node8 {
+    lower: [[f32; LANES]; 3],
+    upper: [[f32; LANES]; 3],
+    child: [u32; LANES],
+    /// Bit `j` set when child `j` exists.
+    valid: u32,
+}
+
+/// The tree: node 0 is the root.
+pub(crate) struct Bvh8 {
+    nodes: Vec<Node8>,
+    /// Number of node levels.
+    depth: usize,
+}
+
+impl Bvh8 {
+    /// The float form of a compressed BVH of `depth` levels; `None` when its
+    /// primitive slots (`slots` of them) do not fit in a child reference.
+    pub(crate) fn from_cwbvh(wide: &CwBvh, slots: usize, depth: usize) -> Option<Self> {
+        if slots > MAX_SLOTS || wide.nodes.len() >= LEAF as usize {
+            return None;
+        }
+        let nodes = wide.nodes.iter().map(decode).collect();
+        Some(Self { nodes, depth })
+    }
+}
+
+/// A compressed node's children as float boxes rounded outwards: plane
+/// `p + q * 2^e` (Ylitie et al. 2017, §3.3), exact in f64.
+fn decode(node: &obvhs::cwbvh::node::CwBvhNode) -> Node8 {
+    let mut out = Node8 {
+        lower: [[0.0; LANES]; 3],
+        upper: [[0.0; LANES]; 3],
+        child: [0; LANES],
+        valid: 0,
+    };
+    let extent = node.compute_extent();
+    let quantized = [
+        (&node.child_min_x, &node.child_max_x),
+        (&node.child_min_y, &node.child_max_y),
+        (&node.child_min_z, &node.child_max_z),
+    ];
+    for j in 0..LANES {
+        if node.is_child_empty(j) {
+            continue;
+        }
+        out.valid |= 1 << j;
+        for (axis, (lo, hi)) in quantized.iter().enumerate() {
+            let plane = |q: u8| f64::from(node.p[axis]) + f64::from(q) * f64::from(extent[axis]);
+            out.lower[axis][j] = round_down(plane(lo[j]));
+            out.upper[axis][j] = round_up(plane(hi[j]));
+        }
+        out.child[j] = if node.is_leaf(j) {
+            let (first, count) = node.child_primitives(j);
+            LEAF | (first << 2) | count
+        } else {
+            node.child_node_index(j)
+        };
+    }
+    out
+}
+
+/// The largest f32 not above `x`.
+fn round_down(x: f64) -> f32 {
+    let f = x as f32;
+    if f64::from(f) > x { f.next_down() } else { f }
+}
+
+/// The smallest f32 not below `x`.
+fn round_up(x: f64) -> f32 {
+    let f = x as f32;
+    if f64::from(f) < x { f.next_up() } else { f }
+}
+
+/// A ray's constants for the node test, splatted over the lanes.
+struct Ray8<S: Simd> {
+    origin: [f32x8<S>; 3],
+    inv_direction: [f32x8<S>; 3],
+    /// Per axis, whether the direction is negative: its near planes are
+    /// then the upper ones.
+    negative: [bool; 3],
+}
+
+impl<S: Simd> Ray8<S> {
+    #[inline(always)]
+    fn new(simd: S, ray: &NodeRay) -> Self {
+        let splat = |v: glam::Vec3A| [v.x, v.y, v.z].map(|c| simd.splat_f32x8(c));
+        Self {
+            origin: splat(ray.origin),
+            inv_direction: splat(ray.inv_direction),
+            negative: [0, 1, 2].map(|k| ray.inv_direction[k] < 0.0),
+        }
+    }
+}
+
+/// Which children of `node` the ray may hit with `0 <= t <= t_max` (bit
+/// `j` for child `j`), and each child's conservative entry distance: the
+/// slab test of `traverse::box_entry`, each slab widened by its rounding
+/// bound, for eight boxes at once.
+#[inline(always)]
+fn child_hits<S: Simd>(simd: S, node: &Node8, ray: &Ray8<S>, t_max: f32) -> (u32, [f32; LANES]) {
+    let mut entry = simd.splat_f32x8(0.0);
+    let mut exit = simd.splat_f32x8(t_max);
+    for axis in 0..3 {
+        let (near, far) = if ray.negative[axis] {
+            (&node.upper[axis], &node.lower[axis])
+        } else {
+            (&node.lower[axis], &node.upper[axis])
+        };
+        let a = (f32x8::simd_from(simd, *near) - ray.origin[axis]) * ray.inv_direction[axis];
+        let b = (f32x8::simd_from(simd, *far) - ray.origin[axis]) * ray.inv_direction[axis];
+        let margin = (simd.abs_f32x8(a) + simd.abs_f32x8(b)) * WIDEN;
+        entry = simd.max_f32x8(entry, a - margin);
+        exit = simd.min_f32x8(exit, b + margin);
+    }
+    let hit = simd.to_bitmask_mask32x8(simd.simd_le_f32x8(entry, exit)) as u32;
+    (hit & node.valid, entry.into())
+}
+
+/// Visits the primitive slots the ray may hit, leaf by leaf; `prim(slot,
+/// &mut t_max)` may shorten `t_max` (closest hit) or break (any hit).
+/// `NEAREST_FIRST`: visit hit children in order of entry distance (for
+/// closest-hit queries; any-hit queries take them as they come).
+#[inline(always)]
+pub(crate) fn traverse8<const NEAREST_FIRST: bool>(
+    isa: Level,
+    bvh: &Bvh8,
+    ray: &NodeRay,
+    t_max: f32,
+    prim: impl FnMut(usize, &mut f32) -> ControlFlow<()>,
+) {
+    debug_assert!(bvh.depth <= MAX_WIDE_DEPTH);
+    if (LANES - 1) * bvh.depth < SHALLOW_STACK {
+        let mut stack = [(0u32, 0f32); SHALLOW_STACK];
+        dispatch!(isa, simd => walk::<_, NEAREST_FIRST>(simd, &bvh.nodes, &mut stack, ray, t_max, prim));
+    } else {
+        let mut stack = [(0u32, 0f32); DEEP_STACK];
+        dispatch!(isa, simd => walk::<_, NEAREST_FIRST>(simd, &bvh.nodes, &mut stack, ray, t_max, prim));
+    }
+}
+
+/// The traversal loop over a stack of (child reference, entry distance).
+#[inline(always)]
+fn walk<S: Simd, const NEAREST_FIRST: bool>(
+    simd: S,
+    nodes: &[Node8],
+    stack: &mut [(u32, f32)],
+    ray: &NodeRay,
+    mut t_max: f32,
+    mut prim: impl FnMut(usize, &mut f32) -> ControlFlow<()>,
+) {
+    let ray = Ray8::new(simd, ray);
+    stack[0] = (0, 0.0);
+    let mut len = 1;
+    while len > 0 {
+        len -= 1;
+        let (child, entry) = stack[len];
+        if entry > t_max {
+            continue;
+        }
+        if child & LEAF != 0 {
+            let first = ((child & !LEAF) >> 2) as usize;
+            for slot in first..first + (child & 3) as usize {
+                if prim(slot, &mut t_max).is_break() {
+                    return;
+                }
+            }
+            continue;
+        }
+        let node = &nodes[child as usize];
+        let (mut hits, entries) = child_hits(simd, node, &ray, t_max);
+        let start = len;
+        while hits != 0 {
+            let j = hits.trailing_zeros() as usize;
+            hits &= hits - 1;
+            stack[len] = (node.child[j], entries[j]);
+            len += 1;
+        }
+        if NEAREST_FIRST {
+            sort_farthest_first(&mut stack[start..len]);
+        }
+    }
+}
+
+/// Insertion sort by decreasing entry distance (at most eight entries), so
+/// that the nearest child is popped first.
+#[inline(always)]
+fn sort_farthest_first(entries: &mut [(u32, f32)]) {
+    for i in 1..entries.len() {
+        let mut k = i;
+        while k > 0 && entries[k - 1].1 < entries[k].1 {
+            entries.swap(k - 1, k);
+            k -= 1;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn outward_rounding() {
+        let x = 0.1f64;
+        assert!(f64::from(round_down(x)) <= x && f64::from(round_up(x)) >= x);
+        assert_eq!(round_up(x).next_down(), round_down(x));
+        assert_eq!(round_down(0.5), 0.5);
+        assert_eq!(round_up(0.5), 0.5);
+    }
+
+    #[test]
+    fn sort_puts_the_nearest_last() {
+        let mut e = [(0, 3.0), (1, 1.0), (2, 2.0), (3, 1.0)];
+        sort_farthest_first(&mut e);
+        assert_eq!(e.map(|(c, _)| c), [0, 2, 1, 3]);
+    }
+}
