@@ -193,11 +193,13 @@ impl Checkpoints {
         };
         if partial.header != expected {
             return Err(format!(
-                "{}: of another render (iterations 1..{}, {}x{})",
+                "{}: not this render's film after iteration {iterations} (it holds \
+                 iterations 1..{} at {}x{}, settings {})",
                 path.display(),
                 partial.header.last,
                 partial.header.width,
-                partial.header.height
+                partial.header.height,
+                partial.header.settings
             ));
         }
         let h = &partial.header;
@@ -290,7 +292,10 @@ mod tests {
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
             .collect();
         names.sort();
-        assert_eq!(names, ["luminance-3.rltfilm", "rgb-3.rltfilm", "state.json"]);
+        assert_eq!(
+            names,
+            ["luminance-3.rltfilm", "rgb-3.rltfilm", "state.json"]
+        );
         let back = c.load(1).unwrap().unwrap();
         let saved = state(3);
         assert_eq!(back.state.iteration, 3);
@@ -312,7 +317,7 @@ mod tests {
                 ..header()
             },
         );
-        assert!(error(other.load(1)).contains("another render"));
+        assert!(error(other.load(1)).contains("not this render's film"));
         fs::rename(
             c.folder().join("state.json"),
             dir.join("partial").join("state.json"),

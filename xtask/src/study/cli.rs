@@ -625,10 +625,7 @@ fn flag_and_value<'a>(args: &'a [String], i: &mut usize) -> Result<(&'a str, Str
         Some((f, v)) if f.starts_with("--") => (f, Some(v.to_string())),
         _ => (arg, None),
     };
-    let takes_value = !matches!(
-        flag,
-        "-h" | "--help" | "--rerender-reference" | "--fresh"
-    );
+    let takes_value = !matches!(flag, "-h" | "--help" | "--rerender-reference" | "--fresh");
     let value = if takes_value {
         match inline {
             Some(v) => v,

@@ -238,7 +238,12 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
         .iter()
         .map(|(_, _, spec)| spec.key(scene_hash, &renderer_version))
         .collect();
-    let jobs = run_jobs(&options, &settings, &reference_keys, &context)?;
+    let jobs = run_jobs(
+        &options,
+        &settings,
+        &reference_keys,
+        (scene_hash, &renderer_version),
+    )?;
     let cached = look_up_cache(&specs, &context, &options, &settings);
     let cached_runs: Vec<Option<Run>> = jobs
         .iter()
@@ -282,13 +287,23 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
                 run
             }
             None => {
-                let run = run_config(job, &options, &settings, &references, &context, &mut progress)?;
+                let run = run_config(
+                    job,
+                    &options,
+                    &settings,
+                    &references,
+                    &context,
+                    &mut progress,
+                )?;
                 store_run(job, &run, &context)?;
                 run
             }
         };
         crate::write_exr(
-            &options.out.join("images").join(format!("{}.exr", run.config)),
+            &options
+                .out
+                .join("images")
+                .join(format!("{}.exr", run.config)),
             settings.width,
             settings.height,
             &run.image,
@@ -336,12 +351,13 @@ struct RunJob {
     key: String,
 }
 
-/// The job of every config, keyed against the references' keys.
+/// The job of every config, keyed against the references' keys, the
+/// scene's hash and the renderer's version.
 fn run_jobs(
     options: &Options,
     settings: &Settings,
     reference_keys: &[String],
-    context: &Context<'_>,
+    (scene_hash, renderer_version): (u64, &str),
 ) -> Result<Vec<RunJob>, String> {
     options
         .configs
@@ -357,7 +373,7 @@ fn run_jobs(
                 height: settings.height,
                 references: reference_keys.to_vec(),
             };
-            let key = spec.key(context.scene_hash, context.renderer_version);
+            let key = spec.key(scene_hash, renderer_version);
             Ok(RunJob {
                 render_config,
                 spec,
@@ -379,7 +395,12 @@ fn store_run(job: &RunJob, run: &Run, context: &Context<'_>) -> Result<(), Strin
     let about = about.as_object().cloned().unwrap_or_default();
     runs::store(context.cache_dir, &job.spec, run, &about)?;
     context
-        .checkpoints(&job.key, job.render_config.seed, &job.spec.settings, (job.spec.width, job.spec.height))
+        .checkpoints(
+            &job.key,
+            job.render_config.seed,
+            &job.spec.settings,
+            (job.spec.width, job.spec.height),
+        )
         .remove();
     Ok(())
 }
@@ -568,7 +589,7 @@ fn run_config(
 ) -> Result<Run, String> {
     let config = job.spec.config;
     let t = Instant::now();
-    let renderer = Renderer::new(context.scene.clone(), job.render_config.clone());
+    let renderer = Renderer::new(context.scene.clone(), job.render_config);
     renderer.prepare_energy_tables();
     let setup_seconds = t.elapsed().as_secs_f64();
     let checkpoints = context.checkpoints(
@@ -578,7 +599,13 @@ fn run_config(
         (settings.width, settings.height),
     );
     let label = config.to_string();
-    let resumed = resume(&checkpoints, references.len(), options.fresh, &label, progress);
+    let resumed = resume(
+        &checkpoints,
+        references.len(),
+        options.fresh,
+        &label,
+        progress,
+    );
     let origin = match &resumed {
         Some(r) => Origin::Resumed(r.state.iteration),
         None => Origin::Rendered,
@@ -824,7 +851,12 @@ fn render_reference(
             let mut tracker = Tracker::new(Vec::new(), &[], checkpoints.clone(), resumed);
             let rendered = render(&renderer, spec.iterations, &mut tracker, progress, &label);
             let noise = metrics::noise(&rendered.luminance_variance(), spec.iterations);
-            (rendered, noise, setup_seconds, tracker.invalid_samples(&renderer))
+            (
+                rendered,
+                noise,
+                setup_seconds,
+                tracker.invalid_samples(&renderer),
+            )
         }
     };
     let image = rendered.film.mean();
@@ -1114,6 +1146,106 @@ mod tests {
         )
         .unwrap();
         assert!(unbiased_reference(Unbiased::Skip, &scene).is_none());
+    }
+
+    /// Every flag that changes a config's render or its errors changes
+    /// its run-cache key; the output folder does not.
+    #[test]
+    fn run_keys_follow_the_flags() {
+        let key = |extra: &[&str], references: &[&str]| {
+            let args: Vec<String> = ["--scene", "scenes/glossy-caustic", "--configs", "bpt-reg"]
+                .iter()
+                .chain(extra)
+                .map(|s| s.to_string())
+                .collect();
+            let Ok(Parsed::Run(options)) = Options::parse(&root(), &args) else {
+                panic!("{args:?}")
+            };
+            let (_, settings) = load_scene(&options).unwrap();
+            let references: Vec<String> = references.iter().map(|r| r.to_string()).collect();
+            run_jobs(&options, &settings, &references, (1, "v")).unwrap()[0]
+                .key
+                .clone()
+        };
+        let base = key(&[], &["a", "b"]);
+        assert_eq!(base, key(&["--out", "elsewhere"], &["a", "b"]));
+        assert_ne!(base, key(&[], &["a"]));
+        assert_ne!(base, key(&[], &["a", "c"]));
+        for extra in [
+            &["--seed", "2"][..],
+            &["--tau0", "7.5"],
+            &["--sweep", "tau0=2"],
+            &["--sweep", "schedule-exponent=0.25"],
+            &["--iterations", "3"],
+            &["--resolution", "8x4"],
+            &["--configs", "bpt-uns"],
+        ] {
+            assert_ne!(base, key(extra, &["a", "b"]), "{extra:?}");
+        }
+    }
+
+    /// A render killed during iteration 3 (its last checkpoint after
+    /// iteration 2) and resumed ends with the same film sums, RGB and
+    /// luminance, bit for bit, and the same curve as one never interrupted;
+    /// its times go on from the checkpoint's.
+    #[test]
+    fn a_resumed_render_equals_an_uninterrupted_one() {
+        let scene = scene::load(
+            &root().join("scenes/glossy-caustic/scene.toml"),
+            &LoadOptions {
+                resolution: Some(glam::UVec2::new(16, 12)),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let config = Config::parse("bpt-uns").unwrap();
+        let renderer = Renderer::new(scene, config.render_config(5, 8, 30.0).unwrap());
+        let dir = std::env::temp_dir().join(format!("xtask-study-resume-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        let header = image_io::film_file::FilmHeader {
+            scene: "glossy-caustic".into(),
+            scene_hash: 1,
+            settings: "k bpt-uns".into(),
+            seed: 5,
+            first: 1,
+            last: 1,
+            width: 16,
+            height: 12,
+        };
+        let checkpoints = |every| Checkpoints::new(&dir, "k", every, header.clone());
+        let hour = Duration::from_secs(3600);
+        let marks = metrics::checkpoints(8);
+        let mut progress = Progress::new(0);
+        let mut whole = Tracker::new(marks.clone(), &[], checkpoints(hour), None);
+        let uninterrupted = render(&renderer, 8, &mut whole, &mut progress, "whole");
+        assert!(!dir.exists(), "no checkpoint is due within the hour");
+        // Iterations 1..=3, a checkpoint after every one but the last.
+        let mut killed = Tracker::new(marks.clone(), &[], checkpoints(Duration::ZERO), None);
+        render(&renderer, 3, &mut killed, &mut progress, "killed");
+        let resumed = checkpoints(hour).load(0).unwrap().unwrap();
+        assert_eq!(resumed.state.iteration, 2);
+        let checkpoint_seconds = resumed.state.seconds;
+        let mut rest = Tracker::new(marks, &[], checkpoints(hour), Some(resumed));
+        let finished = render(&renderer, 8, &mut rest, &mut progress, "resumed");
+        assert_eq!(finished.film.sums(), uninterrupted.film.sums());
+        assert_eq!(finished.luminance.sums(), uninterrupted.luminance.sums());
+        assert_eq!(finished.film.iterations(), 8);
+        let curve = |points: &[Point]| -> Vec<(u64, Option<(u64, u64)>)> {
+            points
+                .iter()
+                .map(|p| {
+                    let noise = p
+                        .noise
+                        .map(|n| (n.std_error.to_bits(), n.variance.to_bits()));
+                    (p.iteration, noise)
+                })
+                .collect()
+        };
+        assert_eq!(curve(&rest.points), curve(&whole.points));
+        assert_eq!(rest.points.len(), 4, "iterations 1, 2, 4, 8");
+        assert!(finished.seconds > checkpoint_seconds);
+        assert!(rest.points[2].seconds > checkpoint_seconds);
+        fs::remove_dir_all(dir).unwrap();
     }
 
     /// A whole study on a tiny image with a tau0 sweep: every output file

@@ -142,7 +142,10 @@ fn deterministic(out: &Path) -> Vec<String> {
         lines.push(row.to_string());
     }
     for c in json["configs"].as_array().unwrap() {
-        lines.push(format!("{} {} {}", c["config"], c["key"], c["invalid_samples"]));
+        lines.push(format!(
+            "{} {} {}",
+            c["config"], c["key"], c["invalid_samples"]
+        ));
     }
     for r in json["references"].as_array().unwrap() {
         lines.push(format!(
@@ -161,7 +164,10 @@ fn deterministic(out: &Path) -> Vec<String> {
         for b in bytes {
             hash = (hash ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
         }
-        lines.push(format!("{} {hash:016x}", image.file_name().unwrap().display()));
+        lines.push(format!(
+            "{} {hash:016x}",
+            image.file_name().unwrap().display()
+        ));
     }
     lines
 }
@@ -171,6 +177,24 @@ fn rows(out: &Path) -> Value {
     let json: Value =
         serde_json::from_str(&fs::read_to_string(out.join("curves.json")).unwrap()).unwrap();
     json["rows"].clone()
+}
+
+/// Whether every config's wall-clock and CPU times grow along its curve
+/// (a resumed curve goes on from its checkpoint's times, not from zero).
+fn times_grow(out: &Path) -> bool {
+    let mut last = std::collections::HashMap::new();
+    rows(out).as_array().unwrap().iter().all(|row| {
+        let curve = (row["config"].to_string(), row["reference"].to_string());
+        let times = [row["seconds"].as_f64(), row["cpu_seconds"].as_f64()];
+        let grows = last.get(&curve).is_none_or(|before: &[Option<f64>; 2]| {
+            before.iter().zip(&times).all(|(a, b)| match (a, b) {
+                (Some(a), Some(b)) => a <= b,
+                _ => true,
+            })
+        });
+        last.insert(curve, times);
+        grows
+    })
 }
 
 /// A random number in [0, 1) from a 64-bit xorshift state.
@@ -234,6 +258,7 @@ fn killed_studies_resume_to_the_same_curves_and_finished_ones_render_nothing() {
         let last = run_to_end(&out, &cache);
         resumed += last.matches("resuming ").count();
         assert_eq!(deterministic(&out), expected, "trial {trial}: {last}");
+        assert!(times_grow(&out), "trial {trial}: {}", rows(&out));
         // Nothing is left of the checkpoints.
         assert!(!cache.join("partial").exists(), "trial {trial}");
         fs::remove_dir_all(dir).unwrap();
