@@ -39,7 +39,6 @@ pub struct Resumed {
 }
 
 /// Where and how often one render keeps its checkpoint.
-#[derive(Clone)]
 pub struct Checkpoints {
     folder: PathBuf,
     key: String,
@@ -56,7 +55,7 @@ impl Checkpoints {
     /// (its range is set at each save).
     pub fn new(cache_dir: &Path, key: &str, interval: Duration, header: FilmHeader) -> Self {
         Self {
-            folder: cache_dir.join("partial").join(key),
+            folder: folder(cache_dir, key),
             key: key.to_owned(),
             header,
             interval,
@@ -157,17 +156,6 @@ impl Checkpoints {
         Ok(())
     }
 
-    /// Removes the checkpoint (its render is done and stored).
-    pub fn remove(&self) {
-        // Best effort: a stale checkpoint is only disk space, and its key
-        // is that of an entry now stored, which wins.
-        let _ = fs::remove_dir_all(&self.folder);
-        // The `partial` folder too, once no other checkpoint is in it.
-        if let Some(parent) = self.folder.parent() {
-            let _ = fs::remove_dir(parent);
-        }
-    }
-
     fn write_film(&self, name: &str, film: &Film) -> Result<(), String> {
         let (sum, sum_sq) = film.sums();
         let partial = PartialFilm {
@@ -205,6 +193,24 @@ impl Checkpoints {
         let h = &partial.header;
         Film::from_sums(h.width, h.height, iterations, partial.sum, partial.sum_sq)
             .ok_or_else(|| format!("{}: wrong number of pixels", path.display()))
+    }
+}
+
+/// The checkpoint folder of the render whose cache entry is `key`.
+fn folder(cache_dir: &Path, key: &str) -> PathBuf {
+    cache_dir.join("partial").join(key)
+}
+
+/// Removes the checkpoint of the render whose cache entry is `key` (its
+/// render is done and stored), if there is one.
+pub fn remove(cache_dir: &Path, key: &str) {
+    let folder = folder(cache_dir, key);
+    // Best effort: a stale checkpoint is only disk space, and its key is
+    // that of an entry now stored, which is used first.
+    let _ = fs::remove_dir_all(&folder);
+    // The `partial` folder too, once no other checkpoint is in it.
+    if let Some(parent) = folder.parent() {
+        let _ = fs::remove_dir(parent);
     }
 }
 
@@ -334,7 +340,7 @@ mod tests {
         c.save(&state(3), 5, &[point]).unwrap();
         fs::remove_file(c.folder().join("rgb-3.rltfilm")).unwrap();
         assert!(c.load(1).is_err());
-        c.remove();
+        remove(&dir, "k");
         assert!(!c.folder().exists());
         assert!(c.load(1).unwrap().is_none());
         let slow = Checkpoints::new(&dir, "s", Duration::from_secs(3600), header());

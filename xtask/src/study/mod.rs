@@ -394,14 +394,7 @@ fn store_run(job: &RunJob, run: &Run, context: &Context<'_>) -> Result<(), Strin
     });
     let about = about.as_object().cloned().unwrap_or_default();
     runs::store(context.cache_dir, &job.spec, run, &about)?;
-    context
-        .checkpoints(
-            &job.key,
-            job.render_config.seed,
-            &job.spec.settings,
-            (job.spec.width, job.spec.height),
-        )
-        .remove();
+    checkpoint::remove(context.cache_dir, &job.key);
     Ok(())
 }
 
@@ -525,7 +518,7 @@ fn reference_specs(
 }
 
 /// The cache entry of every reference (None: not cached, or
-/// `--rerender-reference`).
+/// `--rerender-reference` or `--fresh`).
 fn look_up_cache(
     specs: &[(&'static str, Config, ReferenceSpec)],
     context: &Context<'_>,
@@ -536,7 +529,7 @@ fn look_up_cache(
         .iter()
         .map(|(_, _, spec)| {
             let key = spec.key(context.scene_hash, context.renderer_version);
-            (!options.rerender)
+            (!options.rerender && !options.fresh)
                 .then(|| cache::load(context.cache_dir, &key, settings.width, settings.height))
                 .flatten()
         })
@@ -805,12 +798,6 @@ fn render_reference(
         cache_file,
     } = job;
     let render_config = config.render_config(spec.seed, spec.max_depth, spec.tau0)?;
-    let checkpoints = context.checkpoints(
-        &key,
-        spec.seed,
-        &format!("{render_config:?}"),
-        (spec.width, spec.height),
-    );
     let (rendered, noise, setup_seconds, invalid_samples) = match context.farm {
         Some((shards, resources)) => {
             let flags = farm_flags(&render_config, &spec, config.regularized);
@@ -847,8 +834,14 @@ fn render_reference(
             renderer.prepare_energy_tables();
             let setup_seconds = t.elapsed().as_secs_f64();
             let label = format!("{role} {config}");
+            let checkpoints = context.checkpoints(
+                &key,
+                spec.seed,
+                &format!("{render_config:?}"),
+                (spec.width, spec.height),
+            );
             let resumed = resume(&checkpoints, 0, context.fresh, &label, progress);
-            let mut tracker = Tracker::new(Vec::new(), &[], checkpoints.clone(), resumed);
+            let mut tracker = Tracker::new(Vec::new(), &[], checkpoints, resumed);
             let rendered = render(&renderer, spec.iterations, &mut tracker, progress, &label);
             let noise = metrics::noise(&rendered.luminance_variance(), spec.iterations);
             (
@@ -888,7 +881,7 @@ fn render_reference(
         &image,
         &meta,
     )?;
-    checkpoints.remove();
+    checkpoint::remove(context.cache_dir, &key);
     progress.println(&format!(
         "{role}: {config} x {} iterations rendered in {:.1} s, cached as {}",
         spec.iterations,
@@ -1400,6 +1393,12 @@ mod tests {
             ),
             "{report}"
         );
+        // --fresh renders everything again: references and configs.
+        let fresh: Vec<String> = args.iter().cloned().chain(["--fresh".into()]).collect();
+        run(&root(), &fresh).unwrap();
+        let report = fs::read_to_string(out.join("report.md")).unwrap();
+        assert!(!report.contains("from the cache"), "{report}");
+        assert!(!report.contains("From the run cache"), "{report}");
         let mut without: Vec<String> = args.clone();
         let i = without
             .iter()
