@@ -215,8 +215,9 @@ pub fn load(dir: &Path, key: &str, width: u32, height: u32) -> Option<(Vec<Vec3>
     ((image.width, image.height) == (width, height)).then_some((image.pixels, meta))
 }
 
-/// Stores an entry: the image first, then the sidecar (written through a
-/// temporary file), so a sidecar always has its image.
+/// Stores an entry: the image first, then the sidecar, each written
+/// atomically ([`write_atomic`]), so a sidecar always has its whole image
+/// and a process killed at any moment leaves the entry whole or missing.
 pub fn store(
     dir: &Path,
     key: &str,
@@ -226,11 +227,50 @@ pub fn store(
 ) -> Result<(), String> {
     fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     let (exr, json) = paths(dir, key);
-    crate::write_exr(&exr, width, height, pixels)?;
-    let text = serde_json::to_string_pretty(meta).map_err(|e| e.to_string())?;
-    let partial = json.with_extension("json.partial");
-    fs::write(&partial, text + "\n").map_err(|e| format!("{}: {e}", partial.display()))?;
-    fs::rename(&partial, &json).map_err(|e| format!("{}: {e}", json.display()))
+    write_atomic(&exr, |tmp| crate::write_exr(tmp, width, height, pixels))?;
+    let text = serde_json::to_string_pretty(meta).map_err(|e| e.to_string())? + "\n";
+    write_atomic_bytes(&json, text.as_bytes())
+}
+
+/// Writes `path` whole or not at all: `write` fills a temporary file in
+/// the same folder (`<name>.tmp-<pid>`), which is synced to disk and
+/// renamed over `path`; then the folder is synced, so that the rename
+/// survives a crash of the machine too. A process killed at any moment
+/// leaves `path` as it was or complete (and at worst a stray temporary
+/// file). The error names `path`.
+pub(crate) fn write_atomic(
+    path: &Path,
+    write: impl FnOnce(&Path) -> Result<(), String>,
+) -> Result<(), String> {
+    let name = path
+        .file_name()
+        .ok_or_else(|| format!("{}: not a file path", path.display()))?;
+    let mut temporary = name.to_owned();
+    temporary.push(format!(".tmp-{}", std::process::id()));
+    let temporary = path.with_file_name(temporary);
+    let folder = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let result = write(&temporary).and_then(|()| {
+        let sync = |p: &Path| fs::File::open(p).and_then(|f| f.sync_all());
+        sync(&temporary)
+            .and_then(|()| fs::rename(&temporary, path))
+            .and_then(|()| sync(folder))
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))
+    });
+    if result.is_err() {
+        // Best effort: the error that matters is the one returned.
+        let _ = fs::remove_file(&temporary);
+    }
+    result
+}
+
+/// [`write_atomic`] of `bytes`.
+pub(crate) fn write_atomic_bytes(path: &Path, bytes: &[u8]) -> Result<(), String> {
+    write_atomic(path, |tmp| {
+        fs::write(tmp, bytes).map_err(|e| format!("cannot write {}: {e}", tmp.display()))
+    })
 }
 
 #[cfg(test)]

@@ -13,7 +13,9 @@
 //! - `cli`: flags, budgets, configs
 //! - `progress`: progress bars and lines
 //! - `metrics`: RMSE, relMSE and noise on luminance, checkpoints, log-log interpolation
-//! - `cache`: the reference cache and its key
+//! - `cache`: the reference cache and its key, atomic writes
+//! - `runs`: the run cache, every finished config's curve and image
+//! - `checkpoint`: the state of a render in progress, to resume it
 //! - `report`: curves.csv, curves.json, report.md (equal-time tables)
 //! - `bias`: the regularized reference minus the unbiased one, as numbers
 //!   and a false-colour image
@@ -26,12 +28,14 @@
 mod bias;
 pub(crate) mod cache;
 mod charts;
+mod checkpoint;
 mod cli;
 pub(crate) mod metrics;
 mod plot;
 mod progress;
 mod raster;
 mod report;
+mod runs;
 mod sheet;
 
 use std::fs;
@@ -44,12 +48,14 @@ use scene::LoadOptions;
 use serde_json::json;
 
 use cache::ReferenceSpec;
+use checkpoint::{Checkpoints, Resumed};
 pub use cli::Config;
 use cli::{HELP, Options, Parsed, Unbiased};
 /// Flag-value parsers shared with `cargo xtask bench`.
 pub(crate) use cli::{parse_resolution, positive};
 use metrics::{Errors, Noise};
 use progress::Progress;
+use runs::RunSpec;
 
 /// The task's line in `cargo xtask help`.
 pub const USAGE: &str = "  study --scene PATH [options]
@@ -107,10 +113,25 @@ pub struct Point {
     pub errors: Vec<Errors>,
 }
 
+/// Where a config's run in a study came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Origin {
+    /// Rendered in this study from the first iteration.
+    Rendered,
+    /// Rendered in this study from a checkpoint after this iteration.
+    Resumed(u64),
+    /// From the run cache (rendered by an earlier study).
+    Cached,
+}
+
 /// One config's run.
 pub struct Run {
     /// The config.
     pub config: Config,
+    /// Its key in the run cache.
+    pub key: String,
+    /// Whether it was rendered, resumed or reused.
+    pub origin: Origin,
     /// Seconds to prepare the renderer (BVH, lights), not in the curves.
     pub setup_seconds: f64,
     /// Checkpoints, in order.
@@ -179,11 +200,6 @@ pub struct Study {
 
 /// Runs `cargo xtask study ARGS`.
 pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
-    run_with_cache(root, args, &root.join("target").join("study").join("cache"))
-}
-
-/// [`run`] with the reference cache in `cache_dir`.
-fn run_with_cache(root: &Path, args: &[String], cache_dir: &Path) -> Result<(), String> {
     if let [flag, dir] = args
         && flag == "--replot"
     {
@@ -207,23 +223,47 @@ fn run_with_cache(root: &Path, args: &[String], cache_dir: &Path) -> Result<(), 
     let unbiased = unbiased_reference(options.unbiased, &scene);
     announce(&options, &settings, unbiased.as_ref());
     let specs = reference_specs(&options, &settings, unbiased.as_ref().map(|(c, _)| *c));
-    let context = ReferenceContext {
+    let context = Context {
         scene: &scene,
         scene_file: &options.scene_file,
         scene_hash,
         renderer_version: &renderer_version,
-        cache_dir,
+        cache_dir: &options.cache,
         root,
         farm: options.farm.as_ref(),
+        checkpoint_interval: options.checkpoint_interval,
+        fresh: options.fresh || options.rerender,
     };
+    let reference_keys: Vec<String> = specs
+        .iter()
+        .map(|(_, _, spec)| spec.key(scene_hash, &renderer_version))
+        .collect();
+    let jobs = run_jobs(
+        &options,
+        &settings,
+        &reference_keys,
+        (scene_hash, &renderer_version),
+    )?;
     let cached = look_up_cache(&specs, &context, &options, &settings);
-    // Reference iterations count towards the progress only when rendered.
+    let cached_runs: Vec<Option<Run>> = jobs
+        .iter()
+        .map(|job| {
+            (!options.fresh)
+                .then(|| runs::load(&options.cache, &job.key, &job.spec))
+                .flatten()
+        })
+        .collect();
+    // Iterations count towards the progress only when rendered.
     let to_render: u64 = cached
         .iter()
         .filter(|c| c.is_none())
         .map(|_| options.reference_iterations)
         .sum::<u64>()
-        + options.iterations * options.configs.len() as u64;
+        + cached_runs
+            .iter()
+            .filter(|r| r.is_none())
+            .map(|_| options.iterations)
+            .sum::<u64>();
     let mut progress = Progress::new(to_render);
     let mut references = Vec::new();
     for (spec, cached) in specs.into_iter().zip(cached) {
@@ -237,17 +277,33 @@ fn run_with_cache(root: &Path, args: &[String], cache_dir: &Path) -> Result<(), 
         references.push(reference);
     }
     let mut runs = Vec::new();
-    for &config in &options.configs {
-        let run = run_config(
-            config,
-            &scene,
-            &options,
-            &settings,
-            &references,
-            &mut progress,
-        )?;
+    for (job, cached) in jobs.iter().zip(cached_runs) {
+        let run = match cached {
+            Some(run) => {
+                progress.println(&format!(
+                    "reusing cached run of {} (key {})",
+                    job.spec.config, job.key
+                ));
+                run
+            }
+            None => {
+                let run = run_config(
+                    job,
+                    &options,
+                    &settings,
+                    &references,
+                    &context,
+                    &mut progress,
+                )?;
+                store_run(job, &run, &context)?;
+                run
+            }
+        };
         crate::write_exr(
-            &options.out.join("images").join(format!("{config}.exr")),
+            &options
+                .out
+                .join("images")
+                .join(format!("{}.exr", run.config)),
             settings.width,
             settings.height,
             &run.image,
@@ -285,6 +341,60 @@ fn run_with_cache(root: &Path, args: &[String], cache_dir: &Path) -> Result<(), 
         written.join(", "),
         started.elapsed().as_secs_f64()
     );
+    Ok(())
+}
+
+/// A config to run: its resolved settings, run-cache inputs and key.
+struct RunJob {
+    render_config: integrators::RenderConfig,
+    spec: RunSpec,
+    key: String,
+}
+
+/// The job of every config, keyed against the references' keys, the
+/// scene's hash and the renderer's version.
+fn run_jobs(
+    options: &Options,
+    settings: &Settings,
+    reference_keys: &[String],
+    (scene_hash, renderer_version): (u64, &str),
+) -> Result<Vec<RunJob>, String> {
+    options
+        .configs
+        .iter()
+        .map(|&config| {
+            let render_config =
+                config.render_config(options.seed, settings.max_depth, settings.tau0)?;
+            let spec = RunSpec {
+                config,
+                settings: format!("{render_config:?}"),
+                iterations: options.iterations,
+                width: settings.width,
+                height: settings.height,
+                references: reference_keys.to_vec(),
+            };
+            let key = spec.key(scene_hash, renderer_version);
+            Ok(RunJob {
+                render_config,
+                spec,
+                key,
+            })
+        })
+        .collect()
+}
+
+/// Stores a rendered config in the run cache (with what made it, for
+/// people reading the cache) and removes its checkpoint.
+fn store_run(job: &RunJob, run: &Run, context: &Context<'_>) -> Result<(), String> {
+    let about = json!({
+        "scene": context.scene_file.display().to_string(),
+        "scene_hash": format!("{:016x}", context.scene_hash),
+        "renderer_version": context.renderer_version,
+        "cores": crate::cores(),
+    });
+    let about = about.as_object().cloned().unwrap_or_default();
+    runs::store(context.cache_dir, &job.spec, run, &about)?;
+    checkpoint::remove(context.cache_dir, &job.key);
     Ok(())
 }
 
@@ -408,10 +518,10 @@ fn reference_specs(
 }
 
 /// The cache entry of every reference (None: not cached, or
-/// `--rerender-reference`).
+/// `--rerender-reference` or `--fresh`).
 fn look_up_cache(
     specs: &[(&'static str, Config, ReferenceSpec)],
-    context: &ReferenceContext<'_>,
+    context: &Context<'_>,
     options: &Options,
     settings: &Settings,
 ) -> Vec<Option<(Vec<Vec3>, serde_json::Value)>> {
@@ -419,7 +529,7 @@ fn look_up_cache(
         .iter()
         .map(|(_, _, spec)| {
             let key = spec.key(context.scene_hash, context.renderer_version);
-            (!options.rerender)
+            (!options.rerender && !options.fresh)
                 .then(|| cache::load(context.cache_dir, &key, settings.width, settings.height))
                 .flatten()
         })
@@ -430,7 +540,7 @@ fn look_up_cache(
 fn obtain_reference(
     (role, config, spec): (&'static str, Config, ReferenceSpec),
     cached: Option<(Vec<Vec3>, serde_json::Value)>,
-    context: &ReferenceContext<'_>,
+    context: &Context<'_>,
     progress: &mut Progress,
 ) -> Result<Reference, String> {
     let key = spec.key(context.scene_hash, context.renderer_version);
@@ -460,35 +570,59 @@ fn obtain_reference(
 }
 
 /// Renders one config, measuring it at every checkpoint against every
-/// reference, and prints its final line.
+/// reference and resuming it from its checkpoint if it has one, and
+/// prints its final line.
 fn run_config(
-    config: Config,
-    scene: &scene::Scene,
+    job: &RunJob,
     options: &Options,
     settings: &Settings,
     references: &[Reference],
+    context: &Context<'_>,
     progress: &mut Progress,
 ) -> Result<Run, String> {
-    let render_config = config.render_config(options.seed, settings.max_depth, settings.tau0)?;
+    let config = job.spec.config;
     let t = Instant::now();
-    let renderer = Renderer::new(scene.clone(), render_config);
+    let renderer = Renderer::new(context.scene.clone(), job.render_config);
     renderer.prepare_energy_tables();
     let setup_seconds = t.elapsed().as_secs_f64();
-    let marks = metrics::checkpoints(options.iterations);
-    let mut points = Vec::new();
+    let checkpoints = context.checkpoints(
+        &job.key,
+        job.render_config.seed,
+        &job.spec.settings,
+        (settings.width, settings.height),
+    );
+    let label = config.to_string();
+    let resumed = resume(
+        &checkpoints,
+        references.len(),
+        options.fresh,
+        &label,
+        progress,
+    );
+    let origin = match &resumed {
+        Some(r) => Origin::Resumed(r.state.iteration),
+        None => Origin::Rendered,
+    };
+    let mut tracker = Tracker::new(
+        metrics::checkpoints(options.iterations),
+        references,
+        checkpoints,
+        resumed,
+    );
     let rendered = render(
         &renderer,
         options.iterations,
-        &marks,
+        &mut tracker,
         progress,
-        &config.to_string(),
-        |state| points.push(Point::of(state, references)),
+        &label,
     );
     let run = Run {
         config,
+        key: job.key.clone(),
+        origin,
         setup_seconds,
-        points,
-        invalid_samples: renderer.invalid_samples(),
+        invalid_samples: tracker.invalid_samples(&renderer),
+        points: tracker.points,
         image: rendered.film.mean(),
     };
     if let Some(last) = run.points.last() {
@@ -506,6 +640,38 @@ fn run_config(
         ));
     }
     Ok(run)
+}
+
+/// The state a render resumes from: its checkpoint's, unless `fresh` or
+/// there is none. A damaged checkpoint is reported and the render starts
+/// over.
+fn resume(
+    checkpoints: &Checkpoints,
+    references: usize,
+    fresh: bool,
+    label: &str,
+    progress: &Progress,
+) -> Option<Resumed> {
+    if fresh {
+        return None;
+    }
+    match checkpoints.load(references) {
+        Ok(Some(resumed)) => {
+            progress.println(&format!(
+                "resuming {label} from its checkpoint after iteration {} ({})",
+                resumed.state.iteration,
+                checkpoints.folder().display()
+            ));
+            Some(resumed)
+        }
+        Ok(None) => None,
+        Err(e) => {
+            progress.println(&format!(
+                "warning: ignoring the checkpoint of {label}, starting it over: {e}"
+            ));
+            None
+        }
+    }
 }
 
 impl Point {
@@ -534,8 +700,8 @@ struct ReferenceJob {
     cache_file: PathBuf,
 }
 
-/// What a reference render needs besides its job.
-struct ReferenceContext<'a> {
+/// What every render of a study needs besides its job.
+struct Context<'a> {
     scene: &'a scene::Scene,
     scene_file: &'a Path,
     scene_hash: u64,
@@ -544,6 +710,35 @@ struct ReferenceContext<'a> {
     root: &'a Path,
     /// `--farm slurm`: shards per reference and the jobs' resources.
     farm: Option<&'a (u64, crate::farm::Resources)>,
+    /// `--checkpoint-interval`.
+    checkpoint_interval: Duration,
+    /// Whether references start over rather than resume from a checkpoint
+    /// (`--fresh`, `--rerender-reference`).
+    fresh: bool,
+}
+
+impl Context<'_> {
+    /// The checkpoint of the render whose cache entry is `key`, of the
+    /// render settings `settings` (their seed `seed`) at `resolution`.
+    fn checkpoints(
+        &self,
+        key: &str,
+        seed: u64,
+        settings: &str,
+        (width, height): (u32, u32),
+    ) -> Checkpoints {
+        let header = image_io::film_file::FilmHeader {
+            scene: self.scene_file.display().to_string(),
+            scene_hash: self.scene_hash,
+            settings: format!("{key} {settings}"),
+            seed,
+            first: 1,
+            last: 1,
+            width,
+            height,
+        };
+        Checkpoints::new(self.cache_dir, key, self.checkpoint_interval, header)
+    }
 }
 
 impl Reference {
@@ -592,7 +787,7 @@ impl Reference {
 /// Renders a reference and stores it in the cache with its sidecar.
 fn render_reference(
     job: ReferenceJob,
-    context: &ReferenceContext<'_>,
+    context: &Context<'_>,
     progress: &mut Progress,
 ) -> Result<Reference, String> {
     let ReferenceJob {
@@ -639,9 +834,22 @@ fn render_reference(
             renderer.prepare_energy_tables();
             let setup_seconds = t.elapsed().as_secs_f64();
             let label = format!("{role} {config}");
-            let rendered = render(&renderer, spec.iterations, &[], progress, &label, |_| {});
+            let checkpoints = context.checkpoints(
+                &key,
+                spec.seed,
+                &format!("{render_config:?}"),
+                (spec.width, spec.height),
+            );
+            let resumed = resume(&checkpoints, 0, context.fresh, &label, progress);
+            let mut tracker = Tracker::new(Vec::new(), &[], checkpoints, resumed);
+            let rendered = render(&renderer, spec.iterations, &mut tracker, progress, &label);
             let noise = metrics::noise(&rendered.luminance_variance(), spec.iterations);
-            (rendered, noise, setup_seconds, renderer.invalid_samples())
+            (
+                rendered,
+                noise,
+                setup_seconds,
+                tracker.invalid_samples(&renderer),
+            )
         }
     };
     let image = rendered.film.mean();
@@ -673,6 +881,7 @@ fn render_reference(
         &image,
         &meta,
     )?;
+    checkpoint::remove(context.cache_dir, &key);
     progress.println(&format!(
         "{role}: {config} x {} iterations rendered in {:.1} s, cached as {}",
         spec.iterations,
@@ -755,7 +964,7 @@ pub(crate) fn cpu_seconds() -> Option<f64> {
     Some(ns as f64 * 1e-9)
 }
 
-/// The state of a render at a checkpoint.
+/// The state of a render after an iteration.
 struct Rendered {
     iteration: u64,
     /// Cumulative rendering seconds, wall clock.
@@ -771,36 +980,108 @@ struct Rendered {
 }
 
 impl Rendered {
+    /// Before the first iteration.
+    fn start(renderer: &Renderer) -> Self {
+        Self {
+            iteration: 0,
+            seconds: 0.0,
+            cpu_seconds: Some(0.0),
+            film: renderer.new_film(),
+            luminance: renderer.new_film(),
+        }
+    }
+
     /// Per-pixel sample variance s^2 of the luminance estimates.
     fn luminance_variance(&self) -> Vec<f64> {
         self.luminance.variance().iter().map(|v| v.x).collect()
     }
 }
 
-/// Renders iterations 1..=`iterations`, calling `at_checkpoint` after each
-/// iteration listed in `checkpoints`. Only `render_iteration` and the RGB
-/// film's `add_iteration` are timed.
+/// What a render records besides its films: the curve's points at the
+/// marks (iterations 1, 2, 4, ...; none for a reference) and a checkpoint
+/// every interval.
+struct Tracker<'a> {
+    /// The state the render starts from (taken when it starts).
+    start: Option<Rendered>,
+    marks: Vec<u64>,
+    references: &'a [Reference],
+    points: Vec<Point>,
+    /// None once a save failed: the render goes on without checkpoints.
+    checkpoints: Option<Checkpoints>,
+    /// NaN/Inf samples dropped before the checkpoint resumed from (the
+    /// renderer counts only its own).
+    invalid_before: u64,
+}
+
+impl<'a> Tracker<'a> {
+    fn new(
+        marks: Vec<u64>,
+        references: &'a [Reference],
+        checkpoints: Checkpoints,
+        resumed: Option<Resumed>,
+    ) -> Self {
+        let (start, invalid_before, points) = match resumed {
+            Some(r) => (Some(r.state), r.invalid_samples, r.points),
+            None => (None, 0, Vec::new()),
+        };
+        Self {
+            start,
+            marks,
+            references,
+            points,
+            checkpoints: Some(checkpoints),
+            invalid_before,
+        }
+    }
+
+    /// NaN/Inf samples dropped over the whole render.
+    fn invalid_samples(&self, renderer: &Renderer) -> u64 {
+        self.invalid_before + renderer.invalid_samples()
+    }
+
+    /// After iteration `state.iteration`: a point at a mark; a checkpoint
+    /// when one is due, except after the last iteration (the render's
+    /// cache entry follows at once).
+    fn record(&mut self, state: &Rendered, renderer: &Renderer, last: bool, progress: &Progress) {
+        if self.marks.contains(&state.iteration) {
+            self.points.push(Point::of(state, self.references));
+        }
+        if last {
+            return;
+        }
+        let invalid = self.invalid_samples(renderer);
+        if let Some(c) = self.checkpoints.as_mut().filter(|c| c.due())
+            && let Err(e) = c.save(state, invalid, &self.points)
+        {
+            progress.println(&format!(
+                "warning: no more checkpoints of this render (it goes on): {e}"
+            ));
+            self.checkpoints = None;
+        }
+    }
+}
+
+/// Renders iterations up to `iterations`, from the tracker's start state
+/// (else from the first iteration), letting it record after each. Only
+/// `render_iteration` and the RGB film's `add_iteration` are timed.
 fn render(
     renderer: &Renderer,
     iterations: u64,
-    checkpoints: &[u64],
+    tracker: &mut Tracker<'_>,
     progress: &mut Progress,
     label: &str,
-    mut at_checkpoint: impl FnMut(&Rendered),
 ) -> Rendered {
-    let mut state = Rendered {
-        iteration: 0,
-        seconds: 0.0,
-        cpu_seconds: Some(0.0),
-        film: renderer.new_film(),
-        luminance: renderer.new_film(),
-    };
+    let mut state = tracker
+        .start
+        .take()
+        .unwrap_or_else(|| Rendered::start(renderer));
     let pixels = state.film.width() as usize * state.film.height() as usize;
     let mut estimates = vec![Vec3::ZERO; pixels];
     let mut luminance = vec![Vec3::ZERO; pixels];
-    let bar = progress.start(label, iterations);
+    let bar = progress.start(label, iterations, state.iteration);
+    let seconds_before = state.seconds;
     let mut elapsed = Duration::ZERO;
-    for n in 1..=iterations {
+    for n in state.iteration + 1..=iterations {
         let cpu_before = cpu_seconds();
         let t = Instant::now();
         renderer.render_iteration(n, &mut estimates);
@@ -815,10 +1096,8 @@ fn render(
         }
         state.luminance.add_iteration(&luminance);
         state.iteration = n;
-        state.seconds = elapsed.as_secs_f64();
-        if checkpoints.contains(&n) {
-            at_checkpoint(&state);
-        }
+        state.seconds = seconds_before + elapsed.as_secs_f64();
+        tracker.record(&state, renderer, n == iterations, progress);
         progress.advance(&bar, label, n, iterations, state.seconds);
     }
     bar.finish_and_clear();
@@ -862,6 +1141,106 @@ mod tests {
         assert!(unbiased_reference(Unbiased::Skip, &scene).is_none());
     }
 
+    /// Every flag that changes a config's render or its errors changes
+    /// its run-cache key; the output folder does not.
+    #[test]
+    fn run_keys_follow_the_flags() {
+        let key = |extra: &[&str], references: &[&str]| {
+            let args: Vec<String> = ["--scene", "scenes/glossy-caustic", "--configs", "bpt-reg"]
+                .iter()
+                .chain(extra)
+                .map(|s| s.to_string())
+                .collect();
+            let Ok(Parsed::Run(options)) = Options::parse(&root(), &args) else {
+                panic!("{args:?}")
+            };
+            let (_, settings) = load_scene(&options).unwrap();
+            let references: Vec<String> = references.iter().map(|r| r.to_string()).collect();
+            run_jobs(&options, &settings, &references, (1, "v")).unwrap()[0]
+                .key
+                .clone()
+        };
+        let base = key(&[], &["a", "b"]);
+        assert_eq!(base, key(&["--out", "elsewhere"], &["a", "b"]));
+        assert_ne!(base, key(&[], &["a"]));
+        assert_ne!(base, key(&[], &["a", "c"]));
+        for extra in [
+            &["--seed", "2"][..],
+            &["--tau0", "7.5"],
+            &["--sweep", "tau0=2"],
+            &["--sweep", "schedule-exponent=0.25"],
+            &["--iterations", "3"],
+            &["--resolution", "8x4"],
+            &["--configs", "bpt-uns"],
+        ] {
+            assert_ne!(base, key(extra, &["a", "b"]), "{extra:?}");
+        }
+    }
+
+    /// A render killed during iteration 3 (its last checkpoint after
+    /// iteration 2) and resumed ends with the same film sums, RGB and
+    /// luminance, bit for bit, and the same curve as one never interrupted;
+    /// its times go on from the checkpoint's.
+    #[test]
+    fn a_resumed_render_equals_an_uninterrupted_one() {
+        let scene = scene::load(
+            &root().join("scenes/glossy-caustic/scene.toml"),
+            &LoadOptions {
+                resolution: Some(glam::UVec2::new(16, 12)),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let config = Config::parse("bpt-uns").unwrap();
+        let renderer = Renderer::new(scene, config.render_config(5, 8, 30.0).unwrap());
+        let dir = std::env::temp_dir().join(format!("xtask-study-resume-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        let header = image_io::film_file::FilmHeader {
+            scene: "glossy-caustic".into(),
+            scene_hash: 1,
+            settings: "k bpt-uns".into(),
+            seed: 5,
+            first: 1,
+            last: 1,
+            width: 16,
+            height: 12,
+        };
+        let checkpoints = |every| Checkpoints::new(&dir, "k", every, header.clone());
+        let hour = Duration::from_secs(3600);
+        let marks = metrics::checkpoints(8);
+        let mut progress = Progress::new(0);
+        let mut whole = Tracker::new(marks.clone(), &[], checkpoints(hour), None);
+        let uninterrupted = render(&renderer, 8, &mut whole, &mut progress, "whole");
+        assert!(!dir.exists(), "no checkpoint is due within the hour");
+        // Iterations 1..=3, a checkpoint after every one but the last.
+        let mut killed = Tracker::new(marks.clone(), &[], checkpoints(Duration::ZERO), None);
+        render(&renderer, 3, &mut killed, &mut progress, "killed");
+        let resumed = checkpoints(hour).load(0).unwrap().unwrap();
+        assert_eq!(resumed.state.iteration, 2);
+        let checkpoint_seconds = resumed.state.seconds;
+        let mut rest = Tracker::new(marks, &[], checkpoints(hour), Some(resumed));
+        let finished = render(&renderer, 8, &mut rest, &mut progress, "resumed");
+        assert_eq!(finished.film.sums(), uninterrupted.film.sums());
+        assert_eq!(finished.luminance.sums(), uninterrupted.luminance.sums());
+        assert_eq!(finished.film.iterations(), 8);
+        let curve = |points: &[Point]| -> Vec<(u64, Option<(u64, u64)>)> {
+            points
+                .iter()
+                .map(|p| {
+                    let noise = p
+                        .noise
+                        .map(|n| (n.std_error.to_bits(), n.variance.to_bits()));
+                    (p.iteration, noise)
+                })
+                .collect()
+        };
+        assert_eq!(curve(&rest.points), curve(&whole.points));
+        assert_eq!(rest.points.len(), 4, "iterations 1, 2, 4, 8");
+        assert!(finished.seconds > checkpoint_seconds);
+        assert!(rest.points[2].seconds > checkpoint_seconds);
+        fs::remove_dir_all(dir).unwrap();
+    }
+
     /// A whole study on a tiny image with a tau0 sweep: every output file
     /// appears, the references come from the cache the second time, the
     /// curves have one row per config x checkpoint x reference, and the
@@ -890,12 +1269,14 @@ mod tests {
             "424242",
             "--out",
             out.to_str().unwrap(),
+            "--cache",
+            out.join("cache").to_str().unwrap(),
         ]
         .iter()
         .map(|s| s.to_string())
         .collect();
         let cache = out.join("cache");
-        run_with_cache(&root(), &args, &cache).unwrap();
+        run(&root(), &args).unwrap();
         for file in [
             "curves.csv",
             "curves.json",
@@ -983,7 +1364,7 @@ mod tests {
             fs::remove_file(path).unwrap();
         }
         let replot = ["--replot".to_string(), out.to_str().unwrap().to_string()];
-        run_with_cache(&root(), &replot, &cache).unwrap();
+        run(&root(), &replot).unwrap();
         for (path, svg) in &charts {
             assert_eq!(
                 &fs::read_to_string(path).unwrap(),
@@ -992,15 +1373,32 @@ mod tests {
                 path.display()
             );
         }
-        assert_eq!(
-            fs::read_dir(&cache).unwrap().count(),
-            4,
-            "two EXR + JSON pairs"
-        );
-        run_with_cache(&root(), &args, &cache).unwrap();
+        let files = |dir: &Path| {
+            fs::read_dir(dir)
+                .unwrap()
+                .filter(|e| e.as_ref().unwrap().path().is_file())
+                .count()
+        };
+        assert_eq!(files(&cache), 4, "two EXR + JSON pairs");
+        assert_eq!(files(&runs::folder(&cache)), 6, "three EXR + JSON pairs");
+        assert!(!cache.join("partial").exists(), "no checkpoint is left");
+        run(&root(), &args).unwrap();
         let report = fs::read_to_string(out.join("report.md")).unwrap();
         assert!(report.contains("yes: from the cache"), "{report}");
         assert!(!report.contains("rendered in this run"), "{report}");
+        assert!(
+            report.contains(
+                "From the run cache (rendered by an earlier run of this study, with its times): \
+                 bpt, bpt-reg@tau0=2, bpt-reg@tau0=30."
+            ),
+            "{report}"
+        );
+        // --fresh renders everything again: references and configs.
+        let fresh: Vec<String> = args.iter().cloned().chain(["--fresh".into()]).collect();
+        run(&root(), &fresh).unwrap();
+        let report = fs::read_to_string(out.join("report.md")).unwrap();
+        assert!(!report.contains("from the cache"), "{report}");
+        assert!(!report.contains("From the run cache"), "{report}");
         let mut without: Vec<String> = args.clone();
         let i = without
             .iter()
@@ -1008,7 +1406,7 @@ mod tests {
             .unwrap();
         without[i + 1] = "none".into();
         fs::remove_file(out.join("bias.png")).unwrap();
-        run_with_cache(&root(), &without, &cache).unwrap();
+        run(&root(), &without).unwrap();
         let report = fs::read_to_string(out.join("report.md")).unwrap();
         assert!(report.contains("(No unbiased reference"), "{report}");
         assert!(

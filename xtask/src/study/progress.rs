@@ -45,7 +45,9 @@ impl Progress {
         }
     }
 
-    pub(super) fn start(&mut self, label: &str, iterations: u64) -> ProgressBar {
+    /// A bar for a render of `iterations`, `done` of them done already (a
+    /// resumed render), which the study's total then leaves out.
+    pub(super) fn start(&mut self, label: &str, iterations: u64, done: u64) -> ProgressBar {
         let bar = self
             .multi
             .insert_before(&self.overall, ProgressBar::new(iterations));
@@ -53,8 +55,15 @@ impl Progress {
             "{prefix:>12} [{wide_bar}] {pos}/{len} it, {rate} it/s, ETA {eta}",
         ));
         bar.set_prefix(label.to_string());
+        bar.set_position(done);
+        self.total = self.total.saturating_sub(done);
+        self.overall.set_length(self.total);
         if !self.terminal {
-            println!("{label}: {iterations} iterations");
+            if done > 0 {
+                println!("{label}: {iterations} iterations, from {}", done + 1);
+            } else {
+                println!("{label}: {iterations} iterations");
+            }
         }
         self.last_line = Instant::now();
         bar

@@ -10,7 +10,7 @@ use super::bias::{self, Bias};
 use super::charts::{self, ChartData};
 use super::metrics::{self, Errors};
 use super::sheet::{self, Crop, SheetInfo};
-use super::{Config, Run, Study};
+use super::{Config, Origin, Run, Study};
 
 /// Writes every output into `out`; returns the names of the files written.
 pub fn write(out: &Path, study: &Study) -> Result<Vec<String>, String> {
@@ -412,6 +412,8 @@ fn json_of(study: &Study, comparisons: &Comparisons, bias: Option<&Bias>, crop: 
         })).collect::<Vec<_>>(),
         "configs": study.runs.iter().map(|r| json!({
             "config": r.config.to_string(),
+            "key": r.key,
+            "origin": origin(r.origin),
             "setup_seconds": r.setup_seconds,
             "render_seconds": r.points.last().map(|p| p.seconds),
             "cpu_seconds": r.points.last().and_then(|p| p.cpu_seconds),
@@ -505,6 +507,7 @@ fn markdown(
     md_metrics(&mut s);
     md_references(&mut s, study);
     md_final_iteration(&mut s, study);
+    md_origins(&mut s, study);
     md_equal_time(&mut s, study, comparisons);
     md_time_to_reach(&mut s, study, comparisons);
     md_checkpoints(&mut s, study);
@@ -794,6 +797,47 @@ fn md_final_iteration(s: &mut String, study: &Study) {
     }
 }
 
+/// Where a run came from, in words.
+fn origin(o: Origin) -> String {
+    match o {
+        Origin::Rendered => "rendered in this run".into(),
+        Origin::Resumed(n) => format!("resumed from its checkpoint after iteration {n}"),
+        Origin::Cached => "from the run cache".into(),
+    }
+}
+
+/// Which configs came from the run cache or resumed from a checkpoint
+/// (nothing when every one was rendered in this run).
+fn md_origins(s: &mut String, study: &Study) {
+    let list = |keep: fn(Origin) -> bool| {
+        study
+            .runs
+            .iter()
+            .filter(|r| keep(r.origin))
+            .map(|r| match r.origin {
+                Origin::Resumed(n) => format!("{} (after iteration {n})", r.config),
+                _ => r.config.to_string(),
+            })
+            .collect::<Vec<_>>()
+    };
+    let cached = list(|o| o == Origin::Cached);
+    let resumed = list(|o| matches!(o, Origin::Resumed(_)));
+    if !cached.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nFrom the run cache (rendered by an earlier run of this study, with its times): {}.",
+            cached.join(", ")
+        );
+    }
+    if !resumed.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nResumed from a checkpoint of an interrupted run (times go on from it): {}.",
+            resumed.join(", ")
+        );
+    }
+}
+
 /// Regularized against unregularized at equal render time.
 fn md_equal_time(s: &mut String, study: &Study, comparisons: &Comparisons) {
     let _ = writeln!(s, "\n## Equal-time comparison\n");
@@ -984,6 +1028,8 @@ mod tests {
     fn run(config: &str, curve: &[(f64, f64)]) -> Run {
         Run {
             config: Config::parse(config).unwrap(),
+            key: String::new(),
+            origin: super::super::Origin::Rendered,
             setup_seconds: 0.0,
             points: curve
                 .iter()
