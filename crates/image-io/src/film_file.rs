@@ -413,15 +413,16 @@ pub struct Difference {
     pub theirs: String,
 }
 
-/// How the renders of `a` and `b` differ (scene content, size, settings),
+/// How the renders of `a` and `b` differ (size, scene content, settings),
 /// if they do; the iteration ranges and render times are not compared.
 pub fn difference(a: &FilmHeader, b: &FilmHeader) -> Option<Difference> {
-    let (kind, ours, theirs) = if a.scene_hash != b.scene_hash {
-        let scene = |h: &FilmHeader| format!("{} (content hash {:016x})", h.scene, h.scene_hash);
-        (DifferenceKind::Scene, scene(a), scene(b))
-    } else if (a.width, a.height) != (b.width, b.height) {
+    // Size first: the camera, and so the scene's hash, includes it.
+    let (kind, ours, theirs) = if (a.width, a.height) != (b.width, b.height) {
         let size = |h: &FilmHeader| format!("{}x{}", h.width, h.height);
         (DifferenceKind::Resolution, size(a), size(b))
+    } else if a.scene_hash != b.scene_hash {
+        let scene = |h: &FilmHeader| format!("{} (content hash {:016x})", h.scene, h.scene_hash);
+        (DifferenceKind::Scene, scene(a), scene(b))
     } else if a.settings != b.settings {
         let (ours, theirs) = debug_difference(&a.settings, &b.settings, "")
             .unwrap_or_else(|| (a.settings.clone(), b.settings.clone()));
@@ -661,6 +662,8 @@ mod tests {
             (DifferenceKind::Resolution, "3x2", "64x2")
         );
         c.scene_hash = 1;
+        assert_eq!(difference(&a, &c).unwrap().kind, DifferenceKind::Resolution);
+        c.width = a.width;
         assert_eq!(difference(&a, &c).unwrap().kind, DifferenceKind::Scene);
         c = a.clone();
         c.first = 7;
