@@ -101,9 +101,11 @@ impl FileLock {
             if !is_at(&file, &lock_file) {
                 continue;
             }
-            file.set_len(0)
-                .and_then(|()| writeln!(file, "{}", std::process::id()))
-                .map_err(io)?;
+            // For the message of a refused lock only: a full disk (which
+            // the lock itself does not need) leaves it empty.
+            let _ = file
+                .set_len(0)
+                .and_then(|()| writeln!(file, "{}", std::process::id()));
             return Ok(Self {
                 file,
                 path: lock_file,

@@ -152,9 +152,7 @@ impl Checkpoint {
             what,
         };
         if h.first != first {
-            return Err(range(format!(
-                "this render starts at iteration {first}"
-            )));
+            return Err(range(format!("this render starts at iteration {first}")));
         }
         if let Budget::Iterations(total) = budget
             && found.iterations > total

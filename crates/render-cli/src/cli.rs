@@ -9,10 +9,11 @@ use glam::{UVec2, Vec3};
 use integrators::{Algorithm, Mode};
 
 use crate::values::{
-    parse_algorithm, parse_checkpoint_interval, parse_define, parse_env_rotation, parse_env_scale, parse_exposure,
-    parse_exr_path, parse_fov, parse_iteration_range, parse_iterations, parse_max_depth,
-    parse_on_off, parse_partial_path, parse_png_path, parse_radius, parse_regularize,
-    parse_resolution, parse_shadow_roulette, parse_tau0, parse_threads, parse_time, parse_vec3,
+    parse_algorithm, parse_checkpoint_interval, parse_define, parse_env_rotation, parse_env_scale,
+    parse_exposure, parse_exr_path, parse_fov, parse_iteration_range, parse_iterations,
+    parse_max_depth, parse_on_off, parse_partial_path, parse_png_path, parse_radius,
+    parse_regularize, parse_resolution, parse_shadow_roulette, parse_tau0, parse_threads,
+    parse_time, parse_vec3,
 };
 
 const AFTER_LONG_HELP: &str = "\

@@ -234,14 +234,20 @@ fn run(cli: &Cli) -> Result<ExitCode, Error> {
         checkpoint.remove();
         return written;
     }
-    checkpoint.save(&film, outcome.rendered)?;
-    let kept = |error| Error::Kept {
-        error: Box::new(error),
-        checkpoint: checkpoint.path().to_owned(),
-        first: header.first,
-        last: header.first + checkpoint.saved() - 1,
-    };
-    written.map_err(kept)
+    let saved = checkpoint.save(&film, outcome.rendered);
+    match written {
+        // The image is there; a checkpoint that was to be kept but failed is the error.
+        Ok(code) => saved.map(|()| code).map_err(Error::from),
+        // What could not be written is the error; the checkpoint, this
+        // one or the previous one, holds the render.
+        Err(error) if checkpoint.saved() > 0 => Err(Error::Kept {
+            error: Box::new(error),
+            checkpoint: checkpoint.path().to_owned(),
+            first: header.first,
+            last: header.first + checkpoint.saved() - 1,
+        }),
+        Err(error) => Err(error),
+    }
 }
 
 /// Writes the image and its preview, or the partial film of `header`'s
@@ -256,7 +262,9 @@ fn write_outputs(
     let resolution = (film.width(), film.height());
     if let Some(path) = &outputs.partial {
         if outcome.interrupted {
-            return Err(Error::InterruptedPartial(outcome.resumed + outcome.iterations));
+            return Err(Error::InterruptedPartial(
+                outcome.resumed + outcome.iterations,
+            ));
         }
         let (sum, sum_sq) = film.sums();
         image_io::film_file::write_sums(path, header, film.iterations(), sum, sum_sq)?;
@@ -407,9 +415,7 @@ fn summary(outcome: &Outcome, budget: Budget, (w, h): (u32, u32), outputs: &Outp
             t.as_secs_f64()
         ),
     };
-    format!(
-        "interrupted after {planned} of {w}x{h} in {seconds:.2} s ({rates}); wrote {files}"
-    )
+    format!("interrupted after {planned} of {w}x{h} in {seconds:.2} s ({rates}); wrote {files}")
 }
 
 fn file_list(outputs: &Outputs) -> String {

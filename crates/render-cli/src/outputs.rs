@@ -30,7 +30,11 @@ impl Cli {
         if let Some(checkpoint) = &self.checkpoint {
             check_writable("--checkpoint", checkpoint)?;
             // The partial film is whole; the checkpoint is not, and is removed.
-            if self.partial.as_ref().is_some_and(|p| same_path(p, checkpoint)) {
+            if self
+                .partial
+                .as_ref()
+                .is_some_and(|p| same_path(p, checkpoint))
+            {
                 return Err(ArgError::Flag {
                     flag: "--checkpoint",
                     message: "must be another file than --partial".to_owned(),
@@ -115,7 +119,11 @@ mod tests {
             .unwrap()
             .outputs()
             .unwrap_err();
-        assert!(e.to_string().starts_with("--checkpoint: must be another file"), "{e}");
+        assert!(
+            e.to_string()
+                .starts_with("--checkpoint: must be another file"),
+            "{e}"
+        );
         assert!(
             cli(&["--partial", "a.rltfilm", "--checkpoint", "b.rltfilm"])
                 .unwrap()

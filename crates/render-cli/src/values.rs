@@ -141,9 +141,7 @@ pub fn parse_checkpoint_interval(s: &str) -> Result<Duration, String> {
         .parse()
         .map_err(|_| format!("'{s}' is not a number"))?;
     if !(seconds >= 0.0 && seconds.is_finite()) {
-        return Err(format!(
-            "must be a finite number of seconds >= 0, got {s}"
-        ));
+        return Err(format!("must be a finite number of seconds >= 0, got {s}"));
     }
     Duration::try_from_secs_f64(seconds).map_err(|_| format!("{s} seconds is too long"))
 }
