@@ -129,11 +129,10 @@ pub fn progressive(
         film.add_iteration(&estimates);
         if let Some(c) = checkpoint.as_deref_mut()
             && c.is_due()
+            && let Err(e) = c.save(film, rendered())
         {
-            if let Err(e) = c.save(film, rendered()) {
-                bar.finish_and_clear();
-                return Err(e);
-            }
+            bar.finish_and_clear();
+            return Err(e);
         }
         show(n);
     };
