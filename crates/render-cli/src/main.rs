@@ -4,8 +4,9 @@
 //! parses flags ([`cli`], with the value checks of [`values`]), loads the
 //! scene, resolves the render settings (flag, else manifest, else default:
 //! [`settings`]), optionally explains them ([`explain`]), runs the
-//! progressive loop ([`render`]) in a rayon pool of the requested size, and
-//! writes the mean image ([`outputs`]). It contains no light transport. Every
+//! progressive loop ([`render`]) in a rayon pool of the requested size,
+//! saving and resuming a checkpoint if asked ([`checkpoint`]), and writes the
+//! mean image ([`outputs`]). It contains no light transport. Every
 //! error is one line on stderr (`error: ...`) naming the file and key, or the
 //! flag, and no partial image is left behind.
 
@@ -25,6 +26,7 @@ use std::io::Write;
 use std::process::ExitCode;
 
 use clap::Parser;
+use image_io::film_file::FilmHeader;
 use image_io::{ImageError, write_exr, write_png};
 use integrators::Renderer;
 use scene::SceneError;
@@ -35,7 +37,6 @@ use crate::error::ArgError;
 use crate::outputs::Outputs;
 use crate::render::{INTERRUPTED_EXIT_CODE, Outcome};
 use crate::settings::{Budget, Settings};
-use image_io::film_file::FilmHeader;
 
 /// Why a render failed; `Display` is the one line printed after `error: `.
 #[derive(Debug, thiserror::Error)]
@@ -225,16 +226,29 @@ fn run(cli: &Cli) -> Result<ExitCode, Error> {
 
     render::begin_writing();
     let written = write_outputs(&outputs, settings.budget.value, &film, &outcome, &header);
-    let Some(mut checkpoint) = checkpoint else {
-        return written;
-    };
-    // Done: the checkpoint has served. Otherwise (interrupted, or the image
-    // could not be written) it keeps every iteration for the next run.
-    if written.is_ok() && !outcome.interrupted && !cli.keep_checkpoint {
+    match checkpoint {
+        Some(c) => finish_checkpoint(c, written, cli.keep_checkpoint, &film, &outcome, &header),
+        None => written,
+    }
+}
+
+/// After the outputs were `written` (or not): removes the checkpoint of a
+/// finished render, whose image is there. Otherwise (interrupted, the image
+/// could not be written, or `keep`) saves every iteration in it, and an
+/// error says that it holds them.
+fn finish_checkpoint(
+    mut checkpoint: Checkpoint,
+    written: Result<ExitCode, Error>,
+    keep: bool,
+    film: &integrators::Film,
+    outcome: &Outcome,
+    header: &FilmHeader,
+) -> Result<ExitCode, Error> {
+    if written.is_ok() && !outcome.interrupted && !keep {
         checkpoint.remove();
         return written;
     }
-    let saved = checkpoint.save(&film, outcome.rendered);
+    let saved = checkpoint.save(film, outcome.rendered);
     match written {
         // The image is there; a checkpoint that was to be kept but failed is the error.
         Ok(code) => saved.map(|()| code).map_err(Error::from),
