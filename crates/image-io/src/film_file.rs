@@ -201,7 +201,7 @@ pub fn write(path: &Path, partial: &PartialFilm) -> Result<(), FilmFileError> {
     )
 }
 
-/// [`write`] of a film's parts, streamed from where they are (a render's
+/// [`write()`] of a film's parts, streamed from where they are (a render's
 /// film): no copy of the sums is made, which would double the memory of a
 /// large film at every checkpoint.
 pub fn write_sums(
