@@ -28,7 +28,7 @@
 
 use std::fmt::Write as _;
 use std::fs;
-use std::io::{Read as _, Write as _};
+use std::io::{BufWriter, Read as _, Write};
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
@@ -64,6 +64,9 @@ pub struct FilmHeader {
     pub width: u32,
     /// Image height in pixels.
     pub height: u32,
+    /// Wall-clock milliseconds spent rendering the film, where recorded (a
+    /// checkpoint of a `--time` render resumes with the rest of its time).
+    pub render_millis: Option<u64>,
 }
 
 impl FilmHeader {
@@ -82,6 +85,9 @@ impl FilmHeader {
         let _ = writeln!(s, "last = {}", self.last);
         let _ = writeln!(s, "width = {}", self.width);
         let _ = writeln!(s, "height = {}", self.height);
+        if let Some(ms) = self.render_millis {
+            let _ = writeln!(s, "render_millis = {ms}");
+        }
         s
     }
 
@@ -112,6 +118,10 @@ impl FilmHeader {
             last: number("last")?,
             width: size("width")?,
             height: size("height")?,
+            render_millis: match value("render_millis") {
+                Ok(_) => Some(number("render_millis")?),
+                Err(_) => None,
+            },
         };
         if header.first == 0 || header.last < header.first {
             return Err(format!(
@@ -147,6 +157,9 @@ impl PartialFilm {
         }
         self.iterations += other.iterations;
         self.header.last = other.header.last;
+        self.header.render_millis = (self.header.render_millis)
+            .zip(other.header.render_millis)
+            .map(|(a, b)| a + b);
     }
 }
 
@@ -174,26 +187,40 @@ pub enum FilmFileError {
     Mismatch(String),
 }
 
-/// Writes `partial` to `path` through a temporary file in the same folder,
-/// synced and renamed: an interrupted write never leaves a file under
-/// `path` that a merge would accept.
+/// Writes `partial` to `path` atomically ([`crate::atomic`]): an
+/// interrupted write (a killed process, a full disk) never leaves a file
+/// under `path` that a merge or a resumed render would accept, and leaves
+/// the previous file, if any, as it was.
 pub fn write(path: &Path, partial: &PartialFilm) -> Result<(), FilmFileError> {
-    let io = |source| FilmFileError::Io {
+    write_sums(
+        path,
+        &partial.header,
+        partial.iterations,
+        &partial.sum,
+        partial.sum_sq.as_slice(),
+    )
+}
+
+/// [`write()`] of a film's parts, streamed from where they are (a render's
+/// film): no copy of the sums is made, which would double the memory of a
+/// large film at every checkpoint.
+pub fn write_sums(
+    path: &Path,
+    header: &FilmHeader,
+    iterations: u64,
+    sum: &[DVec3],
+    sum_sq: &[DVec3],
+) -> Result<(), FilmFileError> {
+    let write = |temporary: &Path| -> std::io::Result<()> {
+        let mut out = BufWriter::new(fs::File::create(temporary)?);
+        encode_into(&mut out, header, iterations, sum, sum_sq)?;
+        out.into_inner().map_err(|e| e.into_error())?;
+        Ok(())
+    };
+    crate::atomic::write_atomically(path, write, |e| e).map_err(|source| FilmFileError::Io {
         path: path.to_owned(),
         source,
-    };
-    let bytes = encode(partial);
-    let temporary = path.with_extension(format!("{EXTENSION}.partial-{}", std::process::id()));
-    let result = (|| {
-        let mut file = fs::File::create(&temporary)?;
-        file.write_all(&bytes)?;
-        file.sync_all()?;
-        fs::rename(&temporary, path)
-    })();
-    if result.is_err() {
-        let _ = fs::remove_file(&temporary);
-    }
-    result.map_err(io)
+    })
 }
 
 /// Reads a partial film, checking magic, version, length and checksum.
@@ -208,22 +235,54 @@ pub fn read(path: &Path) -> Result<PartialFilm, FilmFileError> {
     })
 }
 
-fn encode(partial: &PartialFilm) -> Vec<u8> {
-    let header = partial.header.to_text();
-    let (sum, sum_sq) = (&partial.sum, &partial.sum_sq);
-    let mut bytes = Vec::with_capacity(PREAMBLE + header.len() + 12 + 48 * sum.len());
-    bytes.extend_from_slice(MAGIC);
-    bytes.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
-    bytes.extend_from_slice(&(header.len() as u32).to_le_bytes());
-    bytes.extend_from_slice(header.as_bytes());
-    bytes.extend_from_slice(&partial.iterations.to_le_bytes());
+/// Bytes of pixel data encoded and checksummed at a time.
+const ENCODE_CHUNK: usize = 1 << 16;
+
+/// Writes the file format to `out`, checksumming as it goes.
+fn encode_into(
+    out: &mut impl Write,
+    header: &FilmHeader,
+    iterations: u64,
+    sum: &[DVec3],
+    sum_sq: &[DVec3],
+) -> std::io::Result<()> {
+    let text = header.to_text();
+    let mut crc = crc32fast::Hasher::new();
+    let mut put = |bytes: &[u8]| {
+        crc.update(bytes);
+        out.write_all(bytes)
+    };
+    put(MAGIC)?;
+    put(&FORMAT_VERSION.to_le_bytes())?;
+    put(&(text.len() as u32).to_le_bytes())?;
+    put(text.as_bytes())?;
+    put(&iterations.to_le_bytes())?;
+    // In chunks: the checksum is fast on long runs of bytes.
+    let mut chunk = Vec::with_capacity(ENCODE_CHUNK + 24);
     for v in sum.iter().chain(sum_sq) {
         for c in v.to_array() {
-            bytes.extend_from_slice(&c.to_le_bytes());
+            chunk.extend_from_slice(&c.to_le_bytes());
+        }
+        if chunk.len() >= ENCODE_CHUNK {
+            put(&chunk)?;
+            chunk.clear();
         }
     }
-    let crc = crc32fast::hash(&bytes);
-    bytes.extend_from_slice(&crc.to_le_bytes());
+    put(&chunk)?;
+    out.write_all(&crc.finalize().to_le_bytes())
+}
+
+#[cfg(test)]
+fn encode(partial: &PartialFilm) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    encode_into(
+        &mut bytes,
+        &partial.header,
+        partial.iterations,
+        &partial.sum,
+        &partial.sum_sq,
+    )
+    .expect("writing to memory");
     bytes
 }
 
@@ -309,6 +368,117 @@ pub fn read_header(path: &Path) -> Result<FilmHeader, FilmFileError> {
     FilmHeader::from_text(text).map_err(invalid)
 }
 
+/// What makes two films' renders differ (see [`difference`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DifferenceKind {
+    /// The scenes' content (their hashes).
+    Scene,
+    /// The image sizes.
+    Resolution,
+    /// A render setting (seed included).
+    Settings,
+}
+
+impl DifferenceKind {
+    /// The noun before a value: "resolution 64x48" (empty for settings,
+    /// whose values name their field).
+    pub fn noun(self) -> &'static str {
+        match self {
+            Self::Scene => "scene ",
+            Self::Resolution => "resolution ",
+            Self::Settings => "",
+        }
+    }
+
+    /// The plural, as in "different sizes".
+    pub fn plural(self) -> &'static str {
+        match self {
+            Self::Scene => "scenes",
+            Self::Resolution => "sizes",
+            Self::Settings => "settings",
+        }
+    }
+}
+
+/// The first difference between the renders of two films, each side as a
+/// short value: `64x48`, `max_depth: 12`, `regularization.mode: Uniform`, a
+/// scene's file and content hash.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Difference {
+    /// What differs.
+    pub kind: DifferenceKind,
+    /// The first film's value.
+    pub ours: String,
+    /// The second film's value.
+    pub theirs: String,
+}
+
+/// How the renders of `a` and `b` differ (size, scene content, settings),
+/// if they do; the iteration ranges and render times are not compared.
+pub fn difference(a: &FilmHeader, b: &FilmHeader) -> Option<Difference> {
+    // Size first: the camera, and so the scene's hash, includes it.
+    let (kind, ours, theirs) = if (a.width, a.height) != (b.width, b.height) {
+        let size = |h: &FilmHeader| format!("{}x{}", h.width, h.height);
+        (DifferenceKind::Resolution, size(a), size(b))
+    } else if a.scene_hash != b.scene_hash {
+        let scene = |h: &FilmHeader| format!("{} (content hash {:016x})", h.scene, h.scene_hash);
+        (DifferenceKind::Scene, scene(a), scene(b))
+    } else if a.settings != b.settings {
+        let (ours, theirs) = debug_difference(&a.settings, &b.settings, "")
+            .unwrap_or_else(|| (a.settings.clone(), b.settings.clone()));
+        (DifferenceKind::Settings, ours, theirs)
+    } else {
+        return None;
+    };
+    Some(Difference { kind, ours, theirs })
+}
+
+/// The first field in which two `Debug` lines of one struct type differ,
+/// as `path.to.field: value` on each side (nested structs are entered);
+/// `None` where they are not structs of the same shape.
+fn debug_difference(a: &str, b: &str, prefix: &str) -> Option<(String, String)> {
+    let (name_a, fields_a) = debug_fields(a)?;
+    let (name_b, fields_b) = debug_fields(b)?;
+    if name_a != name_b || fields_a.len() != fields_b.len() {
+        return None;
+    }
+    let (x, y) = fields_a.iter().zip(&fields_b).find(|(x, y)| x != y)?;
+    Some(match (x.split_once(": "), y.split_once(": ")) {
+        (Some((kx, vx)), Some((ky, vy))) if kx == ky => {
+            let path = format!("{prefix}{kx}");
+            debug_difference(vx, vy, &format!("{path}."))
+                .unwrap_or_else(|| (format!("{path}: {vx}"), format!("{path}: {vy}")))
+        }
+        _ => (format!("{prefix}{x}"), format!("{prefix}{y}")),
+    })
+}
+
+/// `Name { a: 1, b: X { c: 2 } }` as its name and its top-level fields.
+fn debug_fields(s: &str) -> Option<(&str, Vec<&str>)> {
+    let (name, rest) = s.split_once(" { ")?;
+    let inner = rest.strip_suffix(" }")?;
+    if name.contains([' ', '(', '[', '{', '"']) {
+        return None;
+    }
+    let mut fields = Vec::new();
+    let (mut depth, mut quoted, mut start) = (0i32, false, 0);
+    let bytes = inner.as_bytes();
+    for (i, &c) in bytes.iter().enumerate() {
+        match c {
+            b'"' if i == 0 || bytes[i - 1] != b'\\' => quoted = !quoted,
+            b'{' | b'(' | b'[' if !quoted => depth += 1,
+            b'}' | b')' | b']' if !quoted => depth -= 1,
+            b',' if !quoted && depth == 0 => {
+                fields.push(inner[start..i].trim());
+                start = i + 1;
+            }
+            _ => {}
+        }
+    }
+    fields.push(inner[start..].trim());
+    Some((name, fields))
+}
+
 /// Sums the partial films at `paths` (given in any order) into the film of
 /// the union of their ranges. Refuses films of different scenes, settings
 /// or sizes, and ranges that overlap or leave a gap, naming the files;
@@ -353,26 +523,14 @@ fn merge_order(headers: &[(PathBuf, FilmHeader)]) -> Result<Vec<usize>, String> 
     for pair in order.windows(2) {
         let (i, j) = (pair[0], pair[1]);
         let (a, b) = (&headers[i].1, &headers[j].1);
-        let differs = if reference.scene_hash != b.scene_hash {
-            Some(format!("scenes ({} and {})", reference.scene, b.scene))
-        } else if reference.settings != b.settings {
-            Some(format!(
-                "settings:\n  {}\n  {}",
-                reference.settings, b.settings
-            ))
-        } else if (reference.width, reference.height) != (b.width, b.height) {
-            Some(format!(
-                "sizes ({}x{} and {}x{})",
-                reference.width, reference.height, b.width, b.height
-            ))
-        } else {
-            None
-        };
-        if let Some(what) = differs {
+        if let Some(d) = difference(reference, b) {
             return Err(format!(
-                "{} and {} are of different renders: different {what}",
+                "{} and {} are of different renders: different {} ({} and {})",
                 name(first),
-                name(j)
+                name(j),
+                d.kind.plural(),
+                d.ours,
+                d.theirs
             ));
         }
         if b.first <= a.last {
@@ -411,6 +569,7 @@ mod tests {
             last,
             width: 3,
             height: 2,
+            render_millis: None,
         }
     }
 
@@ -465,6 +624,51 @@ mod tests {
         let mut newer = bytes.clone();
         newer[8] = 2;
         assert!(err(&newer).contains("format 2"));
+    }
+
+    #[test]
+    fn render_time_is_kept_when_recorded() {
+        let mut p = partial(1, 3);
+        p.header.render_millis = Some(1234);
+        assert_eq!(decode(&encode(&p)).unwrap(), p);
+    }
+
+    #[test]
+    fn differences_name_the_field() {
+        let a = header(1, 2);
+        let mut b = a.clone();
+        b.settings = "RenderConfig { seed: 3, regularization: Regularization { mode: \
+                      Uniform, tau: Some(3.0) }, max_depth: 2 }"
+            .to_owned();
+        let mut c = b.clone();
+        c.settings = c.settings.replace("Some(3.0)", "Some(7.5)");
+        let d = difference(&b, &c).unwrap();
+        assert_eq!(d.kind, DifferenceKind::Settings);
+        assert_eq!(
+            (d.ours.as_str(), d.theirs.as_str()),
+            (
+                "regularization.tau: Some(3.0)",
+                "regularization.tau: Some(7.5)"
+            )
+        );
+        // Not of one shape: the whole lines.
+        let d = difference(&a, &b).unwrap();
+        assert_eq!((d.ours, d.theirs), (a.settings.clone(), b.settings.clone()));
+        c = a.clone();
+        c.width = 64;
+        let d = difference(&a, &c).unwrap();
+        assert_eq!(
+            (d.kind, d.ours.as_str(), d.theirs.as_str()),
+            (DifferenceKind::Resolution, "3x2", "64x2")
+        );
+        c.scene_hash = 1;
+        assert_eq!(difference(&a, &c).unwrap().kind, DifferenceKind::Resolution);
+        c.width = a.width;
+        assert_eq!(difference(&a, &c).unwrap().kind, DifferenceKind::Scene);
+        c = a.clone();
+        c.first = 7;
+        c.render_millis = Some(5);
+        assert_eq!(difference(&a, &c), None);
     }
 
     #[test]
@@ -528,10 +732,14 @@ mod tests {
         let mut other = partial(9, 10);
         other.header.settings = "RenderConfig { seed: 4 }".to_owned();
         let foreign = message(vec![named("a", partial(1, 8)), named("b", other)]);
-        assert!(foreign.contains("different settings"), "{foreign}");
+        assert!(
+            foreign.contains("different settings (seed: 3 and seed: 4)"),
+            "{foreign}"
+        );
         let mut moved = partial(9, 10);
         moved.header.scene_hash ^= 1;
-        assert!(message(vec![named("a", partial(1, 8)), named("b", moved)]).contains("scenes"));
+        let scenes = message(vec![named("a", partial(1, 8)), named("b", moved)]);
+        assert!(scenes.contains("different scenes"), "{scenes}");
         assert!(merge_order(&[]).unwrap_err().contains("no partial film"));
     }
 }

@@ -2,9 +2,10 @@
 //! tone-mapped 8-bit sRGB PNG (a preview), and partial films of iteration
 //! shards ([`film_file`]).
 //!
-//! Both writers go through a temporary file in the target folder that is
-//! renamed at the end, so a failed or interrupted write never leaves a
-//! partial file under the requested name.
+//! Every writer goes through a temporary file in the target folder that is
+//! synced and renamed at the end ([`atomic`]), so a failed or interrupted
+//! write never leaves a partial file under the requested name; [`lock`]
+//! keeps two renders from writing one checkpoint.
 
 use std::fs;
 use std::io::BufWriter;
@@ -12,7 +13,9 @@ use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 
+pub mod atomic;
 pub mod film_file;
+pub mod lock;
 
 /// An image file could not be written or read.
 #[derive(Debug, thiserror::Error)]
@@ -42,19 +45,13 @@ fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> ImageError + '_ {
     }
 }
 
-/// Writes `path` through `path.partial` (renamed when complete).
+/// Writes `path` atomically ([`atomic`]): through `path.partial`, synced
+/// and renamed when complete.
 fn write_atomically(
     path: &Path,
     write: impl FnOnce(&Path) -> Result<(), ImageError>,
 ) -> Result<(), ImageError> {
-    let mut partial = path.as_os_str().to_owned();
-    partial.push(".partial");
-    let partial = PathBuf::from(partial);
-    let result = write(&partial).and_then(|()| fs::rename(&partial, path).map_err(io_error(path)));
-    if result.is_err() {
-        // Best effort: the error that matters is the one returned.
-        let _ = fs::remove_file(&partial);
-    }
+    let result = atomic::write_atomically(path, write, io_error(path));
     // Errors name the file the caller asked for, not the temporary one.
     result.map_err(|e| match e {
         ImageError::Io { source, .. } => ImageError::Io {

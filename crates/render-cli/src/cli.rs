@@ -9,10 +9,11 @@ use glam::{UVec2, Vec3};
 use integrators::{Algorithm, Mode};
 
 use crate::values::{
-    parse_algorithm, parse_define, parse_env_rotation, parse_env_scale, parse_exposure,
-    parse_exr_path, parse_fov, parse_iteration_range, parse_iterations, parse_max_depth,
-    parse_on_off, parse_partial_path, parse_png_path, parse_radius, parse_regularize,
-    parse_resolution, parse_shadow_roulette, parse_tau0, parse_threads, parse_time, parse_vec3,
+    parse_algorithm, parse_checkpoint_interval, parse_define, parse_env_rotation, parse_env_scale,
+    parse_exposure, parse_exr_path, parse_fov, parse_iteration_range, parse_iterations,
+    parse_max_depth, parse_on_off, parse_partial_path, parse_png_path, parse_radius,
+    parse_regularize, parse_resolution, parse_shadow_roulette, parse_tau0, parse_threads,
+    parse_time, parse_vec3,
 };
 
 const AFTER_LONG_HELP: &str = "\
@@ -30,8 +31,15 @@ quits at once without writing.
 
 Shards: --iteration-range A..B --partial shard.rltfilm renders iterations A..B of a longer render (with their global indices) into a partial film; `render-cli merge a.rltfilm b.rltfilm ... -o image.exr` sums partial films of one render into its image (`render-cli merge --help`).
 
+Checkpoints: --checkpoint render.rltfilm saves the film every 300 s (--checkpoint-every); after a \
+crash or a kill, the same command resumes from it ('resuming from render.rltfilm: iterations \
+1..=N of M done') and writes the image an uninterrupted render gives, byte for byte. With --time, \
+the checkpoint also records the time rendered, and the budget counts it: the image is then that \
+of --iterations N for the N iterations rendered in all.
+
 Exit status: 0 rendered; 1 error (one line on stderr: 'error: ...'); 2 invalid command line; \
-130 interrupted (the image of the completed iterations was written, or nothing if none completed).
+130 interrupted (the image of the completed iterations was written, or nothing if none completed; \
+with --checkpoint, the checkpoint holds them).
 
 Examples:
   render-cli scenes/cornell-box/scene.toml
@@ -276,6 +284,29 @@ pub struct Cli {
     #[arg(long, value_name = "PATH", value_parser = parse_partial_path,
           conflicts_with_all = ["output", "png", "no_png", "exposure"], help_heading = "Shards")]
     pub partial: Option<PathBuf>,
+
+    /// Save the film of the render in progress to this .rltfilm file every --checkpoint-every
+    /// seconds (atomically: a killed render leaves the previous checkpoint whole), and resume
+    /// from it if it exists: running the same command again after a crash, a kill or Ctrl-C
+    /// renders only the iterations it lacks and writes the same image, byte for byte, as an
+    /// uninterrupted render. A checkpoint of another scene, size or setting, or a damaged one,
+    /// is refused; so is one that another running render holds. It is removed once the
+    /// image (or --partial film) is written, kept if the render was interrupted or the image
+    /// could not be written.
+    #[arg(long, value_name = "FILE", value_parser = parse_partial_path, help_heading = "Checkpoints")]
+    pub checkpoint: Option<PathBuf>,
+
+    /// Seconds between checkpoints (fractions allowed; 0 saves after every iteration). Checked
+    /// between iterations, so an iteration longer than this saves after each one.
+    /// [default: 300]
+    #[arg(long, value_name = "SECONDS", value_parser = parse_checkpoint_interval,
+          requires = "checkpoint", help_heading = "Checkpoints")]
+    pub checkpoint_every: Option<Duration>,
+
+    /// Keep the checkpoint once the image is written: it then holds every iteration, and a
+    /// later run with more --iterations (or a longer --time) continues from it.
+    #[arg(long, requires = "checkpoint", help_heading = "Checkpoints")]
+    pub keep_checkpoint: bool,
 }
 
 fn algorithm_help() -> String {

@@ -4,11 +4,13 @@
 //! parses flags ([`cli`], with the value checks of [`values`]), loads the
 //! scene, resolves the render settings (flag, else manifest, else default:
 //! [`settings`]), optionally explains them ([`explain`]), runs the
-//! progressive loop ([`render`]) in a rayon pool of the requested size, and
-//! writes the mean image ([`outputs`]). It contains no light transport. Every
+//! progressive loop ([`render`]) in a rayon pool of the requested size,
+//! saving and resuming a checkpoint if asked ([`checkpoint`]), and writes the
+//! mean image ([`outputs`]). It contains no light transport. Every
 //! error is one line on stderr (`error: ...`) naming the file and key, or the
 //! flag, and no partial image is left behind.
 
+mod checkpoint;
 mod cli;
 mod error;
 mod explain;
@@ -24,10 +26,12 @@ use std::io::Write;
 use std::process::ExitCode;
 
 use clap::Parser;
+use image_io::film_file::FilmHeader;
 use image_io::{ImageError, write_exr, write_png};
 use integrators::Renderer;
 use scene::SceneError;
 
+use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::cli::Cli;
 use crate::error::ArgError;
 use crate::outputs::Outputs;
@@ -53,10 +57,34 @@ enum Error {
     )]
     InterruptedPartial(u64),
     #[error(transparent)]
+    Checkpoint(#[from] CheckpointError),
+    /// A failure after which the checkpoint holds the render's iterations.
+    #[error(
+        "{error}; checkpoint {} holds iterations {first}..={last}: run the same command again to finish",
+        checkpoint.display()
+    )]
+    Kept {
+        error: Box<Error>,
+        checkpoint: std::path::PathBuf,
+        first: u64,
+        last: u64,
+    },
+    #[error(transparent)]
     Film(#[from] image_io::film_file::FilmFileError),
     /// The film would not fit in the available memory.
     #[error("{0}")]
     Memory(String),
+}
+
+impl Error {
+    /// Whether the render ended by an interrupt (exit code 130).
+    fn is_interrupt(&self) -> bool {
+        match self {
+            Self::InterruptedEarly | Self::InterruptedPartial(_) => true,
+            Self::Kept { error, .. } => error.is_interrupt(),
+            _ => false,
+        }
+    }
 }
 
 fn main() -> ExitCode {
@@ -80,11 +108,10 @@ fn main() -> ExitCode {
         Ok(code) => code,
         Err(e) => {
             eprintln!("error: {e}");
-            match e {
-                Error::InterruptedEarly | Error::InterruptedPartial(_) => {
-                    ExitCode::from(INTERRUPTED_EXIT_CODE)
-                }
-                _ => ExitCode::FAILURE,
+            if e.is_interrupt() {
+                ExitCode::from(INTERRUPTED_EXIT_CODE)
+            } else {
+                ExitCode::FAILURE
             }
         }
     }
@@ -96,6 +123,15 @@ fn run(cli: &Cli) -> Result<ExitCode, Error> {
     // Checks that need no scene come first, so that a typo fails in milliseconds.
     let outputs = cli.outputs()?;
     let camera = cli.camera_override()?;
+    // Locked and read before the scene is loaded: a checkpoint in use or
+    // damaged is refused at once.
+    let mut checkpoint = match &cli.checkpoint {
+        Some(path) => Some(Checkpoint::open(
+            path,
+            cli.checkpoint_every.unwrap_or(checkpoint::DEFAULT_INTERVAL),
+        )?),
+        None => None,
+    };
 
     let mut scene = load_quietly(&cli.scene, &cli.load_options()?)?;
     for warning in &scene.report.warnings {
@@ -143,13 +179,31 @@ fn run(cli: &Cli) -> Result<ExitCode, Error> {
             settings::check_memory(&needs, size, &source, settings::available_memory())
                 .map_err(Error::Memory)?;
         }
+        let first = settings.first_iteration;
+        let header = shard::header(&cli.scene, renderer.scene(), &settings.config, first, first);
+        let resumed = match &mut checkpoint {
+            Some(c) => c.resume(header.clone(), settings.budget.value)?,
+            None => None,
+        };
+        if let (Some(c), Some(r)) = (&checkpoint, &resumed) {
+            eprintln!("{}", resuming_line(c, r, first, settings.budget.value));
+        }
         if cli.explain {
             print_explanation(cli, &renderer, &settings, &outputs);
         }
-        let first = settings.first_iteration;
-        let prepared = prepare_energy_tables(&renderer, first);
-        let mut film = renderer.new_film();
-        let outcome = render::progressive(&renderer, &mut film, settings.budget.value, first);
+        let (mut film, rendered_before) = match resumed {
+            Some(r) => (r.film, r.rendered),
+            None => (renderer.new_film(), std::time::Duration::ZERO),
+        };
+        let prepared = prepare_energy_tables(&renderer, first + film.iterations());
+        let outcome = render::progressive(
+            &renderer,
+            &mut film,
+            settings.budget.value,
+            first,
+            rendered_before,
+            checkpoint.as_mut(),
+        )?;
         let built_in_render = renderer.energy_tables_built() - prepared;
         if built_in_render > 0 {
             eprintln!(
@@ -162,28 +216,76 @@ fn run(cli: &Cli) -> Result<ExitCode, Error> {
         if invalid > 0 {
             eprintln!("warning: {invalid} samples were NaN or infinite and were replaced by 0");
         }
-        let last = first + outcome.iterations.max(1) - 1;
-        let header = outputs
-            .partial
-            .as_ref()
-            .map(|_| shard::header(&cli.scene, renderer.scene(), &settings.config, first, last));
+        let last = first + film.iterations().max(1) - 1;
+        let header = FilmHeader { last, ..header };
         Ok::<_, Error>((film, outcome, header))
     })?;
-    if outcome.iterations == 0 {
+    if film.iterations() == 0 {
         return Err(Error::InterruptedEarly);
     }
 
     render::begin_writing();
+    let written = write_outputs(&outputs, settings.budget.value, &film, &outcome, &header);
+    match checkpoint {
+        Some(c) => finish_checkpoint(c, written, cli.keep_checkpoint, &film, &outcome, &header),
+        None => written,
+    }
+}
+
+/// After the outputs were `written` (or not): removes the checkpoint of a
+/// finished render, whose image is there. Otherwise (interrupted, the image
+/// could not be written, or `keep`) saves every iteration in it, and an
+/// error says that it holds them.
+fn finish_checkpoint(
+    mut checkpoint: Checkpoint,
+    written: Result<ExitCode, Error>,
+    keep: bool,
+    film: &integrators::Film,
+    outcome: &Outcome,
+    header: &FilmHeader,
+) -> Result<ExitCode, Error> {
+    if written.is_ok() && !outcome.interrupted && !keep {
+        checkpoint.remove();
+        return written;
+    }
+    let saved = checkpoint.save(film, outcome.rendered);
+    match written {
+        // The image is there; a checkpoint that was to be kept but failed is the error.
+        Ok(code) => saved.map(|()| code).map_err(Error::from),
+        // What could not be written is the error; the checkpoint, this
+        // one or the previous one, holds the render.
+        Err(error) if checkpoint.saved() > 0 => Err(Error::Kept {
+            error: Box::new(error),
+            checkpoint: checkpoint.path().to_owned(),
+            first: header.first,
+            last: header.first + checkpoint.saved() - 1,
+        }),
+        Err(error) => Err(error),
+    }
+}
+
+/// Writes the image and its preview, or the partial film of `header`'s
+/// range; the exit code.
+fn write_outputs(
+    outputs: &Outputs,
+    budget: Budget,
+    film: &integrators::Film,
+    outcome: &Outcome,
+    header: &FilmHeader,
+) -> Result<ExitCode, Error> {
     let resolution = (film.width(), film.height());
-    if let (Some(path), Some(header)) = (&outputs.partial, header) {
+    if let Some(path) = &outputs.partial {
         if outcome.interrupted {
-            return Err(Error::InterruptedPartial(outcome.iterations));
+            return Err(Error::InterruptedPartial(
+                outcome.resumed + outcome.iterations,
+            ));
         }
-        let range = header.range();
-        image_io::film_file::write(path, &shard::partial(header, &film))?;
+        let (sum, sum_sq) = film.sums();
+        image_io::film_file::write_sums(path, header, film.iterations(), sum, sum_sq)?;
         eprintln!(
-            "{} (iterations {range})",
-            summary(&outcome, settings.budget.value, resolution, &outputs)
+            "{} (iterations {})",
+            summary(outcome, budget, resolution, outputs),
+            header.range()
         );
         return Ok(ExitCode::SUCCESS);
     }
@@ -193,15 +295,38 @@ fn run(cli: &Cli) -> Result<ExitCode, Error> {
     if let Some(png) = &outputs.png {
         write_png(png, width, height, &pixels, outputs.exposure).map_err(Error::Write)?;
     }
-    eprintln!(
-        "{}",
-        summary(&outcome, settings.budget.value, (width, height), &outputs)
-    );
+    eprintln!("{}", summary(outcome, budget, resolution, outputs));
     Ok(if outcome.interrupted {
         ExitCode::from(INTERRUPTED_EXIT_CODE)
     } else {
         ExitCode::SUCCESS
     })
+}
+
+/// The line of a resumed render, e.g. `resuming from c.rltfilm: iterations
+/// 1..=40 of 64 done` (of a range `65..=128 of 65..=192`; with a time
+/// budget, `in 12.3 of 60 s`).
+fn resuming_line(
+    checkpoint: &Checkpoint,
+    resumed: &checkpoint::Resumed,
+    first: u64,
+    budget: Budget,
+) -> String {
+    let done = resumed.film.iterations();
+    let range = format!("{first}..={}", first + done - 1);
+    let of = match budget {
+        Budget::Iterations(total) if first == 1 => format!("of {total} "),
+        Budget::Iterations(total) => format!("of {first}..={} ", first + total - 1),
+        Budget::Time(limit) => format!(
+            "in {:.1} of {} s ",
+            resumed.rendered.as_secs_f64(),
+            limit.as_secs_f64()
+        ),
+    };
+    format!(
+        "resuming from {}: iterations {range} {of}done",
+        checkpoint.path().display()
+    )
 }
 
 /// Builds the energy-compensation tables that the first iteration will read
@@ -259,6 +384,14 @@ fn print_explanation(cli: &Cli, renderer: &Renderer, settings: &Settings, output
     if outputs.png.is_some() {
         text += &format!("png exposure:     {} stops\n", outputs.exposure);
     }
+    if let Some(path) = &cli.checkpoint {
+        let every = cli.checkpoint_every.unwrap_or(checkpoint::DEFAULT_INTERVAL);
+        text += &format!(
+            "checkpoint:       {} (every {} s)\n",
+            path.display(),
+            every.as_secs_f64()
+        );
+    }
     text += &format!("output:           {}\n", file_list(outputs));
     let mut stdout = std::io::stdout().lock();
     let _ = stdout
@@ -267,7 +400,8 @@ fn print_explanation(cli: &Cli, renderer: &Renderer, settings: &Settings, output
 }
 
 /// The last line on stderr, e.g. `rendered 64 iterations of 256x256 in 3.21 s
-/// (19.9 it/s, 1.30 Msamples/s) -> render.exr, render.png`.
+/// (19.9 it/s, 1.30 Msamples/s) -> render.exr, render.png`; counts and rates
+/// are this run's, and a resumed render says how many it continued.
 fn summary(outcome: &Outcome, budget: Budget, (w, h): (u32, u32), outputs: &Outputs) -> String {
     let n = outcome.iterations;
     let seconds = outcome.elapsed.as_secs_f64().max(1e-9);
@@ -276,15 +410,24 @@ fn summary(outcome: &Outcome, budget: Budget, (w, h): (u32, u32), outputs: &Outp
         n as f64 / seconds,
         n as f64 * f64::from(w) * f64::from(h) / seconds * 1e-6
     );
+    let resumed = match outcome.resumed {
+        0 => String::new(),
+        r => format!(" after the checkpoint's {r} ({} in all)", r + n),
+    };
     let files = file_list(outputs);
     if !outcome.interrupted {
         return format!(
-            "rendered {n} iterations of {w}x{h} in {seconds:.2} s ({rates}) -> {files}"
+            "rendered {n} iterations{resumed} of {w}x{h} in {seconds:.2} s ({rates}) -> {files}"
         );
     }
+    let done = outcome.resumed + n;
     let planned = match budget {
-        Budget::Iterations(total) => format!("{n} of {total} iterations"),
-        Budget::Time(t) => format!("{n} iterations ({seconds:.2} of {} s)", t.as_secs_f64()),
+        Budget::Iterations(total) => format!("{done} of {total} iterations"),
+        Budget::Time(t) => format!(
+            "{done} iterations ({:.2} of {} s)",
+            outcome.rendered.as_secs_f64(),
+            t.as_secs_f64()
+        ),
     };
     format!("interrupted after {planned} of {w}x{h} in {seconds:.2} s ({rates}); wrote {files}")
 }

@@ -27,6 +27,20 @@ impl Cli {
         if let Some(partial) = &self.partial {
             check_writable("--partial", partial)?;
         }
+        if let Some(checkpoint) = &self.checkpoint {
+            check_writable("--checkpoint", checkpoint)?;
+            // The partial film is whole; the checkpoint is not, and is removed.
+            if self
+                .partial
+                .as_ref()
+                .is_some_and(|p| same_path(p, checkpoint))
+            {
+                return Err(ArgError::Flag {
+                    flag: "--checkpoint",
+                    message: "must be another file than --partial".to_owned(),
+                });
+            }
+        }
         let exr = self
             .output
             .clone()
@@ -46,6 +60,14 @@ impl Cli {
             exposure: self.exposure.unwrap_or(0.0),
             partial: self.partial.clone(),
         })
+    }
+}
+
+/// Whether two paths name one file, as far as can be told before either exists.
+fn same_path(a: &Path, b: &Path) -> bool {
+    match (std::path::absolute(a), std::path::absolute(b)) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => a == b,
     }
 }
 
@@ -89,5 +111,27 @@ mod tests {
             .outputs()
             .unwrap_err();
         assert!(e.to_string().contains("no/such/folder"), "{e}");
+    }
+
+    #[test]
+    fn the_checkpoint_is_not_the_partial_film() {
+        let e = cli(&["--partial", "a.rltfilm", "--checkpoint", "./a.rltfilm"])
+            .unwrap()
+            .outputs()
+            .unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("--checkpoint: must be another file"),
+            "{e}"
+        );
+        assert!(
+            cli(&["--partial", "a.rltfilm", "--checkpoint", "b.rltfilm"])
+                .unwrap()
+                .outputs()
+                .is_ok()
+        );
+        assert!(cli(&["--checkpoint-every", "5"]).is_err());
+        assert!(cli(&["--checkpoint", "c.exr"]).is_err());
+        assert!(cli(&["--checkpoint", "c.rltfilm", "--checkpoint-every", "-1"]).is_err());
     }
 }

@@ -3,7 +3,8 @@
 //!
 //! Each iteration is one sample per pixel; the film keeps their sum, so the
 //! image after any number of completed iterations is a correctly normalised
-//! mean. That is what makes an interrupted render worth writing.
+//! mean. That is what makes an interrupted render worth writing, and a
+//! checkpoint of the film worth resuming (`checkpoint`).
 
 use std::fmt;
 use std::io::IsTerminal;
@@ -15,6 +16,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressState, ProgressStyle};
 use integrators::Renderer;
 use integrators::film::Film;
 
+use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::settings::Budget;
 
 /// Exit code of an interrupted render (128 + SIGINT, the shell convention).
@@ -59,30 +61,58 @@ pub fn begin_writing() {
 /// How a render loop ended.
 #[derive(Clone, Copy, Debug)]
 pub struct Outcome {
-    /// Completed iterations (all in the film).
+    /// Iterations completed by this run (all in the film).
     pub iterations: u64,
+    /// Iterations the film held before (resumed from a checkpoint).
+    pub resumed: u64,
     /// Wall-clock time of the loop.
     pub elapsed: Duration,
+    /// Wall-clock time of the film's iterations in all: earlier runs' (as
+    /// their checkpoint says) and this loop's.
+    pub rendered: Duration,
     /// Whether an interrupt ended it early.
     pub interrupted: bool,
 }
 
-/// Renders iterations `first`, `first` + 1, ... (global indices) into
-/// `film` until `budget` is spent or an interrupt is requested: the
-/// iteration in progress is then abandoned within about a second (it
-/// checks between rows and blocks of subpaths) and the film keeps the
-/// completed ones.
-pub fn progressive(renderer: &Renderer, film: &mut Film, budget: Budget, first: u64) -> Outcome {
+/// Renders iterations into `film` until `budget` is spent or an interrupt
+/// is requested: the iteration in progress is then abandoned within about
+/// a second (it checks between rows and blocks of subpaths) and the film
+/// keeps the completed ones.
+///
+/// The film may hold iterations already (resumed from a checkpoint, which
+/// took `rendered_before`): rendering goes on from global index `first` +
+/// their number, and the budget counts them (a time budget counts
+/// `rendered_before`). Between iterations, `checkpoint` is saved when due;
+/// a failed save ends the render with its error.
+pub fn progressive(
+    renderer: &Renderer,
+    film: &mut Film,
+    budget: Budget,
+    first: u64,
+    rendered_before: Duration,
+    mut checkpoint: Option<&mut Checkpoint>,
+) -> Result<Outcome, CheckpointError> {
     let pixels = film.width() as usize * film.height() as usize;
     let mut estimates = vec![Vec3::ZERO; pixels];
+    let resumed = film.iterations();
     let bar = progress_bar(budget);
     let start = Instant::now();
-    let mut n = 0;
+    let rendered = || rendered_before + start.elapsed();
+    let show = |n: u64| match budget {
+        Budget::Iterations(_) => bar.set_position(n),
+        Budget::Time(limit) => {
+            bar.set_position(rendered().min(limit).as_millis() as u64);
+            let rate = (n - resumed) as f64 / start.elapsed().as_secs_f64().max(1e-9);
+            bar.set_message(format!("{n} it, {rate:.1} it/s"));
+        }
+    };
+    show(resumed);
+    let mut n = resumed;
     let interrupted = loop {
         // The budget first: an interrupt during the last iteration changes nothing.
         let done = match budget {
             Budget::Iterations(total) => n >= total,
-            Budget::Time(limit) => n >= 1 && start.elapsed() >= limit,
+            Budget::Time(limit) => n >= 1 && rendered() >= limit,
         };
         if done {
             break false;
@@ -97,22 +127,23 @@ pub fn progressive(renderer: &Renderer, film: &mut Film, budget: Budget, first: 
         }
         n += 1;
         film.add_iteration(&estimates);
-        match budget {
-            Budget::Iterations(_) => bar.set_position(n),
-            Budget::Time(limit) => {
-                let elapsed = start.elapsed();
-                bar.set_position(elapsed.min(limit).as_millis() as u64);
-                let rate = n as f64 / elapsed.as_secs_f64().max(1e-9);
-                bar.set_message(format!("{n} it, {rate:.1} it/s"));
-            }
+        if let Some(c) = checkpoint.as_deref_mut()
+            && c.is_due()
+            && let Err(e) = c.save(film, rendered())
+        {
+            bar.finish_and_clear();
+            return Err(e);
         }
+        show(n);
     };
     bar.finish_and_clear();
-    Outcome {
-        iterations: n,
+    Ok(Outcome {
+        iterations: n - resumed,
+        resumed,
         elapsed: start.elapsed(),
+        rendered: rendered(),
         interrupted,
-    }
+    })
 }
 
 /// A bar on stderr (hidden when stderr is not a terminal): iterations, rate

@@ -27,17 +27,7 @@ pub fn header(
         last,
         width: r.x,
         height: r.y,
-    }
-}
-
-/// The partial film of `film` (rendered over `header`'s range).
-pub fn partial(header: FilmHeader, film: &Film) -> PartialFilm {
-    let (sum, sum_sq) = film.sums();
-    PartialFilm {
-        header,
-        iterations: film.iterations(),
-        sum: sum.to_vec(),
-        sum_sq: sum_sq.to_vec(),
+        render_millis: None,
     }
 }
 

@@ -134,6 +134,18 @@ pub fn parse_time(s: &str) -> Result<Duration, String> {
     Duration::try_from_secs_f64(seconds).map_err(|_| format!("{s} seconds is too long"))
 }
 
+/// `--checkpoint-every`: a finite number of seconds >= 0.
+pub fn parse_checkpoint_interval(s: &str) -> Result<Duration, String> {
+    let seconds: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{s}' is not a number"))?;
+    if !(seconds >= 0.0 && seconds.is_finite()) {
+        return Err(format!("must be a finite number of seconds >= 0, got {s}"));
+    }
+    Duration::try_from_secs_f64(seconds).map_err(|_| format!("{s} seconds is too long"))
+}
+
 pub fn parse_fov(s: &str) -> Result<f32, String> {
     let fov: f32 = s
         .trim()

@@ -23,6 +23,7 @@ pub const USAGE: &str =
                     and a dependent merge (`cargo xtask farm help`)
   farm resume --folder DIR [--dry-run] [--wait]
                     resubmit the shards a failed or cancelled task left missing
+                    (each resumes from its last checkpoint)
   farm selftest     submit shards of a bundled scene to a single-node Slurm on
                     this machine (scripts/slurm-local) and check the merged
                     image against a single-process render";
@@ -33,8 +34,9 @@ const HELP: &str =
        cargo xtask farm selftest
 
 slurm: writes two batch scripts into the folder and submits them: shards.sh
-as a job array (task k renders iterations of range k into shard-k.rltfilm)
-and merge.sh after it (--dependency=afterok; film.rltfilm, image.exr and
+as a job array (task k renders iterations of range k into shard-k.rltfilm,
+saving a checkpoint, checkpoints/shard-k.rltfilm, every --checkpoint-every
+seconds) and merge.sh after it (--dependency=afterok; film.rltfilm, image.exr and
 image.png). The folder must be on a file system that every node sees, and so
 must the render-cli binary (built here with `cargo build --release`).
 
@@ -47,25 +49,34 @@ options:
   --time T              time limit of each job, Slurm syntax (e.g. 01:00:00)
   --mem M               memory of each job, Slurm syntax (e.g. 4G)
   --cpus-per-task C     CPUs (render threads) per task [default: 1]
+  --checkpoint-every S  seconds between a shard's checkpoints: a killed or
+                        cancelled task loses at most this much work
+                        [default: render-cli's, 300]
   --dry-run             print the scripts and the sbatch commands; submit nothing
   --wait                wait for the merge, then print where the image is
   -- FLAGS             further render-cli flags (e.g. --integrator vcm
                         --resolution 640x480); not --iterations, --time,
-                        --output or --partial
+                        --output, --partial or the checkpoint flags
 
 resume: reads the folder's farm.json, refuses while its array still has
 tasks in the queue, resubmits only the shards without a partial film (a
 shard's film is written under a temporary name and renamed when its whole
-range is done, so a killed task leaves none) and the merge after them.";
+range is done, so a killed task leaves none) and the merge after them. A
+resubmitted shard resumes from its checkpoint: a task killed (SIGKILL, a
+node failure) loses the iterations since its last checkpoint; one cancelled
+or stopped at its time limit (SIGTERM) saves its completed iterations first.";
 
 /// The flags `farm slurm` itself sets for every shard.
-const RESERVED_FLAGS: [&str; 6] = [
+const RESERVED_FLAGS: [&str; 9] = [
     "--iterations",
     "--time",
     "--output",
     "-o",
     "--partial",
     "--iteration-range",
+    "--checkpoint",
+    "--checkpoint-every",
+    "--keep-checkpoint",
 ];
 
 /// How long `--wait` waits for a merge.
@@ -93,6 +104,7 @@ struct Options {
     shards: Option<u64>,
     folder: Option<PathBuf>,
     resources: Resources,
+    checkpoint_every: Option<f64>,
     dry_run: bool,
     wait: bool,
     render_flags: Vec<String>,
@@ -132,6 +144,13 @@ fn parse(args: &[String]) -> Result<Options, String> {
             "--cpus-per-task" => {
                 o.resources.cpus_per_task = u32::try_from(number(value()?)?)
                     .map_err(|_| "--cpus-per-task: too large".to_owned())?;
+            }
+            "--checkpoint-every" => {
+                let v = value()?;
+                let seconds = v.parse::<f64>().ok().filter(|s| *s >= 0.0 && s.is_finite());
+                o.checkpoint_every = Some(seconds.ok_or_else(|| {
+                    format!("--checkpoint-every: expected seconds >= 0, got '{v}'")
+                })?);
             }
             "--dry-run" => o.dry_run = true,
             "--wait" => o.wait = true,
@@ -179,6 +198,7 @@ fn slurm_render(root: &Path, args: &[String]) -> Result<(), String> {
         render_cli: crate::release_binary(root, "render-cli"),
         folder,
         resources: o.resources.clone(),
+        checkpoint_every: o.checkpoint_every,
     };
     if o.dry_run {
         print_dry_run(&plan, &(0..plan.ranges.len()).collect::<Vec<_>>());
@@ -234,8 +254,10 @@ fn wait_for_image(plan: &Plan, merge_job: &str) -> Result<(), String> {
 }
 
 fn write_scripts(plan: &Plan) -> Result<(), String> {
-    std::fs::create_dir_all(plan.folder.join("logs"))
-        .map_err(|e| format!("cannot create {}: {e}", plan.folder.display()))?;
+    for folder in [plan.folder.join("logs"), plan.checkpoint_folder()] {
+        std::fs::create_dir_all(&folder)
+            .map_err(|e| format!("cannot create {}: {e}", folder.display()))?;
+    }
     write_file(&plan.shards_script_file(), plan.shards_script())?;
     write_file(&plan.merge_script_file(), plan.merge_script())
 }
@@ -291,6 +313,7 @@ pub fn render_film(root: &Path, job: &FilmJob<'_>) -> Result<(integrators::Film,
         render_cli: crate::release_binary(root, "render-cli"),
         folder: std::path::absolute(&job.folder).map_err(|e| e.to_string())?,
         resources: job.resources.clone(),
+        checkpoint_every: None,
     };
     if !plan.film_file().is_file() {
         crate::cargo(root, &["build", "--release", "--quiet", "-p", "render-cli"])?;
@@ -361,5 +384,14 @@ fn resume(args: &[String]) -> Result<(), String> {
         return Ok(());
     }
     println!("missing shards: {missing:?}");
+    for &k in &missing {
+        if let Ok(h) = image_io::film_file::read_header(&plan.checkpoint_file(k)) {
+            let (first, last) = plan.ranges[k];
+            println!(
+                "  shard {k} resumes from its checkpoint: iterations {}..={} of {first}..={last} done",
+                h.first, h.last
+            );
+        }
+    }
     submit_and_record(&plan, &missing, wait)
 }

@@ -38,6 +38,9 @@ pub struct Plan {
     pub folder: PathBuf,
     /// Batch resources.
     pub resources: Resources,
+    /// Seconds between the shards' checkpoints; `None`: render-cli's
+    /// default (300 s).
+    pub checkpoint_every: Option<f64>,
 }
 
 /// `iterations` split into `shards` contiguous ranges whose lengths differ
@@ -64,6 +67,18 @@ impl Plan {
     /// The partial film of shard `k`.
     pub fn shard_file(&self, k: usize) -> PathBuf {
         self.folder.join(format!("shard-{k}.rltfilm"))
+    }
+
+    /// The folder of the shards' checkpoints.
+    pub fn checkpoint_folder(&self) -> PathBuf {
+        self.folder.join("checkpoints")
+    }
+
+    /// The checkpoint of shard `k` while it renders (removed when its
+    /// partial film is written; kept if the task is killed or cancelled,
+    /// for the resubmitted task to resume).
+    pub fn checkpoint_file(&self, k: usize) -> PathBuf {
+        self.checkpoint_folder().join(format!("shard-{k}.rltfilm"))
     }
 
     /// The merged partial film (merge again with other renders' films).
@@ -95,7 +110,9 @@ impl Plan {
             .collect()
     }
 
-    /// The job-array script: task k renders range k into `shard-k.rltfilm`.
+    /// The job-array script: task k renders range k into `shard-k.rltfilm`,
+    /// checkpointing into `checkpoints/shard-k.rltfilm`, which a
+    /// resubmitted task resumes.
     pub fn shards_script(&self) -> String {
         // %a the task, %A the array job: a resubmitted shard keeps its first log.
         let mut s = self.script_header("rlt-shard", "shard-%a-job%A.out");
@@ -116,9 +133,17 @@ impl Plan {
                 "{}/shard-$k.rltfilm",
                 quote(&self.folder.display().to_string())
             ),
+            "--checkpoint".to_owned(),
+            format!(
+                "{}/shard-$k.rltfilm",
+                quote(&self.checkpoint_folder().display().to_string())
+            ),
             "--threads".to_owned(),
             "\"${SLURM_CPUS_PER_TASK:-1}\"".to_owned(),
         ];
+        if let Some(seconds) = self.checkpoint_every {
+            command.extend(["--checkpoint-every".to_owned(), seconds.to_string()]);
+        }
         command.extend(self.render_flags.iter().map(|f| quote(f)));
         let _ = writeln!(s, "exec {}", command.join(" "));
         s
@@ -191,6 +216,7 @@ impl Plan {
             "time": r.time,
             "mem": r.mem,
             "cpus_per_task": r.cpus_per_task,
+            "checkpoint_every": self.checkpoint_every,
             "array_job": array_job,
             "merge_job": merge_job,
         })
@@ -239,6 +265,7 @@ impl Plan {
                 mem: optional("mem"),
                 cpus_per_task: v["cpus_per_task"].as_u64().unwrap_or(1) as u32,
             },
+            checkpoint_every: v["checkpoint_every"].as_f64(),
         };
         Ok((plan, optional("array_job")))
     }
@@ -291,6 +318,7 @@ mod tests {
                 mem: None,
                 cpus_per_task: 2,
             },
+            checkpoint_every: Some(60.0),
         }
     }
 
@@ -318,6 +346,12 @@ mod tests {
             "{shards}"
         );
         assert!(shards.contains(r"--seed 'it'\''s'"), "{shards}");
+        assert!(
+            shards.contains(
+                "--checkpoint '/shared/farm dir/checkpoints'/shard-$k.rltfilm --threads \"${SLURM_CPUS_PER_TASK:-1}\" --checkpoint-every 60 "
+            ),
+            "{shards}"
+        );
         let merge = p.merge_script();
         assert!(
             merge.contains("'/shared/farm dir/shard-2.rltfilm' -o '/shared/farm dir/film.rltfilm'"),

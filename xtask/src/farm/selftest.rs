@@ -7,9 +7,10 @@
 //!    kind of contribution) and their merge give the single-process EXR.
 //! 2. Kill test: of four running shards, one is killed (SIGKILL) and one
 //!    terminated (SIGTERM, which render-cli turns into "stop after this
-//!    iteration"); neither leaves a partial film, the merge is cancelled by
-//!    Slurm, `farm resume` renders only those two, and the image equals the
-//!    uninterrupted one.
+//!    iteration"), each after its first checkpoint; neither leaves a partial
+//!    film, both leave a checkpoint, the merge is cancelled by Slurm, `farm
+//!    resume` renders only those two, each resuming from its checkpoint, and
+//!    the image equals the uninterrupted one.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -26,6 +27,8 @@ const FLAGS: [&str; 4] = ["--integrator", "vcm", "--resolution", "96x72"];
 /// still running when it is killed (about 4 s per shard on one core).
 const KILL_ITERATIONS: u64 = 1600;
 const SHARDS: u64 = 4;
+/// Seconds between the shards' checkpoints: several within a shard's run.
+const CHECKPOINT_EVERY: f64 = 0.2;
 
 /// Longest wait for a job of the selftest.
 const JOB_LIMIT: Duration = Duration::from_secs(600);
@@ -94,6 +97,7 @@ fn plan(root: &Path, folder: PathBuf, iterations: u64) -> Result<Plan, String> {
             cpus_per_task: 1,
             ..Resources::default()
         },
+        checkpoint_every: Some(CHECKPOINT_EVERY),
     })
 }
 
@@ -180,8 +184,8 @@ fn killed_shards_are_resumed(root: &Path, base: &Path) -> Result<(), String> {
     for (task, signal) in [(0, "KILL"), (1, "TERM")] {
         let id = format!("{array}_{task}");
         wait_until_running(&id)?;
-        // Into the range, well before its end.
-        std::thread::sleep(Duration::from_millis(500));
+        // Into the range, after a checkpoint, well before its end.
+        wait_for_file(&plan.checkpoint_file(task))?;
         slurm::cancel(&id, signal)?;
         println!("  task {id} sent SIG{signal}");
     }
@@ -194,13 +198,56 @@ fn killed_shards_are_resumed(root: &Path, base: &Path) -> Result<(), String> {
             plan.image_file().exists()
         ));
     }
+    for k in [0, 1] {
+        let h = image_io::film_file::read_header(&plan.checkpoint_file(k))
+            .map_err(|e| format!("the killed task left no usable checkpoint: {e}"))?;
+        println!(
+            "  shard {k} left a checkpoint of iterations {}..={}",
+            h.first, h.last
+        );
+    }
     println!("  no partial film from the killed tasks; the merge was cancelled; resuming");
     super::resume(&[
         "--folder".to_owned(),
         plan.folder.display().to_string(),
         "--wait".to_owned(),
     ])?;
+    for k in [0, 1] {
+        let file = plan.checkpoint_file(k).display().to_string();
+        if !logs_contain(&plan, &format!("resuming from {file}"))? {
+            return Err(format!("no shard log says it resumed from {file}"));
+        }
+        if plan.checkpoint_file(k).exists() {
+            return Err(format!("{file} is left after its shard completed"));
+        }
+    }
+    println!("  both resumed from their checkpoints");
     compare_images(&plan)
+}
+
+/// Whether a log in the plan's folder holds `text`.
+fn logs_contain(plan: &Plan, text: &str) -> Result<bool, String> {
+    let logs = plan.folder.join("logs");
+    let entries = std::fs::read_dir(&logs).map_err(|e| format!("{}: {e}", logs.display()))?;
+    Ok(entries
+        .flatten()
+        .any(|entry| std::fs::read_to_string(entry.path()).is_ok_and(|log| log.contains(text))))
+}
+
+/// Waits until `path` exists.
+fn wait_for_file(path: &Path) -> Result<(), String> {
+    let start = Instant::now();
+    while !path.exists() {
+        if start.elapsed() > JOB_LIMIT {
+            return Err(format!(
+                "{} did not appear within {} s",
+                path.display(),
+                JOB_LIMIT.as_secs()
+            ));
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    Ok(())
 }
 
 /// Waits until array task `id` runs.

@@ -1,5 +1,8 @@
 //! End-to-end tests of the `render-cli` binary on the bundled scenes, at tiny
-//! settings (16x12 pixels, 2 iterations).
+//! settings (16x12 pixels, 2 iterations); checkpoints under faults in
+//! [`checkpoint`].
+
+mod checkpoint;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
