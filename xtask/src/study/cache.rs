@@ -232,38 +232,17 @@ pub fn store(
     write_atomic_bytes(&json, text.as_bytes())
 }
 
-/// Writes `path` whole or not at all: `write` fills a temporary file in
-/// the same folder (`<name>.tmp-<pid>`), which is synced to disk and
-/// renamed over `path`; then the folder is synced, so that the rename
-/// survives a crash of the machine too. A process killed at any moment
-/// leaves `path` as it was or complete (and at worst a stray temporary
-/// file). The error names `path`.
+/// Writes `path` whole or not at all ([`image_io::atomic`]: a temporary
+/// file in the same folder, synced, renamed over `path`, the folder
+/// synced); a process killed at any moment leaves `path` as it was or
+/// complete. The error names `path`.
 pub(crate) fn write_atomic(
     path: &Path,
     write: impl FnOnce(&Path) -> Result<(), String>,
 ) -> Result<(), String> {
-    let name = path
-        .file_name()
-        .ok_or_else(|| format!("{}: not a file path", path.display()))?;
-    let mut temporary = name.to_owned();
-    temporary.push(format!(".tmp-{}", std::process::id()));
-    let temporary = path.with_file_name(temporary);
-    let folder = path
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let result = write(&temporary).and_then(|()| {
-        let sync = |p: &Path| fs::File::open(p).and_then(|f| f.sync_all());
-        sync(&temporary)
-            .and_then(|()| fs::rename(&temporary, path))
-            .and_then(|()| sync(folder))
-            .map_err(|e| format!("cannot write {}: {e}", path.display()))
-    });
-    if result.is_err() {
-        // Best effort: the error that matters is the one returned.
-        let _ = fs::remove_file(&temporary);
-    }
-    result
+    image_io::atomic::write_atomically(path, write, |e| {
+        format!("cannot write {}: {e}", path.display())
+    })
 }
 
 /// [`write_atomic`] of `bytes`.

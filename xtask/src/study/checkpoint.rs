@@ -235,6 +235,7 @@ mod tests {
             last: 1,
             width: 3,
             height: 2,
+            render_millis: None,
         }
     }
 

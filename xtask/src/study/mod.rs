@@ -736,6 +736,7 @@ impl Context<'_> {
             last: 1,
             width,
             height,
+            render_millis: None,
         };
         Checkpoints::new(self.cache_dir, key, self.checkpoint_interval, header)
     }
@@ -1204,6 +1205,7 @@ mod tests {
             last: 1,
             width: 16,
             height: 12,
+            render_millis: None,
         };
         let checkpoints = |every| Checkpoints::new(&dir, "k", every, header.clone());
         let hour = Duration::from_secs(3600);
