@@ -46,8 +46,9 @@ pub const USAGE: &str =
                     times accel::Bvh (default build, the renderer's) on a
                     dump, one thread: closest hit for camera and diffuse
                     rays, any hit for shadow rays; median and best Mrays/s
-                    of N passes (default 9) after a warm-up, hits and sum
-                    of hit t (to compare results with another tracer).
+                    of N passes (default 9) after a warm-up, timed by the
+                    thread's CPU time (the wall clock beside it), hits and
+                    sum of hit t (to compare results with another tracer).
                     Writes DIR/bench-rlt.md and .json. Runs itself as a
                     release build";
 
