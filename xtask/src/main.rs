@@ -18,6 +18,9 @@
 //! - `mitsuba [options]`: renders one scene with our path tracer and with
 //!   Mitsuba 3's (installed on demand into `target/mitsuba/venv`), and
 //!   compares speed and error against one reference (`target/mitsuba/`).
+//! - `rays dump|bench`: a scene's mesh and camera, diffuse and shadow rays
+//!   as files another ray tracer reads, and the time `accel` takes to
+//!   trace them alone (docs/benchmarks.md, "Ray throughput against Embree").
 //! - `smallvcm --src DIR`: seconds per iteration of our integrators against
 //!   SmallVCM's (a checkout outside the repository) on its scenes 1 and 2
 //!   (`target/smallvcm/`).
@@ -32,6 +35,7 @@ mod bench;
 mod farm;
 mod fuzz;
 mod mitsuba;
+mod rays;
 mod smallvcm;
 mod stability;
 mod study;
@@ -42,11 +46,12 @@ const USAGE_HELP: &str = "  help              print this text";
 
 fn usage() -> String {
     format!(
-        "{USAGE_HEADER}\n{}\n{}\n{}\n{}\n{}\n{}\n{}\n{USAGE_HELP}",
+        "{USAGE_HEADER}\n{}\n{}\n{}\n{}\n{}\n{}\n{}\n{}\n{USAGE_HELP}",
         bench::USAGE,
         farm::USAGE,
         fuzz::USAGE,
         mitsuba::USAGE,
+        rays::USAGE,
         smallvcm::USAGE,
         study::USAGE,
         stability::USAGE
@@ -62,6 +67,7 @@ fn main() -> ExitCode {
         Some("farm") => farm::run(&workspace_root(), &args[1..]),
         Some("fuzz") => fuzz::run(&workspace_root(), &args[1..]),
         Some("mitsuba") => mitsuba::run(&workspace_root(), &args[1..]),
+        Some("rays") => rays::run(&workspace_root(), &args[1..]),
         Some("smallvcm") => smallvcm::run(&workspace_root(), &args[1..]),
         Some("study") => study::run(&workspace_root(), &args[1..]),
         Some("stability") => stability::run(&workspace_root(), &args[1..]),

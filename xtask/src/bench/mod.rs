@@ -28,6 +28,7 @@ use integrators::Algorithm;
 use serde_json::{Value, json};
 
 pub(crate) use run::child as run_child;
+pub(crate) use scaling::height_field_obj_scene;
 
 /// The task's lines in `cargo xtask help` (and `cargo xtask bench --help`).
 pub const USAGE: &str =

@@ -161,6 +161,12 @@ fn height_field_scene(dir: &Path, n: u64, format: MeshFormat) -> Result<PathBuf,
     Ok(manifest)
 }
 
+/// The OBJ height-field scene of about `n` triangles under `dir` (written
+/// once): the mesh `cargo xtask rays dump --height-field` traces.
+pub(crate) fn height_field_obj_scene(dir: &Path, n: u64) -> Result<PathBuf, String> {
+    height_field_scene(dir, n, MeshFormat::Obj)
+}
+
 /// The grid side `g` whose `2 g^2` triangles are nearest to `n`.
 fn grid_cells(n: u64) -> u64 {
     ((n as f64 / 2.0).sqrt().round() as u64).max(1)
