@@ -29,6 +29,10 @@ pub(super) struct BenchOptions {
     pub dir: PathBuf,
     /// Timed passes over each set (after one untimed warm-up pass).
     pub passes: usize,
+    /// The BVH's tree layout.
+    pub layout: accel::Layout,
+    /// The instruction set of its node tests.
+    pub isa: accel::Isa,
 }
 
 /// One ray set's timing and result.
@@ -107,8 +111,15 @@ fn clock_name() -> &'static str {
 pub(super) fn run(options: &BenchOptions) -> Result<(), String> {
     let (positions, triangles) = files::read_mesh(&options.dir)?;
     let started = Instant::now();
-    let bvh = Bvh::build_indexed(&positions, &triangles, &[], BuildOptions::default());
+    let build = BuildOptions {
+        layout: options.layout,
+        ..BuildOptions::default()
+    };
+    let mut bvh = Bvh::build_indexed(&positions, &triangles, &[], build);
     let build_s = started.elapsed().as_secs_f64();
+    if !bvh.set_isa(options.isa) {
+        return Err(format!("--isa: this CPU lacks {:?}", options.isa));
+    }
     let mut timings = Vec::new();
     for &(name, query) in &SETS {
         let rays = files::read_rays(&options.dir, name)?;
@@ -118,6 +129,8 @@ pub(super) fn run(options: &BenchOptions) -> Result<(), String> {
     let doc = json!({
         "benchmark": "rays",
         "tracer": "rlt accel",
+        "layout": format!("{:?}", bvh.layout()),
+        "isa": format!("{:?}", options.isa),
         "profile": if cfg!(debug_assertions) { "dev" } else { "release" },
         "dir": options.dir.display().to_string(),
         "triangles": triangles.len(),

@@ -42,7 +42,7 @@ pub const USAGE: &str =
       --resolution WxH      image size (default: the scene's)
       --seed N              seed of the bounces and light samples (default 1)
       --out DIR             output folder
-  rays bench --dir DIR [--passes N]
+  rays bench --dir DIR [--passes N] [--layout L] [--isa I]
                     times accel::Bvh (default build, the renderer's) on a
                     dump, one thread: closest hit for camera and diffuse
                     rays, any hit for shadow rays; median and best Mrays/s
@@ -50,7 +50,11 @@ pub const USAGE: &str =
                     thread's CPU time (the wall clock beside it), hits and
                     sum of hit t (to compare results with another tracer).
                     Writes DIR/bench-rlt.md and .json. Runs itself as a
-                    release build";
+                    release build
+      --layout L            bvh8 (the default), wide (the compressed nodes) or
+                            binary: accel's tree layouts
+      --isa I               best (default), baseline (SSE4.2), avx2 or avx512:
+                            the instruction set of bvh8's node tests";
 
 /// Timed passes per set when `--passes` is not given.
 const DEFAULT_PASSES: usize = 9;
@@ -181,27 +185,52 @@ fn parse_resolution(value: &str) -> Result<UVec2, String> {
 
 /// Parses `rays bench` flags.
 fn parse_bench(root: &Path, args: &[String]) -> Result<Option<BenchOptions>, String> {
-    let Some(pairs) = flag_values(args, &["--dir", "--passes"])? else {
+    let Some(pairs) = flag_values(args, &["--dir", "--passes", "--layout", "--isa"])? else {
         return Ok(None);
     };
     let (mut dir, mut passes) = (None, DEFAULT_PASSES);
+    let (mut layout, mut isa) = (accel::Layout::default(), accel::Isa::default());
     for (flag, value) in pairs {
-        if flag == "--dir" {
-            dir = Some(path_arg(root, value));
-        } else {
-            passes = match value.parse::<usize>() {
-                Ok(n) if n > 0 => n,
-                _ => {
-                    return Err(format!(
-                        "--passes: '{value}' is not a positive whole number"
-                    ));
+        match flag {
+            "--dir" => dir = Some(path_arg(root, value)),
+            "--layout" => {
+                layout = match value {
+                    "bvh8" => accel::Layout::Bvh8,
+                    "wide" => accel::Layout::Wide,
+                    "binary" => accel::Layout::Binary,
+                    _ => return Err(format!("--layout: '{value}' is not bvh8, wide or binary")),
                 }
-            };
+            }
+            "--isa" => {
+                isa = match value {
+                    "best" => accel::Isa::Best,
+                    "baseline" => accel::Isa::Baseline,
+                    "avx2" => accel::Isa::Avx2,
+                    "avx512" => accel::Isa::Avx512,
+                    _ => {
+                        return Err(format!(
+                            "--isa: '{value}' is not best, baseline, avx2 or avx512"
+                        ));
+                    }
+                }
+            }
+            _ => {
+                passes = match value.parse::<usize>() {
+                    Ok(n) if n > 0 => n,
+                    _ => {
+                        return Err(format!(
+                            "--passes: '{value}' is not a positive whole number"
+                        ));
+                    }
+                };
+            }
         }
     }
     Ok(Some(BenchOptions {
         dir: dir.ok_or("rays bench: give --dir DIR (a `rays dump` folder)")?,
         passes,
+        layout,
+        isa,
     }))
 }
 
@@ -247,6 +276,17 @@ mod tests {
             .unwrap()
             .unwrap();
         assert_eq!((o.dir.as_path(), o.passes), (Path::new("/d"), 3));
+        assert_eq!((o.layout, o.isa), (accel::Layout::Bvh8, accel::Isa::Best));
+        let o = parse_bench(
+            root,
+            &strings(&["--dir=/d", "--layout=wide", "--isa=baseline"]),
+        )
+        .unwrap()
+        .unwrap();
+        assert_eq!(
+            (o.layout, o.isa),
+            (accel::Layout::Wide, accel::Isa::Baseline)
+        );
         assert_eq!(parse_bench(root, &strings(&["--help"])).unwrap(), None);
         for bad in [
             &["--scene", "a", "--height-field", "5", "--out", "/d"][..],
@@ -260,7 +300,12 @@ mod tests {
         ] {
             assert!(parse_dump(root, &strings(bad)).is_err(), "{bad:?}");
         }
-        for bad in [&["--passes", "0", "--dir", "/d"][..], &["--passes", "2"]] {
+        for bad in [
+            &["--passes", "0", "--dir", "/d"][..],
+            &["--passes", "2"],
+            &["--dir", "/d", "--layout", "cwbvh"],
+            &["--dir", "/d", "--isa", "sse2"],
+        ] {
             assert!(parse_bench(root, &strings(bad)).is_err(), "{bad:?}");
         }
     }
