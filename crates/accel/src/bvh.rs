@@ -58,13 +58,15 @@ pub struct Hit {
 #[non_exhaustive]
 pub enum Layout {
     /// 8-wide compressed BVH (Ylitie et al. 2017, 80 bytes per node), built by
-    /// converting the binary tree; SIMD node tests. Fastest traversal.
+    /// converting the binary tree; SIMD node tests.
+    #[default]
     Wide,
     /// The same 8-wide tree with float child boxes in structure-of-arrays
     /// form (Embree's BVH8 node, 256 bytes), all eight children tested in
     /// one SIMD operation on the best instruction set of the CPU
-    /// ([`Isa`]), nearest child first.
-    #[default]
+    /// ([`Isa`]), nearest child first. Fewer instructions per ray, the
+    /// same speed as [`Layout::Wide`] on the measured scenes, 3.2 times its
+    /// node memory (docs/benchmarks.md, "The BVH8 layout").
     Bvh8,
     /// Binary BVH (the builder's tree, reinsertion, leaf collapse). Faster
     /// to build.
@@ -523,7 +525,7 @@ impl Bvh {
         match &self.tree {
             Tree::Empty => {}
             Tree::Wide(bvh) => traverse_wide(bvh, &r.node, r.t_max, test),
-            Tree::Bvh8(bvh) => traverse8::<true>(self.isa, bvh, &r.node, r.t_max, test),
+            Tree::Bvh8(bvh) => traverse8(self.isa, bvh, &r.node, r.t_max, test),
             Tree::Binary(bvh, depth) => traverse_binary(bvh, *depth, &r.node, r.t_max, test),
         }
         let (slot, b1, b2) = best?;
@@ -704,7 +706,7 @@ impl Bvh {
         match &self.tree {
             Tree::Empty => {}
             Tree::Wide(bvh) => traverse_wide(bvh, &r.node, r.t_max, test),
-            Tree::Bvh8(bvh) => traverse8::<false>(self.isa, bvh, &r.node, r.t_max, test),
+            Tree::Bvh8(bvh) => traverse8(self.isa, bvh, &r.node, r.t_max, test),
             Tree::Binary(bvh, depth) => traverse_binary(bvh, *depth, &r.node, r.t_max, test),
         }
         occluded
@@ -869,7 +871,7 @@ fn finish_tree(mut bvh2: Bvh2, options: BuildOptions) -> (Tree, Vec<u32>) {
         if depth <= MAX_WIDE_DEPTH {
             let ids = std::mem::take(&mut wide.primitive_indices);
             if options.layout == Layout::Bvh8
-                && let Some(float) = Bvh8::from_cwbvh(&wide, ids.len(), depth)
+                && let Some(float) = Bvh8::from_cwbvh(&wide, ids.len())
             {
                 return (Tree::Bvh8(float), ids);
             }

@@ -6,10 +6,10 @@
 //! crate only:
 //!
 //! - [`Bvh`]: a triangle BVH (this crate's binned SAH builder, or [obvhs]'
-//!   PLOC with reinsertion, converted to an 8-wide BVH, by default with
-//!   float child boxes tested eight at a time on the CPU's best SIMD
-//!   instruction set ([`Layout::Bvh8`], [`Isa`]), or in obvhs' compressed
-//!   node format), with closest-hit ([`Bvh::intersect`]) and
+//!   PLOC with reinsertion, converted to an 8-wide BVH in obvhs' compressed
+//!   node format, or with float child boxes tested eight at a time on the
+//!   CPU's best SIMD instruction set ([`Layout::Bvh8`], [`Isa`])), with
+//!   closest-hit ([`Bvh::intersect`]) and
 //!   any-hit ([`Bvh::occluded`]) queries that return caller triangle ids and
 //!   barycentrics. The ray/triangle test is this crate's own watertight test
 //!   (Woop et al. 2013); obvhs only traverses nodes.
@@ -32,11 +32,10 @@
 //!   reciprocal), see [`Bvh::intersect`].
 //!
 //! # Choice of layout and preset
-//! The default layout ([`Layout::Bvh8`]) replaced the compressed one
-//! ([`Layout::Wide`], the same tree) for its fewer instructions per ray
-//! (no 8-bit plane decoding, one 8-lane slab test per node, nearest child
-//! first; docs/benchmarks.md has the figures), at 3.2 times the node
-//! memory (256 bytes a node against 80); the default builder,
+//! The default layout (wide CWBVH) was picked from the `cargo bench -p
+//! accel` numbers (`benches/bvh.rs`); [`Layout::Bvh8`], the same tree
+//! with float nodes and run-time dispatched SIMD node tests, traces as
+//! fast (docs/benchmarks.md) with 3.2 times the node memory. The default builder,
 //! [`BuildQuality::Binned`], replaced obvhs' `medium` preset for its
 //! memory, with trees that trace as fast or faster (its documentation
 //! has the measurements).

@@ -135,13 +135,6 @@ impl Renderer {
         }
     }
 
-    /// Chooses the instruction set of the BVH's node tests
-    /// ([`accel::Bvh::set_isa`]): every choice renders the same bytes.
-    /// Returns `false`, changing nothing, when the CPU lacks `isa`.
-    pub fn set_isa(&mut self, isa: accel::Isa) -> bool {
-        self.ctx.bvh.set_isa(isa)
-    }
-
     /// The prepared scene: geometry, lights, camera, settings.
     pub fn context(&self) -> &SceneContext {
         &self.ctx

@@ -51,7 +51,8 @@ pub const USAGE: &str =
                     sum of hit t (to compare results with another tracer).
                     Writes DIR/bench-rlt.md and .json. Runs itself as a
                     release build
-      --layout L            bvh8 (the default), wide (the compressed nodes) or
+      --layout L            wide (the default, the renderer's: compressed
+                            nodes), bvh8 (float nodes, SIMD node tests) or
                             binary: accel's tree layouts
       --isa I               best (default), baseline (SSE4.2), avx2 or avx512:
                             the instruction set of bvh8's node tests";
@@ -276,16 +277,16 @@ mod tests {
             .unwrap()
             .unwrap();
         assert_eq!((o.dir.as_path(), o.passes), (Path::new("/d"), 3));
-        assert_eq!((o.layout, o.isa), (accel::Layout::Bvh8, accel::Isa::Best));
+        assert_eq!((o.layout, o.isa), (accel::Layout::Wide, accel::Isa::Best));
         let o = parse_bench(
             root,
-            &strings(&["--dir=/d", "--layout=wide", "--isa=baseline"]),
+            &strings(&["--dir=/d", "--layout=bvh8", "--isa=baseline"]),
         )
         .unwrap()
         .unwrap();
         assert_eq!(
             (o.layout, o.isa),
-            (accel::Layout::Wide, accel::Isa::Baseline)
+            (accel::Layout::Bvh8, accel::Isa::Baseline)
         );
         assert_eq!(parse_bench(root, &strings(&["--help"])).unwrap(), None);
         for bad in [
