@@ -19,6 +19,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use image_io::film_file::{self, FilmHeader, PartialFilm};
+use image_io::lock::FileLock;
 use integrators::Film;
 use serde_json::{Value, json};
 
@@ -47,9 +48,30 @@ pub struct Checkpoints {
     header: FilmHeader,
     interval: Duration,
     last_save: Instant,
+    /// Held while this process renders: a second study rendering the same
+    /// entry at the same time is refused.
+    _lock: Option<FileLock>,
 }
 
 impl Checkpoints {
+    /// [`Checkpoints::new`], locked for this process (`<folder>/checkpoint.lock`,
+    /// `image_io::lock`: released when the process ends, however); an error
+    /// naming the holder's pid when another process renders `key` now.
+    pub fn locked(
+        cache_dir: &Path,
+        key: &str,
+        interval: Duration,
+        header: FilmHeader,
+    ) -> Result<Self, String> {
+        let mut checkpoints = Self::new(cache_dir, key, interval, header);
+        fs::create_dir_all(&checkpoints.folder)
+            .map_err(|e| format!("cannot create {}: {e}", checkpoints.folder.display()))?;
+        let lock = FileLock::acquire(&checkpoints.folder.join("checkpoint"))
+            .map_err(|e| format!("study checkpoint: {e}"))?;
+        checkpoints._lock = Some(lock);
+        Ok(checkpoints)
+    }
+
     /// The checkpoint of the render whose entry is `key`, saved at most
     /// every `interval`; `header` names the scene, settings and resolution
     /// (its range is set at each save).
@@ -60,6 +82,7 @@ impl Checkpoints {
             header,
             interval,
             last_save: Instant::now(),
+            _lock: None,
         }
     }
 
@@ -346,6 +369,27 @@ mod tests {
         assert!(c.load(1).unwrap().is_none());
         let slow = Checkpoints::new(&dir, "s", Duration::from_secs(3600), header());
         assert!(!slow.due());
+        fs::remove_dir_all(dir).unwrap();
+    }
+
+    /// While one study renders an entry, another rendering it is refused
+    /// (a lock: two writers would replace each other's films); once the
+    /// first is done, it may.
+    #[test]
+    fn a_render_in_progress_is_locked() {
+        let dir = temp_dir("lock");
+        let locked = |key| Checkpoints::locked(&dir, key, Duration::ZERO, header());
+        let first = locked("k").unwrap();
+        let refused = locked("k").err().unwrap();
+        assert!(refused.contains("in use by another render"), "{refused}");
+        assert!(
+            refused.contains(&format!("pid {}", std::process::id())),
+            "{refused}"
+        );
+        let other_key = locked("j").unwrap();
+        drop(first);
+        assert!(locked("k").is_ok());
+        drop(other_key);
         fs::remove_dir_all(dir).unwrap();
     }
 }

@@ -284,6 +284,9 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
                     "reusing cached run of {} (key {})",
                     job.spec.config, job.key
                 ));
+                // A run killed after storing its entry, before removing
+                // its checkpoint, left one behind.
+                checkpoint::remove(context.cache_dir, &job.key);
                 run
             }
             None => {
@@ -552,6 +555,7 @@ fn obtain_reference(
                 spec.iterations,
                 cache_file.display()
             ));
+            checkpoint::remove(context.cache_dir, &key);
             Ok(Reference::from_cache(
                 role, config, spec, key, cache_file, image, &meta,
             ))
@@ -590,7 +594,7 @@ fn run_config(
         job.render_config.seed,
         &job.spec.settings,
         (settings.width, settings.height),
-    );
+    )?;
     let label = config.to_string();
     let resumed = resume(
         &checkpoints,
@@ -726,7 +730,7 @@ impl Context<'_> {
         seed: u64,
         settings: &str,
         (width, height): (u32, u32),
-    ) -> Checkpoints {
+    ) -> Result<Checkpoints, String> {
         let header = image_io::film_file::FilmHeader {
             scene: self.scene_file.display().to_string(),
             scene_hash: self.scene_hash,
@@ -738,7 +742,7 @@ impl Context<'_> {
             height,
             render_millis: None,
         };
-        Checkpoints::new(self.cache_dir, key, self.checkpoint_interval, header)
+        Checkpoints::locked(self.cache_dir, key, self.checkpoint_interval, header)
     }
 }
 
@@ -840,7 +844,7 @@ fn render_reference(
                 spec.seed,
                 &format!("{render_config:?}"),
                 (spec.width, spec.height),
-            );
+            )?;
             let resumed = resume(&checkpoints, 0, context.fresh, &label, progress);
             let mut tracker = Tracker::new(Vec::new(), &[], checkpoints, resumed);
             let rendered = render(&renderer, spec.iterations, &mut tracker, progress, &label);

@@ -13,8 +13,9 @@ use serde_json::Value;
 /// The program under test, built by Cargo for this test.
 const XTASK: &str = env!("CARGO_BIN_EXE_xtask");
 
-/// Kill trials, each from an empty cache.
-const TRIALS: u64 = 2;
+/// Kill trials, each from an empty cache: with [`KILLS_PER_TRIAL`], up to
+/// 21 kills, each chain then run to its end and compared.
+const TRIALS: u64 = 7;
 
 /// Kills per trial, at most, before the run that is let finish (a run that
 /// ends before its kill ends the trial's chain).
