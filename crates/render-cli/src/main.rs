@@ -249,6 +249,14 @@ fn finish_checkpoint(
         return written;
     }
     let saved = checkpoint.save(film, outcome.rendered);
+    if saved.is_ok() && written.is_ok() && outcome.interrupted {
+        eprintln!(
+            "checkpoint {} holds iterations {}..={}: run the same command again to finish",
+            checkpoint.path().display(),
+            header.first,
+            header.first + checkpoint.saved() - 1
+        );
+    }
     match written {
         // The image is there; a checkpoint that was to be kept but failed is the error.
         Ok(code) => saved.map(|()| code).map_err(Error::from),

@@ -396,9 +396,11 @@ fn interrupt_writes_the_iterations_done_so_far() {
 
     let dir = tempfile::tempdir().unwrap();
     let exr = dir.path().join("out.exr");
+    let checkpoint = dir.path().join("c.rltfilm");
     let scene = bundled("cornell-box");
     let mut child = Command::new(env!("CARGO_BIN_EXE_render-cli"))
         .args([scene.to_str().unwrap(), "-o", exr.to_str().unwrap()])
+        .args(["--checkpoint", checkpoint.to_str().unwrap()])
         .args([
             "--resolution",
             "16x12",
@@ -436,6 +438,13 @@ fn interrupt_writes_the_iterations_done_so_far() {
     assert_eq!(output.status.code(), Some(130), "{err}");
     assert!(err.contains("interrupted after"), "{err}");
     assert!(err.contains("of 100000000 iterations"), "{err}");
+    // The checkpoint is kept, holding every iteration done, and says so.
+    assert!(err.contains("c.rltfilm holds iterations 1..="), "{err}");
+    assert!(
+        err.contains("run the same command again to finish"),
+        "{err}"
+    );
+    assert!(checkpoint.is_file());
     let image = read_exr(&exr).unwrap();
     assert!(image.pixels.iter().all(|p| p.is_finite()));
     assert!(dir.path().join("out.png").is_file());
