@@ -171,9 +171,44 @@ fn write_report(
     Ok((md_path, json_path))
 }
 
+/// [`write_report`], then prints the Markdown and where both files are.
+fn publish_report(
+    dir: &Path,
+    stem: &str,
+    md: &str,
+    json: &serde_json::Value,
+) -> Result<(), String> {
+    let (md_path, json_path) = write_report(dir, stem, md, json)?;
+    print!("{md}");
+    println!(
+        "\nwritten: {} and {}",
+        md_path.display(),
+        json_path.display()
+    );
+    Ok(())
+}
+
 /// Runs `cargo` with `args` in `root`, inheriting the terminal.
 fn cargo(root: &Path, args: &[&str]) -> Result<(), String> {
     cargo_with_env(root, args, &[])
+}
+
+/// Runs `cargo xtask TASK ARGS` again from a release build of xtask, with
+/// `child_env` set so that the child does not do the same (timings need
+/// optimised code; the child prints its own one-line error).
+fn rerun_in_release(
+    root: &Path,
+    task: &str,
+    args: &[String],
+    child_env: &str,
+) -> Result<(), String> {
+    let mut cargo_args = vec!["run", "--release", "--quiet", "-p", "xtask", "--", task];
+    cargo_args.extend(args.iter().map(String::as_str));
+    println!(
+        "timings need a release build: running `cargo {}`",
+        cargo_args.join(" ")
+    );
+    cargo_with_env(root, &cargo_args, &[(child_env, "1")])
 }
 
 /// [`cargo`] with environment variables `env` set for the child.

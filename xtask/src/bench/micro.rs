@@ -112,12 +112,6 @@ fn write_reports(out_dir: &Path, rows: &[Row]) -> Result<(), String> {
             "id": r.id, "mean_ns": r.mean_ns, "lower_ns": r.lower_ns, "upper_ns": r.upper_ns,
         })).collect::<Vec<_>>(),
     });
-    let (md_path, json_path) = crate::write_report(out_dir, "micro", &md, &json)?;
-    print!("{md}");
-    println!(
-        "\nwritten: {} and {}",
-        md_path.display(),
-        json_path.display()
-    );
+    crate::publish_report(out_dir, "micro", &md, &json)?;
     Ok(())
 }

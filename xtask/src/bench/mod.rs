@@ -294,13 +294,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
         "runs": runs,
     });
     let md = report::markdown(&doc, baseline.as_ref().map(|(p, v)| (p.as_str(), v)));
-    let (md_path, json_path) = crate::write_report(&out_dir, "end-to-end", &md, &doc)?;
-    print!("{md}");
-    println!(
-        "\nwritten: {} and {}",
-        md_path.display(),
-        json_path.display()
-    );
+    crate::publish_report(&out_dir, "end-to-end", &md, &doc)?;
 
     if failed.is_empty() {
         Ok(())

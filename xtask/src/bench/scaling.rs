@@ -104,13 +104,7 @@ pub(super) fn run(root: &Path, options: &Options) -> Result<(), String> {
         "by_pixels": by_pixels,
     });
     let md = markdown(&doc);
-    let (md_path, json_path) = crate::write_report(&out, "scaling", &md, &doc)?;
-    print!("{md}");
-    println!(
-        "\nwritten: {} and {}",
-        md_path.display(),
-        json_path.display()
-    );
+    crate::publish_report(&out, "scaling", &md, &doc)?;
     Ok(())
 }
 

@@ -293,7 +293,7 @@ impl Options {
 pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
     let options = Options::parse(root, args)?;
     if cfg!(debug_assertions) && std::env::var_os(CHILD_ENV).is_none() {
-        return rerun_in_release(root, args);
+        return crate::rerun_in_release(root, "mitsuba", args, CHILD_ENV);
     }
     let started = Instant::now();
     let load_before = crate::load_average();
@@ -368,26 +368,6 @@ fn export_scene(scene: &Scene, options: &Options, scene_load_s: f64) -> Result<E
         exported.summary
     );
     Ok(exported)
-}
-
-/// Runs this task again from a release build of xtask (the child prints
-/// its own one-line error).
-fn rerun_in_release(root: &Path, args: &[String]) -> Result<(), String> {
-    let mut cargo_args = vec![
-        "run",
-        "--release",
-        "--quiet",
-        "-p",
-        "xtask",
-        "--",
-        "mitsuba",
-    ];
-    cargo_args.extend(args.iter().map(String::as_str));
-    println!(
-        "timings need a release build: running `cargo {}`",
-        cargo_args.join(" ")
-    );
-    crate::cargo_with_env(root, &cargo_args, &[(CHILD_ENV, "1")])
 }
 
 /// The options of `args` (flags as string slices) with the workspace as

@@ -139,13 +139,7 @@ pub(super) fn run(options: &BenchOptions) -> Result<(), String> {
         "load_average": crate::load_average(),
         "sets": timings.iter().map(set_json).collect::<Vec<_>>(),
     });
-    let (md_path, json_path) = crate::write_report(&options.dir, "bench-rlt", &md, &doc)?;
-    print!("{md}");
-    println!(
-        "\nwritten: {} and {}",
-        md_path.display(),
-        json_path.display()
-    );
+    crate::publish_report(&options.dir, "bench-rlt", &md, &doc)?;
     Ok(())
 }
 

@@ -77,7 +77,7 @@ pub fn run(root: &Path, args: &[String]) -> Result<(), String> {
                 return help();
             };
             if cfg!(debug_assertions) && std::env::var_os(CHILD_ENV).is_none() {
-                return rerun_in_release(root, args);
+                return crate::rerun_in_release(root, "rays", args, CHILD_ENV);
             }
             bench::run(&options)
         }
@@ -233,18 +233,6 @@ fn parse_bench(root: &Path, args: &[String]) -> Result<Option<BenchOptions>, Str
         layout,
         isa,
     }))
-}
-
-/// Runs this task again from a release build of xtask (the child prints
-/// its own one-line error).
-fn rerun_in_release(root: &Path, args: &[String]) -> Result<(), String> {
-    let mut cargo_args = vec!["run", "--release", "--quiet", "-p", "xtask", "--", "rays"];
-    cargo_args.extend(args.iter().map(String::as_str));
-    println!(
-        "timings need a release build: running `cargo {}`",
-        cargo_args.join(" ")
-    );
-    crate::cargo_with_env(root, &cargo_args, &[(CHILD_ENV, "1")])
 }
 
 #[cfg(test)]
