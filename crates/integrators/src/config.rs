@@ -182,6 +182,10 @@ pub struct RenderConfig {
     /// for visibility only with probability contribution / threshold. 0
     /// traces every shadow ray.
     pub shadow_roulette: f32,
+    /// PT only: trace the paths of each run of pixels as a wavefront
+    /// (`pt/wavefront.rs`) instead of one path after the other. The image is
+    /// the same, byte for byte; only the speed differs.
+    pub wavefront: bool,
 }
 
 /// Default first merge radius: 0.3 % of the scene's bounding-sphere radius
@@ -233,6 +237,7 @@ impl Default for RenderConfig {
             radius_factor: DEFAULT_RADIUS_FACTOR,
             radius_alpha: DEFAULT_RADIUS_ALPHA,
             shadow_roulette: DEFAULT_SHADOW_ROULETTE,
+            wavefront: false,
         }
     }
 }

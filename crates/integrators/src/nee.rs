@@ -35,6 +35,26 @@ pub fn light_sample(
 
 /// Whether the shadow ray from `vertex` to the light sample is unoccluded.
 pub fn visible(ctx: &SceneContext, vertex: &PathVertex, ls: &LightSample) -> bool {
+    let ray = shadow_ray(vertex, ls);
+    !ctx.occluded(ray.origin, ray.direction, ray.t_max)
+}
+
+/// A segment to test for occlusion: `origin + t direction`, t in (0, t_max).
+#[derive(Clone, Copy, Debug)]
+pub struct ShadowRay {
+    /// Its start, off the surface it leaves.
+    pub origin: Vec3,
+    /// Its direction: to the light point's offset position (`t_max` 1), or
+    /// the unit direction to a light at infinity (`t_max` infinite).
+    pub direction: Vec3,
+    /// Where the segment ends, in units of `direction`.
+    pub t_max: f32,
+}
+
+/// The shadow ray from `vertex` to the light sample: both ends moved off
+/// their surfaces (`accel::offset`), so neither hits its own surface.
+#[inline]
+pub fn shadow_ray(vertex: &PathVertex, ls: &LightSample) -> ShadowRay {
     let origin = vertex.point.spawn_origin(ls.wi);
     match ls.point {
         Some(lp) => {
@@ -44,8 +64,16 @@ pub fn visible(ctx: &SceneContext, vertex: &PathVertex, ls: &LightSample) -> boo
                 let n = if lp.n.dot(-ls.wi) > 0.0 { lp.n } else { -lp.n };
                 lp.error.offset(lp.p, n)
             };
-            !ctx.occluded(origin, end - origin, 1.0)
+            ShadowRay {
+                origin,
+                direction: end - origin,
+                t_max: 1.0,
+            }
         }
-        None => !ctx.occluded(origin, ls.wi, f32::INFINITY),
+        None => ShadowRay {
+            origin,
+            direction: ls.wi,
+            t_max: f32::INFINITY,
+        },
     }
 }

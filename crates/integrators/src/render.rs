@@ -38,7 +38,9 @@ impl AnyIntegrator {
     /// The integrator of `ctx.config.algorithm`.
     pub fn new(ctx: &SceneContext) -> Self {
         match ctx.config.algorithm {
-            Algorithm::Pt => Self::PathTracer(PathTracer::new(ctx.config.strategies)),
+            Algorithm::Pt => {
+                Self::PathTracer(PathTracer::new(ctx.config.strategies, ctx.config.wavefront))
+            }
             Algorithm::Bpt | Algorithm::Bpm | Algorithm::Vcm => {
                 Self::Bidirectional(Bidirectional::new(ctx))
             }

@@ -102,6 +102,13 @@ pub struct Cli {
     #[arg(long, value_name = "K", value_parser = parse_threads, allow_negative_numbers = true, help_heading = "Rendering")]
     pub threads: Option<usize>,
 
+    /// Path tracing (pt) only: trace the paths of each run of 256 pixels of a row together, one
+    /// bounce at a time (a wavefront: closest hits of all, then shading and light samples, then
+    /// all shadow rays, then the next directions), instead of one path after the other. The
+    /// image is the same, byte for byte; the speed is about the same today (docs/benchmarks.md).
+    #[arg(long, help_heading = "Rendering")]
+    pub wavefront: bool,
+
     /// Print the scene's features, what the integrator will do with them and why, and every
     /// resolved setting with its origin (flag, manifest or default) on stdout; then render as
     /// usual.

@@ -21,7 +21,15 @@ pub fn header(
     FilmHeader {
         scene: scene_path.display().to_string(),
         scene_hash: scene_hash(scene),
-        settings: format!("{config:?}"),
+        // How the path loop runs does not change the image: films of either
+        // path loop resume and merge with each other.
+        settings: format!(
+            "{:?}",
+            RenderConfig {
+                wavefront: false,
+                ..*config
+            }
+        ),
         seed: config.seed,
         first,
         last,

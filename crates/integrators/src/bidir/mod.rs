@@ -77,7 +77,7 @@ impl Bidirectional {
         }
         .with_virtual_merges(ctx.config.uses_virtual_merges());
         let pixel_scale = if techniques.connections && ctx.config.shadow_roulette > 0.0 {
-            PathTracer::new(ctx.config.strategies).preview_pixel_mean(ctx)
+            PathTracer::new(ctx.config.strategies, false).preview_pixel_mean(ctx)
         } else {
             0.0
         };

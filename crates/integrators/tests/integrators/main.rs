@@ -15,3 +15,4 @@ mod pt;
 mod real_materials;
 mod spheres;
 mod thin_dielectric;
+mod wavefront;

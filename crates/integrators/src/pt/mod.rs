@@ -12,10 +12,13 @@ use regularization::{PathRegularization, Subpath};
 use crate::config::Strategies;
 use crate::context::SceneContext;
 use crate::integrator::{Integrator, Stop};
+use crate::lights::LightSample;
 use crate::nee;
 use crate::sampler::{CameraVertexSamples, Sampler};
 use crate::vertex::PathVertex;
 use crate::walk::Walk;
+
+mod wavefront;
 
 /// Pixels per image side, and paths per pixel, of the preview that
 /// estimates the mean pixel value (4096 paths whatever the resolution:
@@ -36,6 +39,8 @@ pub struct PathTracer {
     use_nee: bool,
     /// Lights are reached by BSDF-sampled rays.
     use_bsdf: bool,
+    /// The paths of a run of pixels advance together ([`wavefront`]).
+    wavefront: bool,
 }
 
 /// How a path left its previous vertex: what an emitter it hits needs for
@@ -54,6 +59,22 @@ impl Integrator for PathTracer {
     fn render_iteration(&self, ctx: &SceneContext, n: u64, estimates: &mut [Vec3], stop: Stop<'_>) {
         let width = ctx.resolution().0 as usize;
         let tau_n = ctx.tau_at(n);
+        if self.wavefront {
+            estimates.par_chunks_mut(width).enumerate().for_each_init(
+                wavefront::Queues::default,
+                |queues, (y, row)| {
+                    if stop.requested() {
+                        return;
+                    }
+                    for (k, run) in row.chunks_mut(wavefront::WAVEFRONT).enumerate() {
+                        let x0 = (k * wavefront::WAVEFRONT) as u32;
+                        self.trace_wavefront(ctx, n, (x0, y as u32), run, queues);
+                    }
+                    ctx.flush_ray_count();
+                },
+            );
+            return;
+        }
         estimates
             .par_chunks_mut(width)
             .enumerate()
@@ -71,14 +92,19 @@ impl Integrator for PathTracer {
 }
 
 impl PathTracer {
-    /// The path tracer with the given techniques for reaching lights.
-    pub fn new(strategies: Strategies) -> Self {
+    /// The path tracer with the given techniques for reaching lights, as a
+    /// wavefront or one path at a time (the same image either way).
+    pub fn new(strategies: Strategies, wavefront: bool) -> Self {
         let (use_nee, use_bsdf) = match strategies {
             Strategies::Mis => (true, true),
             Strategies::NeeOnly => (true, false),
             Strategies::BsdfOnly => (false, true),
         };
-        Self { use_nee, use_bsdf }
+        Self {
+            use_nee,
+            use_bsdf,
+            wavefront,
+        }
     }
 
     /// The mean over a grid of pixels of path-traced estimates (largest RGB
@@ -166,8 +192,11 @@ impl PathTracer {
             let vertex = PathVertex::new(&ctx.scene, point, wi, walk.throughput, regularization);
             regularization = vertex.regularization;
             let u = sampler.camera_vertex(depth);
-            if self.use_nee && !vertex.is_specular() {
-                radiance += walk.throughput * self.next_event(ctx, &vertex, &u);
+            if self.use_nee
+                && !vertex.is_specular()
+                && let Some(contribution) = self.next_event(ctx, &vertex, &u)
+            {
+                radiance += walk.throughput * contribution;
             }
             let Some(s) = walk.step(&vertex, depth, u.step, TransportMode::Radiance, 1.0) else {
                 break;
@@ -196,14 +225,21 @@ impl PathTracer {
     }
 
     /// Next-event estimation at `vertex`: a light sample, its visibility and
-    /// its MIS weight against BSDF sampling (1 without BSDF sampling or for
-    /// delta lights).
-    fn next_event(&self, ctx: &SceneContext, vertex: &PathVertex, u: &CameraVertexSamples) -> Vec3 {
-        let Some((ls, f)) = nee::light_sample(ctx, vertex, u.u_light, u.uv_light)
-            .filter(|(ls, _)| nee::visible(ctx, vertex, ls))
-        else {
-            return Vec3::ZERO;
-        };
+    /// its weighted contribution, if any.
+    fn next_event(
+        &self,
+        ctx: &SceneContext,
+        vertex: &PathVertex,
+        u: &CameraVertexSamples,
+    ) -> Option<Vec3> {
+        let (ls, f) = nee::light_sample(ctx, vertex, u.u_light, u.uv_light)?;
+        nee::visible(ctx, vertex, &ls).then(|| self.light_contribution(vertex, &ls, f))
+    }
+
+    /// The contribution of the unoccluded light sample `ls` at `vertex`,
+    /// whose f |cos| towards it is `f`: weighted against BSDF sampling by
+    /// MIS (weight 1 without BSDF sampling or for delta lights).
+    fn light_contribution(&self, vertex: &PathVertex, ls: &LightSample, f: Vec3) -> Vec3 {
         let weight = if ls.is_delta || !self.use_bsdf {
             1.0
         } else {

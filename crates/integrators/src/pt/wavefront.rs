@@ -1,0 +1,231 @@
+//! The path tracer as a wavefront (Laine, Karras and Aila 2013,
+//! "Megakernels Considered Harmful"; pbrt-v4's `WavefrontPathIntegrator`):
+//! the camera paths of a run of pixels advance together, one bounce at a
+//! time, through stages that each do one kind of work for all of them:
+//!
+//! 1. **extend**: the closest hit of every path's ray, as one batch of ray
+//!    queries;
+//! 2. **shade**: emission found and escaped rays (environment), the path
+//!    vertex, and a light sample whose shadow ray joins the shadow queue;
+//! 3. **shadow**: the shadow queue's occlusion queries as one batch, the
+//!    unoccluded contributions added;
+//! 4. **continue**: a BSDF sample and Russian roulette per surviving path;
+//!    the paths that end leave the wavefront (compaction).
+//!
+//! The queues are per worker and sized for its caches (one run of at most
+//! [`WAVEFRONT`] pixels), not global with a barrier per stage: pbrt-v4's
+//! global queues made its CPU wavefront 5-10x slower than its scalar
+//! integrators (../shared/notes/simd-and-wavefront.md §4).
+//!
+//! **The scalar path tracer's estimate, bit for bit.** Each path draws the
+//! same sampler requests, makes the same floating-point operations in the
+//! same order and adds its terms to its pixel in the same order (emission,
+//! then the light sample, bounce after bounce) as
+//! [`PathTracer::trace_path`]; only the interleaving of different paths
+//! changes. So every image is byte-identical to the scalar one (tested on
+//! every bundled kind of scene), which is a stronger agreement than equal
+//! expected values, and the scalar loop stays the readable reference.
+
+use accel::Hit;
+use glam::Vec3;
+use microfacet::TransportMode;
+use regularization::{PathRegularization, Subpath};
+
+use super::{Bounce, PathTracer};
+use crate::context::SceneContext;
+use crate::nee::{self, ShadowRay};
+use crate::sampler::{Sampler, StepSamples};
+use crate::vertex::PathVertex;
+use crate::walk::Walk;
+
+/// Paths per wavefront, at most: the pixels of a row are traced in runs of
+/// this many. Its state (about 0.5 KiB a path with its vertex) then stays in
+/// a core's L2 cache.
+pub const WAVEFRONT: usize = 256;
+
+/// A camera path in flight.
+#[derive(Clone, Copy, Debug)]
+struct Path {
+    /// Its pixel within the run.
+    pixel: usize,
+    sampler: Sampler,
+    walk: Walk,
+    regularization: PathRegularization,
+    bounce: Bounce,
+}
+
+/// A path that scattered at a vertex and may go on from it.
+#[derive(Clone, Copy, Debug)]
+struct Scattering {
+    /// Its index in the wavefront.
+    path: usize,
+    vertex: PathVertex,
+    step: StepSamples,
+}
+
+/// A light sample waiting for its shadow ray.
+#[derive(Clone, Copy, Debug)]
+struct ShadowQuery {
+    pixel: usize,
+    ray: ShadowRay,
+    /// What the pixel gains when the ray is unoccluded.
+    contribution: Vec3,
+}
+
+/// The queues of one worker, reused from run to run.
+#[derive(Debug, Default)]
+pub struct Queues {
+    paths: Vec<Path>,
+    hits: Vec<Option<Hit>>,
+    scattering: Vec<Scattering>,
+    shadow: Vec<ShadowQuery>,
+}
+
+impl PathTracer {
+    /// The estimates of iteration `n` for the pixels `x0..x0 + out.len()`
+    /// of row `y` (at most [`WAVEFRONT`] of them), as a wavefront.
+    pub(super) fn trace_wavefront(
+        &self,
+        ctx: &SceneContext,
+        n: u64,
+        (x0, y): (u32, u32),
+        out: &mut [Vec3],
+        queues: &mut Queues,
+    ) {
+        let tau_n = ctx.tau_at(n);
+        let start = PathRegularization::new(ctx.effective_mode(tau_n), Subpath::Camera, tau_n)
+            .with_energy(ctx.config.regularization.energy);
+        out.fill(Vec3::ZERO);
+        queues.paths.clear();
+        queues.paths.extend((0..out.len()).map(|pixel| {
+            let (sampler, walk) = ctx.camera_path(n, x0 + pixel as u32, y);
+            Path {
+                pixel,
+                sampler,
+                walk,
+                regularization: start,
+                bounce: Bounce {
+                    specular: true,
+                    mis_pdf: 0.0,
+                    from: walk.origin,
+                },
+            }
+        }));
+        for depth in 1..=ctx.config.max_depth {
+            if queues.paths.is_empty() {
+                break;
+            }
+            extend(ctx, depth, &queues.paths, &mut queues.hits);
+            self.shade(ctx, depth, queues, out);
+            shadow(ctx, &queues.shadow, out);
+            continue_paths(queues, depth);
+        }
+    }
+
+    /// Stage 2: emission and escape, then the vertex and its light sample
+    /// for the paths that go on.
+    fn shade(&self, ctx: &SceneContext, depth: u32, queues: &mut Queues, out: &mut [Vec3]) {
+        queues.scattering.clear();
+        queues.shadow.clear();
+        for (index, (path, hit)) in queues.paths.iter_mut().zip(&queues.hits).enumerate() {
+            let walk = &mut path.walk;
+            let Some(hit) = hit else {
+                if let Some(le) = ctx.lights.environment(&ctx.scene, walk.direction) {
+                    let weight = self.emitter_hit_weight(&path.bounce, || {
+                        ctx.lights.environment_pdf(&ctx.scene, walk.direction)
+                    });
+                    out[path.pixel] += walk.escaped_throughput() * le * weight;
+                }
+                continue;
+            };
+            let point = ctx.surface_point(hit, walk.origin, walk.direction);
+            walk.arrive(&ctx.scene, &point, hit.t);
+            let wi = -walk.direction;
+            if let Some(emission) = ctx.emitted(&point, wi) {
+                let from = path.bounce.from;
+                let weight = self.emitter_hit_weight(&path.bounce, || {
+                    ctx.lights
+                        .area_pdf_w(point.primitive, from, point.p, point.n_winding)
+                });
+                out[path.pixel] += walk.throughput * emission * weight;
+            }
+            if depth == ctx.config.max_depth {
+                continue;
+            }
+            let vertex =
+                PathVertex::new(&ctx.scene, point, wi, walk.throughput, path.regularization);
+            path.regularization = vertex.regularization;
+            let u = path.sampler.camera_vertex(depth);
+            if self.use_nee
+                && !vertex.is_specular()
+                && let Some((ls, f)) = nee::light_sample(ctx, &vertex, u.u_light, u.uv_light)
+            {
+                queues.shadow.push(ShadowQuery {
+                    pixel: path.pixel,
+                    ray: nee::shadow_ray(&vertex, &ls),
+                    contribution: walk.throughput * self.light_contribution(&vertex, &ls, f),
+                });
+            }
+            queues.scattering.push(Scattering {
+                path: index,
+                vertex,
+                step: u.step,
+            });
+        }
+    }
+}
+
+/// Stage 1: the closest hit of every path's ray (camera rays from the
+/// near plane on).
+fn extend(ctx: &SceneContext, depth: u32, paths: &[Path], hits: &mut Vec<Option<Hit>>) {
+    hits.clear();
+    hits.extend(paths.iter().map(|path| {
+        let Walk {
+            origin, direction, ..
+        } = path.walk;
+        if depth == 1 {
+            ctx.intersect_camera_ray(origin, direction)
+        } else {
+            ctx.intersect(origin, direction, f32::INFINITY)
+        }
+    }));
+}
+
+/// Stage 3: the shadow queue's rays; the unoccluded ones add their
+/// contribution.
+fn shadow(ctx: &SceneContext, queue: &[ShadowQuery], out: &mut [Vec3]) {
+    for query in queue {
+        let ShadowRay {
+            origin,
+            direction,
+            t_max,
+        } = query.ray;
+        if !ctx.occluded(origin, direction, t_max) {
+            out[query.pixel] += query.contribution;
+        }
+    }
+}
+
+/// Stage 4: a BSDF sample and roulette for every path that scattered; the
+/// survivors form the next wavefront, in their order.
+fn continue_paths(queues: &mut Queues, depth: u32) {
+    let mut survivors = 0;
+    for s in &queues.scattering {
+        let mut path = queues.paths[s.path];
+        let Some(sample) = path
+            .walk
+            .step(&s.vertex, depth, s.step, TransportMode::Radiance, 1.0)
+        else {
+            continue;
+        };
+        path.bounce = Bounce {
+            specular: sample.is_specular,
+            mis_pdf: sample.mis_pdf,
+            from: s.vertex.point.p,
+        };
+        // Survivors move down over paths already read (s.path >= survivors).
+        queues.paths[survivors] = path;
+        survivors += 1;
+    }
+    queues.paths.truncate(survivors);
+}
