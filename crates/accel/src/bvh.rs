@@ -456,8 +456,9 @@ impl Bvh {
     /// that is not positive (or NaN). No epsilon is applied: start secondary
     /// rays at [`offset_ray_origin`](crate::offset_ray_origin).
     ///
-    /// When several triangles are hit at the same `t` (a ray through a shared
-    /// edge), one of them is returned; which one depends only on the BVH.
+    /// When several primitives are hit at the same `t` (a ray through a
+    /// shared edge or vertex), the one with the lowest id is returned,
+    /// whatever the layout.
     #[must_use]
     pub fn intersect(&self, origin: Vec3, direction: Vec3, t_max: f32) -> Option<Hit> {
         if self.spheres.is_empty() {
@@ -504,16 +505,26 @@ impl Bvh {
         let r = self.prepare(origin, direction, t_max)?;
         let mut best: Option<(usize, f32, f32)> = None;
         let mut t_int = r.t_max;
+        // Hits at the closest distance so far are tested too (the limit is
+        // inclusive) and win when their primitive id is lower: the result does
+        // not depend on the order in which leaves are visited, so every layout
+        // returns the same hit.
+        let wins = |slot: usize, t: f32, t_max: f32, best: Option<(usize, f32, f32)>| {
+            t < t_max || best.is_some_and(|(b, ..)| self.ids[slot] < self.ids[b])
+        };
         let test = |slot: usize, t_max: &mut f32| {
+            let limit = t_max.next_up();
             if SPHERES && self.ids[slot] as usize >= self.triangle_count {
-                if let Some(t) = self.sphere_test(slot, &r, origin, direction, *t_max)
+                if let Some(t) = self.sphere_test(slot, &r, origin, direction, limit)
+                    && wins(slot, t, *t_max, best)
                     && accept(slot, 0.0, 0.0)
                 {
                     *t_max = t;
                     t_int = t;
                     best = Some((slot, 0.0, 0.0));
                 }
-            } else if let Some((t, b1, b2)) = r.transform.intersect(&self.triangles[slot], *t_max)
+            } else if let Some((t, b1, b2)) = r.transform.intersect(&self.triangles[slot], limit)
+                && wins(slot, t, *t_max, best)
                 && accept(slot, b1, b2)
             {
                 *t_max = t;

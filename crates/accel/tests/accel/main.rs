@@ -7,4 +7,5 @@ mod bvh;
 mod common;
 mod grid;
 mod isa;
+mod layouts;
 mod sphere;
