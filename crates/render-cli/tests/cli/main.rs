@@ -3,6 +3,7 @@
 //! [`checkpoint`].
 
 mod checkpoint;
+mod libm;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -18,6 +19,15 @@ fn bundled(scene: &str) -> PathBuf {
 fn render_cli(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_render-cli"))
         .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+/// [`render_cli`] with one more environment variable.
+fn render_cli_with_env(args: &[&str], (key, value): (&str, &str)) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_render-cli"))
+        .args(args)
+        .env(key, value)
         .output()
         .expect("the binary runs")
 }
