@@ -53,6 +53,7 @@ mod bvh;
 mod bvh8;
 mod convert;
 mod grid;
+mod leaf;
 mod offset;
 mod sphere;
 mod traverse;

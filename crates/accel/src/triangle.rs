@@ -21,6 +21,9 @@ pub(crate) struct RayTransform {
     /// exact zero), so it equals the paper's `A[kx] - Sx * A[kz]` bit for bit,
     /// times the power of two `scale`.
     shear: Mat3A,
+    /// The permutation `[kx, ky, kz]`: `shear`'s columns `kx` and `ky` are
+    /// `scale` times the unit vectors x and y, column `kz` the shear.
+    axes: [u8; 3],
 }
 
 impl RayTransform {
@@ -65,7 +68,27 @@ impl RayTransform {
         Self {
             origin: origin.into(),
             shear: Mat3A::from_cols(column(0), column(1), column(2)),
+            axes: [kx as u8, ky as u8, kz as u8],
         }
+    }
+
+    /// The ray origin.
+    #[inline(always)]
+    pub(crate) fn origin(&self) -> Vec3A {
+        self.origin
+    }
+
+    /// The permute-shear-scale matrix (see the field).
+    #[inline(always)]
+    pub(crate) fn shear(&self) -> Mat3A {
+        self.shear
+    }
+
+    /// The permutation `[kx, ky, kz]` of the coordinate axes (see the
+    /// `axes` field).
+    #[inline(always)]
+    pub(crate) fn axes(&self) -> [usize; 3] {
+        self.axes.map(usize::from)
     }
 
     /// Intersects the triangle `v`. Returns `(t, b1, b2)` (barycentric weights
@@ -74,6 +97,7 @@ impl RayTransform {
     /// Both faces count. Degenerate triangles (zero area) never hit.
     #[inline(always)]
     pub(crate) fn intersect(&self, v: &[Vec3A; 3], t_max: f32) -> Option<(f32, f32, f32)> {
+        // `leaf.rs` repeats these operations lane by lane: keep them in step.
         let a = self.shear * (v[0] - self.origin);
         let b = self.shear * (v[1] - self.origin);
         let c = self.shear * (v[2] - self.origin);
