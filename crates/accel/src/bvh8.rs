@@ -5,18 +5,26 @@
 //! in one `f32x8` operation per step, on the best instruction set the CPU
 //! has (chosen at run time with `fearless_simd`; SSE4.2 at least).
 //!
-//! The tree is the compressed BVH's (`convert.rs`): the same nodes, children
-//! and leaves, with each child's quantized box decoded to floats rounded
-//! outwards, so a child box here contains the quantized one, which contains
-//! the child's primitives. What changes is the work per node: no 8-bit plane
-//! decoding (48 integer-to-float conversions a node, see
-//! ../shared/notes/simd-and-wavefront.md §3), one 8-lane slab test instead
-//! of two 4-lane ones, and children visited nearest first by their entry
-//! distance (the compressed traversal's octant order only approximates it),
-//! popped entries beyond the closest hit so far culled. Nodes are 256 bytes
-//! (80 compressed).
+//! The tree is made by the compressed BVH's conversion (`convert.rs`), with
+//! leaves of up to 4 primitives instead of 3, each child's quantized box
+//! decoded to floats rounded outwards, so a child box here contains the
+//! quantized one, which contains the child's primitives. What changes is
+//! the work per node: no 8-bit plane decoding (48 integer-to-float
+//! conversions a node, see ../shared/notes/simd-and-wavefront.md §3), one
+//! 8-lane slab test instead of two 4-lane ones, and children visited
+//! nearest first by their entry distance (the compressed traversal's
+//! octant order only approximates it), popped entries beyond the closest
+//! hit so far culled. Nodes are 256 bytes (80 compressed).
 //!
-//! **The same bits on every instruction set.** The node test uses only
+//! A leaf is a [`TriangleBlock`] (`leaf.rs`): its triangles lane by lane,
+//! all tested in one 4-lane watertight test that gives each lane the
+//! scalar test's bits; the leaf's slots are then handed to the caller in
+//! leaf order with their lane's result, so that closest-hit ties, any-hit
+//! exits and filter calls are those of the scalar loop over the leaf.
+//!
+//! **The same bits on every instruction set.** The leaf test is
+//! correctly rounded IEEE arithmetic on a fixed width of 4 lanes (see
+//! `leaf.rs`). The node test uses only
 //! subtraction, multiplication, addition, `abs`, `min`, `max` and a
 //! comparison over finite values, each correctly rounded or exact in every
 //! SSE, AVX2 and AVX-512 encoding, on a fixed logical width of 8 lanes, and
