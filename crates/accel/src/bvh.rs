@@ -456,7 +456,7 @@ impl Bvh {
         self.bounds
     }
 
-    /// Chooses the instruction set of [`Layout::Bvh8`]'s node tests (other
+    /// Chooses the instruction set of [`Layout::Bvh8`]'s node and leaf tests (other
     /// layouts ignore it). Every choice gives the same results bit for bit;
     /// this is for measuring and for testing that they do. Returns `false`,
     /// changing nothing, when the CPU lacks `isa`.

@@ -57,7 +57,7 @@ const LEAF: u32 = 1 << 31;
 /// need, go on in a vector allocated on first use.
 const INLINE_STACK: usize = 32;
 
-/// The instruction set of the node tests (see the module documentation: the
+/// The instruction set of the node and leaf tests (see the module documentation: the
 /// results are the same at every one).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[non_exhaustive]
