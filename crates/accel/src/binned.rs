@@ -6,7 +6,8 @@
 //! 2007, "On fast Construction of SAH-based Bounding Volume Hierarchies",
 //! §3: binning, then a sweep over the bin boundaries), and partitions its
 //! primitive references in place (Hoare's scheme). Leaves hold one
-//! primitive each; the conversion groups them into wide leaves of up to 3.
+//! primitive each; the conversion groups them into wide leaves of up to 3 (4
+//! for `Layout::Bvh8`).
 //!
 //! Memory: the 28-byte references ([`PrimRef`]) and the tree's `2n - 1`
 //! nodes (32 bytes each with obvhs' `small_bvh2_node`) are the only

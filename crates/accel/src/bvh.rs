@@ -20,8 +20,9 @@ use obvhs::{
 use fearless_simd::Level;
 
 use crate::binned::{self, PrimRef};
-use crate::bvh8::{Bvh8, Isa, traverse8};
-use crate::convert::bvh2_to_cwbvh;
+use crate::bvh8::{Bvh8, Isa, MAX_BVH8_SLOTS, traverse8};
+use crate::convert::bvh2_to_wide;
+use crate::leaf::Lane;
 use crate::sphere::Sphere;
 use crate::traverse::{NodeRay, traverse_binary, traverse_wide};
 use crate::triangle::{RayTransform, is_degenerate};
@@ -34,6 +35,11 @@ pub const MAX_COORDINATE: f32 = 1e15;
 /// entries and silently overwrites the last one when full, so deeper trees
 /// (only seen with adversarial inputs) are traversed as a BVH2 instead.
 pub(crate) const MAX_WIDE_DEPTH: usize = 24;
+
+/// Most triangles in a leaf of [`Layout::Bvh8`]: a block of its leaf
+/// kernel (`leaf.rs`). The wide tree's conversion puts up to this many
+/// primitives in a leaf where its surface-area cost says so.
+const BVH8_LEAF: u32 = crate::leaf::BLOCK as u32;
 
 /// A ray hit: distance, caller primitive id and barycentrics.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -61,12 +67,16 @@ pub enum Layout {
     /// converting the binary tree; SIMD node tests.
     #[default]
     Wide,
-    /// The same 8-wide tree with float child boxes in structure-of-arrays
-    /// form (Embree's BVH8 node, 256 bytes), all eight children tested in
-    /// one SIMD operation on the best instruction set of the CPU
-    /// ([`Isa`]), nearest child first. Fewer instructions per ray, the
-    /// same speed as [`Layout::Wide`] on the measured scenes, 3.2 times its
-    /// node memory (docs/benchmarks.md, "The BVH8 layout").
+    /// An 8-wide tree with float child boxes in structure-of-arrays form
+    /// (Embree's BVH8 node, 256 bytes), all eight children tested in one
+    /// SIMD operation on the best instruction set of the CPU ([`Isa`]),
+    /// nearest child first, and leaves of up to 4 triangles stored lane
+    /// by lane and tested at once (Embree's `Triangle4`), with the same
+    /// results as the scalar test. The same conversion as [`Layout::Wide`]'s
+    /// with leaves of 4 allowed. As fast as [`Layout::Wide`] on the
+    /// measured scenes, faster for some ray sets and slower for others;
+    /// 3.2 times its node memory plus a 160-byte block per leaf
+    /// (docs/benchmarks.md, "The BVH8 layout").
     Bvh8,
     /// Binary BVH (the builder's tree, reinsertion, leaf collapse). Faster
     /// to build.
@@ -177,8 +187,12 @@ pub struct Bvh {
     bounds: (Vec3, Vec3),
     /// floor(log2) of the largest coordinate magnitude of the scene.
     scene_exponent: i32,
-    /// The instruction set of [`Layout::Bvh8`]'s node tests.
+    /// The instruction set of [`Layout::Bvh8`]'s node and leaf tests.
     isa: Level,
+    /// Test [`Layout::Bvh8`]'s leaves one triangle at a time with the
+    /// scalar test (the reference of the leaf kernel's tests).
+    #[cfg(test)]
+    scalar_leaves: bool,
 }
 
 impl Default for Bvh {
@@ -347,6 +361,8 @@ impl Bvh {
             bounds,
             scene_exponent: 0,
             isa: Level::new(),
+            #[cfg(test)]
+            scalar_leaves: false,
         };
         if prims.is_empty() {
             return bvh;
@@ -382,7 +398,8 @@ impl Bvh {
         // The references are no longer needed (28 bytes per primitive).
         drop(prims);
         // The traversals report slots; the slot -> id map moves here.
-        (bvh.tree, bvh.ids) = finish_tree(bvh2, options);
+        let leaf_sizes;
+        (bvh.tree, bvh.ids, leaf_sizes) = finish_tree(bvh2, options);
         bvh.triangles = bvh
             .ids
             .iter()
@@ -394,6 +411,16 @@ impl Bvh {
                 }
             })
             .collect();
+        // (With too many slots for Bvh8 references the tree stays `Wide`,
+        // its leaves of at most 3: see `finish_tree`.)
+        if options.layout == Layout::Bvh8
+            && bvh.triangles.len() < MAX_BVH8_SLOTS
+            && let Tree::Wide(wide) = &bvh.tree
+        {
+            let other = |slot: usize| bvh.ids[slot] as usize >= count;
+            let float = Bvh8::from_cwbvh(wide, &leaf_sizes, &bvh.triangles, other);
+            bvh.tree = Tree::Bvh8(float);
+        }
         let scene_scale = bounds.0.abs().max(bounds.1.abs()).max_element();
         bvh.scene_exponent = exponent(scene_scale).clamp(-100, 100);
         bvh
@@ -429,7 +456,7 @@ impl Bvh {
         self.bounds
     }
 
-    /// Chooses the instruction set of [`Layout::Bvh8`]'s node tests (other
+    /// Chooses the instruction set of [`Layout::Bvh8`]'s node and leaf tests (other
     /// layouts ignore it). Every choice gives the same results bit for bit;
     /// this is for measuring and for testing that they do. Returns `false`,
     /// changing nothing, when the CPU lacks `isa`.
@@ -505,17 +532,16 @@ impl Bvh {
         let r = self.prepare(origin, direction, t_max)?;
         let mut best: Option<(usize, f32, f32)> = None;
         let mut t_int = r.t_max;
-        // Hits at the closest distance so far are tested too (the limit is
-        // inclusive) and win when their primitive id is lower: the result does
-        // not depend on the order in which leaves are visited, so every layout
-        // returns the same hit.
+        // Hits at the closest distance so far are tested too (the triangle
+        // and sphere tests take t_max inclusively) and win when their
+        // primitive id is lower: the result does not depend on the order in
+        // which leaves are visited, so every layout returns the same hit.
         let wins = |slot: usize, t: f32, t_max: f32, best: Option<(usize, f32, f32)>| {
             t < t_max || best.is_some_and(|(b, ..)| self.ids[slot] < self.ids[b])
         };
-        let test = |slot: usize, t_max: &mut f32| {
-            let limit = t_max.next_up();
+        let test = |slot: usize, t_max: &mut f32, lane: Lane| {
             if SPHERES && self.ids[slot] as usize >= self.triangle_count {
-                if let Some(t) = self.sphere_test(slot, &r, origin, direction, limit)
+                if let Some(t) = self.sphere_test(slot, &r, origin, direction, *t_max)
                     && wins(slot, t, *t_max, best)
                     && accept(slot, 0.0, 0.0)
                 {
@@ -523,7 +549,8 @@ impl Bvh {
                     t_int = t;
                     best = Some((slot, 0.0, 0.0));
                 }
-            } else if let Some((t, b1, b2)) = r.transform.intersect(&self.triangles[slot], limit)
+            } else if let Some((t, b1, b2)) =
+                lane.or_scalar(|| r.transform.intersect(&self.triangles[slot], *t_max))
                 && wins(slot, t, *t_max, best)
                 && accept(slot, b1, b2)
             {
@@ -533,12 +560,7 @@ impl Bvh {
             }
             ControlFlow::Continue(())
         };
-        match &self.tree {
-            Tree::Empty => {}
-            Tree::Wide(bvh) => traverse_wide(bvh, &r.node, r.t_max, test),
-            Tree::Bvh8(bvh) => traverse8(self.isa, bvh, &r.node, r.t_max, test),
-            Tree::Binary(bvh, depth) => traverse_binary(bvh, *depth, &r.node, r.t_max, test),
-        }
+        self.traverse(&r, test);
         let (slot, b1, b2) = best?;
         let t = t_int * r.to_caller.0 * r.to_caller.1;
         if SPHERES && self.ids[slot] as usize >= self.triangle_count {
@@ -563,9 +585,10 @@ impl Bvh {
         let sphere = &self.spheres[self.ids[slot] as usize - self.triangle_count];
         let unit = direction * r.to_caller.1;
         let to_unit = f64::from(r.to_caller.0);
-        let t = sphere.intersect(origin, unit, f64::from(t_max) * to_unit)? / to_unit;
+        // Inclusive of t_max, as the triangle test (`Bvh::closest`'s ties).
+        let t = sphere.intersect(origin, unit, f64::from(t_max.next_up()) * to_unit)? / to_unit;
         let t = t as f32;
-        (t > 0.0 && t < t_max).then_some(t)
+        (t > 0.0 && t <= t_max).then_some(t)
     }
 
     /// The sphere hit in `slot` recomputed with the caller's ray (the test
@@ -697,15 +720,15 @@ impl Bvh {
             return false;
         };
         let mut occluded = false;
-        let test = |slot: usize, t_max: &mut f32| {
+        let test = |slot: usize, t_max: &mut f32, lane: Lane| {
+            // The tests take t_max inclusively; an occluder must be before it.
             let hit = if SPHERES && self.ids[slot] as usize >= self.triangle_count {
                 self.sphere_test(slot, &r, origin, direction, *t_max)
-                    .is_some()
+                    .is_some_and(|t| t < *t_max)
                     && accept(slot, 0.0, 0.0)
             } else {
-                r.transform
-                    .intersect(&self.triangles[slot], *t_max)
-                    .is_some_and(|(_, b1, b2)| accept(slot, b1, b2))
+                lane.or_scalar(|| r.transform.intersect(&self.triangles[slot], *t_max))
+                    .is_some_and(|(t, b1, b2)| t < *t_max && accept(slot, b1, b2))
             };
             if hit {
                 occluded = true;
@@ -714,13 +737,33 @@ impl Bvh {
                 ControlFlow::Continue(())
             }
         };
+        self.traverse(&r, test);
+        occluded
+    }
+
+    /// Runs the traversal of the tree with `prim(slot, &mut t_max, lane)`:
+    /// [`Layout::Bvh8`] tests a leaf's triangles at once and passes each
+    /// slot's result (see `bvh8::traverse8`), the other layouts pass
+    /// [`Lane::Scalar`].
+    #[inline(always)]
+    fn traverse(
+        &self,
+        r: &PreparedRay,
+        mut prim: impl FnMut(usize, &mut f32, Lane) -> ControlFlow<()>,
+    ) {
+        let scalar = |slot, t_max: &mut f32| prim(slot, t_max, Lane::Scalar);
         match &self.tree {
             Tree::Empty => {}
-            Tree::Wide(bvh) => traverse_wide(bvh, &r.node, r.t_max, test),
-            Tree::Bvh8(bvh) => traverse8(self.isa, bvh, &r.node, r.t_max, test),
-            Tree::Binary(bvh, depth) => traverse_binary(bvh, *depth, &r.node, r.t_max, test),
+            Tree::Wide(bvh) => traverse_wide(bvh, &r.node, r.t_max, scalar),
+            #[cfg(test)]
+            Tree::Bvh8(bvh) if self.scalar_leaves => {
+                traverse8::<false>(self.isa, bvh, &r.node, &r.transform, r.t_max, prim);
+            }
+            Tree::Bvh8(bvh) => {
+                traverse8::<true>(self.isa, bvh, &r.node, &r.transform, r.t_max, prim);
+            }
+            Tree::Binary(bvh, depth) => traverse_binary(bvh, *depth, &r.node, r.t_max, scalar),
         }
-        occluded
     }
 
     /// Validates a query and sets up the triangle test and the node tests.
@@ -869,24 +912,26 @@ fn build_bvh2_split(triangles: &[Triangle], options: BuildOptions) -> Bvh2 {
     bvh2
 }
 
-/// The tree of `options.layout` from `bvh2`, and the caller id of each
+/// The tree of `options.layout` from `bvh2` (for [`Layout::Bvh8`] the
+/// wide tree to decode, with its leaf sizes), and the caller id of each
 /// primitive slot.
-fn finish_tree(mut bvh2: Bvh2, options: BuildOptions) -> (Tree, Vec<u32>) {
+fn finish_tree(mut bvh2: Bvh2, options: BuildOptions) -> (Tree, Vec<u32>, Vec<[u8; 8]>) {
     let config = options.quality.params();
     if matches!(options.layout, Layout::Wide | Layout::Bvh8) {
         // The binary tree's bookkeeping of the reinsertion is not needed.
         bvh2.parents = Vec::new();
         bvh2.primitives_to_nodes = Vec::new();
-        let mut wide = bvh2_to_cwbvh(&bvh2, config.max_prims_per_leaf.clamp(1, 3));
+        let leaf =
+            if options.layout == Layout::Bvh8 && bvh2.primitive_indices.len() < MAX_BVH8_SLOTS {
+                BVH8_LEAF
+            } else {
+                config.max_prims_per_leaf.clamp(1, 3)
+            };
+        let (mut wide, sizes) = bvh2_to_wide(&bvh2, leaf);
         let depth = wide_depth(&wide);
         if depth <= MAX_WIDE_DEPTH {
             let ids = std::mem::take(&mut wide.primitive_indices);
-            if options.layout == Layout::Bvh8
-                && let Some(float) = Bvh8::from_cwbvh(&wide, ids.len())
-            {
-                return (Tree::Bvh8(float), ids);
-            }
-            return (Tree::Wide(wide), ids);
+            return (Tree::Wide(wide), ids, sizes);
         }
     }
     let mut reinsertion = ReinsertionOptimizer::default();
@@ -902,7 +947,7 @@ fn finish_tree(mut bvh2: Bvh2, options: BuildOptions) -> (Tree, Vec<u32>) {
     );
     let depth = binary_depth(&bvh2);
     let ids = std::mem::take(&mut bvh2.primitive_indices);
-    (Tree::Binary(bvh2, depth), ids)
+    (Tree::Binary(bvh2, depth), ids, Vec::new())
 }
 
 /// Number of node levels of a CWBVH (0 when empty).
@@ -1009,6 +1054,101 @@ mod tests {
             format!("{:?}", fastest.nodes),
             format!("{:?}", theirs(BuildQuality::Fastest).nodes)
         );
+    }
+
+    /// Every query on [`Layout::Bvh8`] answers the same bits with the leaf
+    /// kernel as with the scalar test slot by slot (the same tree), at
+    /// every instruction set, and filtered queries call the filter with
+    /// the same arguments in the same order.
+    #[test]
+    fn leaf_kernel_answers_as_the_scalar_loop() {
+        use stats::Pcg32;
+        let mut rng = Pcg32::new(11, 5);
+        let mut unit = || Vec3::new(rng.uniform_f32(), rng.uniform_f32(), rng.uniform_f32());
+        let field: Vec<[Vec3; 3]> = crate::convert::tests::height_field(16)
+            .iter()
+            .map(|t| [t.v0, t.v1, t.v2].map(Vec3::from))
+            .collect();
+        let soup: Vec<[Vec3; 3]> = (0..600)
+            .map(|_| {
+                let c = unit() * 2.0;
+                [c, c + unit() * 0.2, c + unit() * 0.2]
+            })
+            .collect();
+        let spheres: Vec<Sphere> = (0..40)
+            .map(|_| Sphere {
+                center: unit() * 2.0,
+                radius: 0.05 + 0.1 * unit().x,
+            })
+            .collect();
+        let options = BuildOptions {
+            layout: Layout::Bvh8,
+            ..BuildOptions::default()
+        };
+        let scenes = [
+            Bvh::build_with(&field, options),
+            Bvh::build_with_spheres(&soup, &spheres, options),
+        ];
+        // Rays straight down through grid vertices and edges (exact zero
+        // edge functions: the f64 path; ties between neighbours), aimed at
+        // vertices, and random ones.
+        let mut rays = Vec::new();
+        for i in 0..600 {
+            let target = match i % 3 {
+                0 => Vec3::new((i % 17) as f32 / 16.0, 0.0, (i % 13) as f32 / 16.0),
+                1 => field[i % field.len()][i % 3],
+                _ => unit() * 2.0,
+            };
+            let d = if i % 2 == 0 {
+                Vec3::NEG_Y
+            } else {
+                unit() - 0.5
+            };
+            // (Aimed rays reach their target at t = 1.5.)
+            let t_max = [f32::INFINITY, 1.5, 2.0][i % 3];
+            rays.push((target - d * 1.5, d, t_max));
+        }
+        let bits = |h: Option<Hit>| h.map(|h| [h.t, h.b1, h.b2].map(f32::to_bits));
+        let mut compared = 0;
+        for mut bvh in scenes {
+            assert_eq!(bvh.layout(), Layout::Bvh8);
+            for isa in Isa::ALL {
+                if !bvh.set_isa(isa) {
+                    continue;
+                }
+                let answers = |bvh: &Bvh| {
+                    let mut calls = Vec::new();
+                    let mut out = Vec::new();
+                    for &(o, d, t_max) in &rays {
+                        let mut keep = |p: u32, b1: f32, b2: f32| {
+                            calls.push((p, b1.to_bits(), b2.to_bits()));
+                            !p.is_multiple_of(3)
+                        };
+                        let hit = bvh.intersect(o, d, t_max);
+                        out.push((
+                            hit.map(|h| h.primitive),
+                            bits(hit),
+                            bits(bvh.intersect_where(o, d, t_max, &mut keep)),
+                            bvh.occluded(o, d, t_max),
+                            bvh.occluded_where(o, d, t_max, &mut keep),
+                        ));
+                    }
+                    (out, calls)
+                };
+                let kernel = answers(&bvh);
+                bvh.scalar_leaves = true;
+                let scalar = answers(&bvh);
+                bvh.scalar_leaves = false;
+                let hits = kernel.0.iter().filter(|a| a.0.is_some()).count();
+                assert!(hits > rays.len() / 4, "{hits} hits");
+                for (i, (k, s)) in kernel.0.iter().zip(&scalar.0).enumerate() {
+                    assert_eq!(k, s, "{isa:?}, ray {i}: {:?}", rays[i]);
+                }
+                assert!(kernel.1 == scalar.1, "{isa:?}: the filter's calls differ");
+                compared += 1;
+            }
+        }
+        assert!(compared >= 2);
     }
 
     #[test]

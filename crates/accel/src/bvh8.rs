@@ -5,18 +5,26 @@
 //! in one `f32x8` operation per step, on the best instruction set the CPU
 //! has (chosen at run time with `fearless_simd`; SSE4.2 at least).
 //!
-//! The tree is the compressed BVH's (`convert.rs`): the same nodes, children
-//! and leaves, with each child's quantized box decoded to floats rounded
-//! outwards, so a child box here contains the quantized one, which contains
-//! the child's primitives. What changes is the work per node: no 8-bit plane
-//! decoding (48 integer-to-float conversions a node, see
-//! ../shared/notes/simd-and-wavefront.md §3), one 8-lane slab test instead
-//! of two 4-lane ones, and children visited nearest first by their entry
-//! distance (the compressed traversal's octant order only approximates it),
-//! popped entries beyond the closest hit so far culled. Nodes are 256 bytes
-//! (80 compressed).
+//! The tree is made by the compressed BVH's conversion (`convert.rs`), with
+//! leaves of up to 4 primitives instead of 3, each child's quantized box
+//! decoded to floats rounded outwards, so a child box here contains the
+//! quantized one, which contains the child's primitives. What changes is
+//! the work per node: no 8-bit plane decoding (48 integer-to-float
+//! conversions a node, see ../shared/notes/simd-and-wavefront.md §3), one
+//! 8-lane slab test instead of two 4-lane ones, and children visited
+//! nearest first by their entry distance (the compressed traversal's
+//! octant order only approximates it), popped entries beyond the closest
+//! hit so far culled. Nodes are 256 bytes (80 compressed).
 //!
-//! **The same bits on every instruction set.** The node test uses only
+//! A leaf is a [`TriangleBlock`] (`leaf.rs`): its triangles lane by lane,
+//! all tested in one 4-lane watertight test that gives each lane the
+//! scalar test's bits; the leaf's slots are then handed to the caller in
+//! leaf order with their lane's result, so that closest-hit ties, any-hit
+//! exits and filter calls are those of the scalar loop over the leaf.
+//!
+//! **The same bits on every instruction set.** The leaf test is
+//! correctly rounded IEEE arithmetic on a fixed width of 4 lanes (see
+//! `leaf.rs`). The node test uses only
 //! subtraction, multiplication, addition, `abs`, `min`, `max` and a
 //! comparison over finite values, each correctly rounded or exact in every
 //! SSE, AVX2 and AVX-512 encoding, on a fixed logical width of 8 lanes, and
@@ -30,27 +38,26 @@
 use std::ops::ControlFlow;
 
 use fearless_simd::{Level, Simd, SimdFrom, dispatch, f32x8};
+use glam::Vec3A;
 use obvhs::cwbvh::CwBvh;
 
+use crate::leaf::{self, BlockRay, Lane, TriangleBlock};
 use crate::traverse::{NodeRay, WIDEN};
+use crate::triangle::RayTransform;
 
 /// Children per node: the logical SIMD width of every node test.
 const LANES: usize = 8;
 
-/// A child reference with this bit set is a leaf: its bits 2..31 are the first
-/// primitive slot, its two low bits the primitive count (1 to 3, the
-/// compressed BVH's leaf size).
+/// A child reference with this bit set is a leaf: its other bits are the
+/// index of its [`TriangleBlock`].
 const LEAF: u32 = 1 << 31;
-
-/// Leaf slots must fit in 29 bits of a child reference.
-const MAX_SLOTS: usize = 1 << 29;
 
 /// Traversal stack entries kept in a fixed array (256 bytes to zero per
 /// ray); deeper stacks, which only trees of more than four levels can
 /// need, go on in a vector allocated on first use.
 const INLINE_STACK: usize = 32;
 
-/// The instruction set of the node tests (see the module documentation: the
+/// The instruction set of the node and leaf tests (see the module documentation: the
 /// results are the same at every one).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[non_exhaustive]
@@ -105,23 +112,56 @@ pub(crate) struct Node8 {
 /// The tree: node 0 is the root.
 pub(crate) struct Bvh8 {
     nodes: Vec<Node8>,
+    /// The leaves' triangles, a block per leaf.
+    blocks: Vec<TriangleBlock>,
 }
 
+/// Most primitive slots of a tree: leaf references and node indices stay
+/// below [`LEAF`] (a tree has fewer nodes and leaves than slots).
+pub(crate) const MAX_BVH8_SLOTS: usize = LEAF as usize;
+
 impl Bvh8 {
-    /// The float form of a compressed BVH; `None` when its primitive slots
-    /// (`slots` of them) do not fit in a child reference.
-    pub(crate) fn from_cwbvh(wide: &CwBvh, slots: usize) -> Option<Self> {
-        if slots > MAX_SLOTS || wide.nodes.len() >= LEAF as usize {
-            return None;
-        }
-        let nodes = wide.nodes.iter().map(decode).collect();
-        Some(Self { nodes })
+    /// The float form of a wide tree whose node `i` has leaves of
+    /// `leaf_sizes[i][j]` primitives (child `j`), primitive slot `s`
+    /// holding `triangles[s]`, or something else (a sphere) when
+    /// `other(s)`.
+    ///
+    /// # Panics
+    /// With [`MAX_BVH8_SLOTS`] slots or more.
+    pub(crate) fn from_cwbvh(
+        wide: &CwBvh,
+        leaf_sizes: &[[u8; LANES]],
+        triangles: &[[Vec3A; 3]],
+        other: impl Fn(usize) -> bool,
+    ) -> Self {
+        assert!(triangles.len() < MAX_BVH8_SLOTS, "too many slots for Bvh8");
+        let mut blocks = Vec::new();
+        let mut leaf = |first: u32, count: u8| {
+            let slots = first as usize..first as usize + usize::from(count);
+            let base = slots.start;
+            blocks.push(TriangleBlock::new(first, &triangles[slots], |j| {
+                other(base + j)
+            }));
+            LEAF | (blocks.len() - 1) as u32
+        };
+        let nodes = wide
+            .nodes
+            .iter()
+            .zip(leaf_sizes)
+            .map(|(n, sizes)| decode(n, sizes, &mut leaf))
+            .collect();
+        Self { nodes, blocks }
     }
 }
 
 /// A compressed node's children as float boxes rounded outwards: plane
-/// `p + q * 2^e` (Ylitie et al. 2017, §3.3), exact in f64.
-fn decode(node: &obvhs::cwbvh::node::CwBvhNode) -> Node8 {
+/// `p + q * 2^e` (Ylitie et al. 2017, §3.3), exact in f64. `leaf(first,
+/// count)` gives the reference of a leaf child of `sizes[j]` primitives.
+fn decode(
+    node: &obvhs::cwbvh::node::CwBvhNode,
+    sizes: &[u8; LANES],
+    leaf: &mut impl FnMut(u32, u8) -> u32,
+) -> Node8 {
     let mut out = Node8 {
         lower: [[0.0; LANES]; 3],
         upper: [[0.0; LANES]; 3],
@@ -145,8 +185,7 @@ fn decode(node: &obvhs::cwbvh::node::CwBvhNode) -> Node8 {
             out.upper[axis][j] = round_up(plane(hi[j]));
         }
         out.child[j] = if node.is_leaf(j) {
-            let (first, count) = node.child_primitives(j);
-            LEAF | (first << 2) | count
+            leaf(node.child_primitives(j).0, sizes[j])
         } else {
             node.child_node_index(j)
         };
@@ -176,13 +215,22 @@ struct Ray8<S: Simd> {
 }
 
 impl<S: Simd> Ray8<S> {
+    // (No closures: see `leaf::BlockRay::new`.)
     #[inline(always)]
     fn new(simd: S, ray: &NodeRay) -> Self {
-        let splat = |v: glam::Vec3A| [v.x, v.y, v.z].map(|c| simd.splat_f32x8(c));
+        let (o, inv) = (ray.origin, ray.inv_direction);
         Self {
-            origin: splat(ray.origin),
-            inv_direction: splat(ray.inv_direction),
-            negative: [0, 1, 2].map(|k| ray.inv_direction[k] < 0.0),
+            origin: [
+                simd.splat_f32x8(o.x),
+                simd.splat_f32x8(o.y),
+                simd.splat_f32x8(o.z),
+            ],
+            inv_direction: [
+                simd.splat_f32x8(inv.x),
+                simd.splat_f32x8(inv.y),
+                simd.splat_f32x8(inv.z),
+            ],
+            negative: [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0],
         }
     }
 }
@@ -212,19 +260,28 @@ fn child_hits<S: Simd>(simd: S, node: &Node8, ray: &Ray8<S>, t_max: f32) -> (u32
 }
 
 /// Visits the primitive slots the ray may hit, leaf by leaf, hit children
-/// in order of entry distance; `prim(slot, &mut t_max)` may shorten `t_max`
-/// (closest hit) or break (any hit). Any-hit queries gain from the order
-/// too: taken as they come, children made shadow rays on `veach-bidir`
-/// 26 % slower than the compressed traversal's octant order.
+/// in order of entry distance; `prim(slot, &mut t_max, lane)` may shorten
+/// `t_max` (closest hit) or break (any hit). Any-hit queries gain from the
+/// order too: taken as they come, children made shadow rays on
+/// `veach-bidir` 26 % slower than the compressed traversal's octant order.
+///
+/// The triangles of a leaf are tested at once (`leaf.rs`, with the
+/// triangle test's ray `triangle`), and `lane` is the test's answer for
+/// `slot` given the current `t_max`. Only the slots whose lane hits or
+/// needs the scalar test are visited, in leaf order (the others would
+/// be [`Lane::Miss`]). With `SOA` false, the kernel is not
+/// run and every slot of every leaf reached gets [`Lane::Scalar`] (the
+/// reference the tests compare the kernel's traversal with).
 #[inline(always)]
-pub(crate) fn traverse8(
+pub(crate) fn traverse8<const SOA: bool>(
     isa: Level,
     bvh: &Bvh8,
     ray: &NodeRay,
+    triangle: &RayTransform,
     t_max: f32,
-    prim: impl FnMut(usize, &mut f32) -> ControlFlow<()>,
+    prim: impl FnMut(usize, &mut f32, Lane) -> ControlFlow<()>,
 ) {
-    dispatch!(isa, simd => walk(simd, &bvh.nodes, ray, t_max, prim));
+    dispatch!(isa, simd => walk::<_, SOA>(simd, bvh, ray, triangle, t_max, prim));
 }
 
 /// A stack of (child reference, entry distance): a fixed array, then a
@@ -267,14 +324,16 @@ impl Stack {
 
 /// The traversal loop over a stack of (child reference, entry distance).
 #[inline(always)]
-fn walk<S: Simd>(
+fn walk<S: Simd, const SOA: bool>(
     simd: S,
-    nodes: &[Node8],
+    bvh: &Bvh8,
     ray: &NodeRay,
+    triangle: &RayTransform,
     mut t_max: f32,
-    mut prim: impl FnMut(usize, &mut f32) -> ControlFlow<()>,
+    mut prim: impl FnMut(usize, &mut f32, Lane) -> ControlFlow<()>,
 ) {
     let ray = Ray8::new(simd, ray);
+    let block_ray = BlockRay::new(simd, triangle);
     let mut stack = Stack::new();
     stack.push((0, 0.0));
     while let Some((child, entry)) = stack.pop() {
@@ -282,15 +341,28 @@ fn walk<S: Simd>(
             continue;
         }
         if child & LEAF != 0 {
-            let first = ((child & !LEAF) >> 2) as usize;
-            for slot in first..first + (child & 3) as usize {
-                if prim(slot, &mut t_max).is_break() {
+            let block = &bvh.blocks[(child & !LEAF) as usize];
+            if !SOA {
+                for slot in block.first..block.first + block.count {
+                    if prim(slot as usize, &mut t_max, Lane::Scalar).is_break() {
+                        return;
+                    }
+                }
+                continue;
+            }
+            let lanes = leaf::intersect(simd, block, &block_ray, t_max);
+            let mut candidates = lanes.candidates();
+            while candidates != 0 {
+                let j = candidates.trailing_zeros() as usize;
+                candidates &= candidates - 1;
+                let lane = lanes.lane(j, t_max);
+                if prim(block.first as usize + j, &mut t_max, lane).is_break() {
                     return;
                 }
             }
             continue;
         }
-        let node = &nodes[child as usize];
+        let node = &bvh.nodes[child as usize];
         let (mut hits, entries) = child_hits(simd, node, &ray, t_max);
         let mut children = [(0, 0.0); LANES];
         let mut count = 0;

@@ -90,27 +90,46 @@ impl Decision {
 ///
 /// # Panics
 /// If a BVH2 leaf holds more than one primitive.
+#[cfg(test)]
 pub(crate) fn bvh2_to_cwbvh(bvh2: &Bvh2, max_prims_per_leaf: u32) -> CwBvh {
+    assert!(max_prims_per_leaf <= 3, "a CWBVH leaf holds at most 3");
+    bvh2_to_wide(bvh2, max_prims_per_leaf).0
+}
+
+/// Most primitives in a leaf of [`bvh2_to_wide`]'s tree.
+pub(crate) const MAX_WIDE_LEAF: u32 = 4;
+
+/// [`bvh2_to_cwbvh`] (which the tests compare with obvhs') with up to
+/// [`MAX_WIDE_LEAF`] primitives per leaf, and each node's leaf sizes
+/// (`[node][child]`, 0 for other children). A leaf of 4 is beyond the
+/// compressed node's unary count, which says 3: such a tree is for
+/// `Bvh8::from_cwbvh` only, which reads the sizes.
+///
+/// # Panics
+/// If a BVH2 leaf holds more than one primitive.
+pub(crate) fn bvh2_to_wide(bvh2: &Bvh2, max_prims_per_leaf: u32) -> (CwBvh, Vec<[u8; BRANCHING]>) {
     if bvh2.nodes.is_empty() {
-        return CwBvh::default();
+        return (CwBvh::default(), Vec::new());
     }
     let mut converter = Converter {
         bvh2,
         decisions: vec![[Decision::default(); SLOTS]; bvh2.nodes.len()],
         nodes: vec![CwBvhNode::default()],
+        leaf_sizes: vec![[0; BRANCHING]],
         primitive_indices: Vec::with_capacity(bvh2.primitive_indices.len()),
     };
-    converter.cost(0, max_prims_per_leaf);
+    converter.cost(0, max_prims_per_leaf.clamp(1, MAX_WIDE_LEAF));
     converter.convert(0, 0);
     let mut nodes = converter.nodes;
     nodes.shrink_to_fit();
-    CwBvh {
+    let wide = CwBvh {
         nodes,
         primitive_indices: converter.primitive_indices,
         total_aabb: *bvh2.nodes[0].aabb(),
         exact_node_aabbs: None,
         uses_spatial_splits: bvh2.uses_spatial_splits,
-    }
+    };
+    (wide, converter.leaf_sizes)
 }
 
 struct Converter<'a> {
@@ -118,6 +137,8 @@ struct Converter<'a> {
     /// Per BVH2 node, its decision for 1..=7 slots (all `Leaf` at a leaf).
     decisions: Vec<[Decision; SLOTS]>,
     nodes: Vec<CwBvhNode>,
+    /// Per wide node, the primitive count of each leaf child.
+    leaf_sizes: Vec<[u8; BRANCHING]>,
     primitive_indices: Vec<u32>,
 }
 
@@ -236,14 +257,16 @@ impl Converter<'_> {
             match self.decisions[child as usize][0].kind() {
                 Kind::Leaf => {
                     let count = self.push_primitives(child as usize);
-                    // The three highest bits hold the count in unary.
+                    // The three highest bits hold the count in unary (a
+                    // leaf of 4 says 3: see `bvh2_to_wide`).
                     node.child_meta[i] = num_primitives as u8
                         | match count {
                             1 => 0b0010_0000,
                             2 => 0b0110_0000,
-                            3 => 0b1110_0000,
-                            _ => unreachable!("a wide leaf holds 1 to 3 primitives"),
+                            3 | 4 => 0b1110_0000,
+                            _ => unreachable!("a wide leaf holds 1 to 4 primitives"),
                         };
+                    self.leaf_sizes[wide][i] = count as u8;
                     num_primitives += count;
                 }
                 Kind::Internal => {
@@ -256,6 +279,7 @@ impl Converter<'_> {
         }
         self.nodes
             .resize(self.nodes.len() + num_internal_nodes, CwBvhNode::default());
+        self.leaf_sizes.resize(self.nodes.len(), [0; BRANCHING]);
         self.nodes[wide] = node;
         let mut offset = 0;
         for (i, &child) in children.iter().enumerate() {
@@ -450,6 +474,38 @@ pub(crate) mod tests {
         let ours = bvh2_to_cwbvh(&bvh2, 3);
         assert_eq!(ours.nodes.len(), unordered.nodes.len());
         assert!(ours.nodes != unordered.nodes);
+    }
+
+    /// Leaves of up to four: the sizes add up to each node's primitives,
+    /// every primitive once, some leaves of four, and up to three the
+    /// sizes are the compressed node's own counts.
+    #[test]
+    fn leaf_sizes_account_for_every_primitive() {
+        let bvh2 = bvh2_of(&triangles(40), BvhBuildParams::medium_build());
+        for max_prims in 1..=MAX_WIDE_LEAF {
+            let (wide, sizes) = bvh2_to_wide(&bvh2, max_prims);
+            assert_eq!(sizes.len(), wide.nodes.len());
+            let mut seen = vec![0; wide.primitive_indices.len()];
+            let mut largest = 0;
+            for (node, sizes) in wide.nodes.iter().zip(&sizes) {
+                for (j, &size) in sizes.iter().enumerate() {
+                    if node.is_child_empty(j) || !node.is_leaf(j) {
+                        assert_eq!(size, 0);
+                        continue;
+                    }
+                    let (first, count) = node.child_primitives(j);
+                    if max_prims <= 3 {
+                        assert_eq!(u32::from(size), count);
+                    }
+                    largest = largest.max(u32::from(size));
+                    for slot in first..first + u32::from(size) {
+                        seen[slot as usize] += 1;
+                    }
+                }
+            }
+            assert!(seen.iter().all(|&n| n == 1), "{max_prims} per leaf");
+            assert_eq!(largest, max_prims);
+        }
     }
 
     #[test]

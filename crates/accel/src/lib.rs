@@ -7,8 +7,9 @@
 //!
 //! - [`Bvh`]: a triangle BVH (this crate's binned SAH builder, or [obvhs]'
 //!   PLOC with reinsertion, converted to an 8-wide BVH in obvhs' compressed
-//!   node format, or with float child boxes tested eight at a time on the
-//!   CPU's best SIMD instruction set ([`Layout::Bvh8`], [`Isa`])), with
+//!   node format, or with float child boxes tested eight at a time and the
+//!   triangles of a leaf four at a time on the CPU's best SIMD instruction
+//!   set ([`Layout::Bvh8`], [`Isa`])), with
 //!   closest-hit ([`Bvh::intersect`]) and
 //!   any-hit ([`Bvh::occluded`]) queries that return caller triangle ids and
 //!   barycentrics. The ray/triangle test is this crate's own watertight test
@@ -33,9 +34,11 @@
 //!
 //! # Choice of layout and preset
 //! The default layout (wide CWBVH) was picked from the `cargo bench -p
-//! accel` numbers (`benches/bvh.rs`); [`Layout::Bvh8`], the same tree
-//! with float nodes and run-time dispatched SIMD node tests, traces as
-//! fast (docs/benchmarks.md) with 3.2 times the node memory. The default builder,
+//! accel` numbers (`benches/bvh.rs`); [`Layout::Bvh8`], the same
+//! conversion with float nodes, leaves of up to four triangles and
+//! run-time dispatched SIMD node and leaf tests, traces as fast, faster
+//! on some ray sets and slower on others (docs/benchmarks.md), with 3.2
+//! times the node memory and a 160-byte block per leaf. The default builder,
 //! [`BuildQuality::Binned`], replaced obvhs' `medium` preset for its
 //! memory, with trees that trace as fast or faster (its documentation
 //! has the measurements).
@@ -53,6 +56,7 @@ mod bvh;
 mod bvh8;
 mod convert;
 mod grid;
+mod leaf;
 mod offset;
 mod sphere;
 mod traverse;

@@ -21,6 +21,9 @@ pub(crate) struct RayTransform {
     /// exact zero), so it equals the paper's `A[kx] - Sx * A[kz]` bit for bit,
     /// times the power of two `scale`.
     shear: Mat3A,
+    /// The permutation `[kx, ky, kz]`: `shear`'s columns `kx` and `ky` are
+    /// `scale` times the unit vectors x and y, column `kz` the shear.
+    axes: [u8; 3],
 }
 
 impl RayTransform {
@@ -65,15 +68,37 @@ impl RayTransform {
         Self {
             origin: origin.into(),
             shear: Mat3A::from_cols(column(0), column(1), column(2)),
+            axes: [kx as u8, ky as u8, kz as u8],
         }
     }
 
+    /// The ray origin.
+    #[inline(always)]
+    pub(crate) fn origin(&self) -> Vec3A {
+        self.origin
+    }
+
+    /// The permute-shear-scale matrix (see the field).
+    #[inline(always)]
+    pub(crate) fn shear(&self) -> Mat3A {
+        self.shear
+    }
+
+    /// The permutation `[kx, ky, kz]` of the coordinate axes (see the
+    /// `axes` field).
+    #[inline(always)]
+    pub(crate) fn axes(&self) -> [usize; 3] {
+        self.axes.map(usize::from)
+    }
+
     /// Intersects the triangle `v`. Returns `(t, b1, b2)` (barycentric weights
-    /// of `v[1]` and `v[2]`) when the ray hits it with `0 < t < t_max`, both
+    /// of `v[1]` and `v[2]`) when the ray hits it with `0 < t <= t_max` (inclusive, so that a
+    /// closest-hit query can break ties at equal `t`), both
     /// in the scaled units of [`RayTransform::new`].
     /// Both faces count. Degenerate triangles (zero area) never hit.
     #[inline(always)]
     pub(crate) fn intersect(&self, v: &[Vec3A; 3], t_max: f32) -> Option<(f32, f32, f32)> {
+        // `leaf.rs` repeats these operations lane by lane: keep them in step.
         let a = self.shear * (v[0] - self.origin);
         let b = self.shear * (v[1] - self.origin);
         let c = self.shear * (v[2] - self.origin);
@@ -102,7 +127,7 @@ impl RayTransform {
         let b1 = e1 * inv_det;
         let b2 = e2 * inv_det;
         let t = b0 * a.z + b1 * b.z + b2 * c.z;
-        if t > 0.0 && t < t_max {
+        if t > 0.0 && t <= t_max {
             Some((t, b1, b2))
         } else {
             None
@@ -170,11 +195,11 @@ mod tests {
     }
 
     #[test]
-    fn t_range_is_open() {
+    fn t_range_is_open_below_and_closed_above() {
         let v = tri([0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.0]);
         let ray = RayTransform::new(Vec3::new(0.5, 0.25, 1.0), Vec3::NEG_Z, 1.0);
-        assert!(ray.intersect(&v, 1.0).is_none());
-        assert!(ray.intersect(&v, 1.000_001).is_some());
+        assert!(ray.intersect(&v, 1.0f32.next_down()).is_none());
+        assert!(ray.intersect(&v, 1.0).is_some());
         let behind = RayTransform::new(Vec3::new(0.5, 0.25, 1.0), Vec3::Z, 1.0);
         assert!(behind.intersect(&v, f32::INFINITY).is_none());
         let on_plane = RayTransform::new(Vec3::new(0.5, 0.25, 0.0), Vec3::Z, 1.0);

@@ -31,7 +31,7 @@ pub(super) struct BenchOptions {
     pub passes: usize,
     /// The BVH's tree layout.
     pub layout: accel::Layout,
-    /// The instruction set of its node tests.
+    /// The instruction set of its node and leaf tests.
     pub isa: accel::Isa,
 }
 

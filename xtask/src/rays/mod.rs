@@ -52,10 +52,11 @@ pub const USAGE: &str =
                     Writes DIR/bench-rlt.md and .json. Runs itself as a
                     release build
       --layout L            wide (the default, the renderer's: compressed
-                            nodes), bvh8 (float nodes, SIMD node tests) or
+                            nodes), bvh8 (float nodes, SIMD node tests,
+                            leaves of up to 4 triangles tested at once) or
                             binary: accel's tree layouts
       --isa I               best (default), baseline (SSE4.2), avx2 or avx512:
-                            the instruction set of bvh8's node tests";
+                            the instruction set of bvh8's node and leaf tests";
 
 /// Timed passes per set when `--passes` is not given.
 const DEFAULT_PASSES: usize = 9;

@@ -1,5 +1,6 @@
-//! The BVH8 layout's node tests give the same query results, bit for bit, on
-//! every instruction set the CPU has (`accel::Isa`): the rule that makes a
+//! The BVH8 layout's node tests and SIMD leaf tests (several triangles of
+//! a leaf at once) give the same query results, bit for bit, on every
+//! instruction set the CPU has (`accel::Isa`): the rule that makes a
 //! render's bytes independent of the machine it ran on.
 
 use accel::{BuildOptions, Bvh, Hit, Isa, Layout};
@@ -9,12 +10,18 @@ use stats::Pcg32;
 use crate::common::*;
 
 /// One query's answer as bits: closest hit (t, primitive, barycentrics) and
-/// occlusion.
-fn answer(bvh: &Bvh, (o, d, t_max): (Vec3, Vec3, f32)) -> (Option<[u32; 4]>, bool) {
+/// occlusion, unfiltered and with a filter that rejects every third
+/// primitive (the leaf kernel's hits passed to it one by one).
+type Answer = (Option<[u32; 4]>, bool, Option<[u32; 4]>, bool);
+
+fn answer(bvh: &Bvh, (o, d, t_max): (Vec3, Vec3, f32)) -> Answer {
     let bits = |h: Hit| [h.t.to_bits(), h.primitive, h.b1.to_bits(), h.b2.to_bits()];
+    let keep = |p: u32, _, _| !p.is_multiple_of(3);
     (
         bvh.intersect(o, d, t_max).map(bits),
         bvh.occluded(o, d, t_max),
+        bvh.intersect_where(o, d, t_max, keep).map(bits),
+        bvh.occluded_where(o, d, t_max, keep),
     )
 }
 
