@@ -11,6 +11,7 @@ use regularization::{PathRegularization, Subpath};
 
 use crate::config::Strategies;
 use crate::context::SceneContext;
+use crate::geometry::SurfacePoint;
 use crate::integrator::{Integrator, Stop};
 use crate::lights::LightSample;
 use crate::nee;
@@ -167,23 +168,16 @@ impl PathTracer {
                 ctx.intersect(walk.origin, walk.direction, f32::INFINITY)
             };
             let Some(hit) = hit else {
-                if let Some(le) = ctx.lights.environment(&ctx.scene, walk.direction) {
-                    let weight = self.emitter_hit_weight(&bounce, || {
-                        ctx.lights.environment_pdf(&ctx.scene, walk.direction)
-                    });
-                    radiance += walk.escaped_throughput() * le * weight;
+                if let Some(le) = self.escaped(ctx, &walk, &bounce) {
+                    radiance += le;
                 }
                 break;
             };
             let point = ctx.surface_point(&hit, walk.origin, walk.direction);
             walk.arrive(&ctx.scene, &point, hit.t);
             let wi = -walk.direction;
-            if let Some(emission) = ctx.emitted(&point, wi) {
-                let weight = self.emitter_hit_weight(&bounce, || {
-                    ctx.lights
-                        .area_pdf_w(point.primitive, bounce.from, point.p, point.n_winding)
-                });
-                radiance += walk.throughput * emission * weight;
+            if let Some(le) = self.emission(ctx, &walk, &bounce, &point) {
+                radiance += le;
             }
             if depth == ctx.config.max_depth {
                 break;
@@ -208,6 +202,36 @@ impl PathTracer {
             };
         }
         radiance
+    }
+
+    /// What the environment gives a walk that left the scene after
+    /// `bounce`: its radiance times the throughput and the MIS weight.
+    #[inline]
+    fn escaped(&self, ctx: &SceneContext, walk: &Walk, bounce: &Bounce) -> Option<Vec3> {
+        let le = ctx.lights.environment(&ctx.scene, walk.direction)?;
+        let weight = self.emitter_hit_weight(bounce, || {
+            ctx.lights.environment_pdf(&ctx.scene, walk.direction)
+        });
+        Some(walk.escaped_throughput() * le * weight)
+    }
+
+    /// The emission a walk arriving at `point` after `bounce` finds there,
+    /// times the throughput and the MIS weight, if the surface emits
+    /// towards it.
+    #[inline]
+    fn emission(
+        &self,
+        ctx: &SceneContext,
+        walk: &Walk,
+        bounce: &Bounce,
+        point: &SurfacePoint,
+    ) -> Option<Vec3> {
+        let emission = ctx.emitted(point, -walk.direction)?;
+        let weight = self.emitter_hit_weight(bounce, || {
+            ctx.lights
+                .area_pdf_w(point.primitive, bounce.from, point.p, point.n_winding)
+        });
+        Some(walk.throughput * emission * weight)
     }
 
     /// The MIS weight of emission found after `bounce` against next-event

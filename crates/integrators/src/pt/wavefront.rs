@@ -130,24 +130,16 @@ impl PathTracer {
         for (index, (path, hit)) in queues.paths.iter_mut().zip(&queues.hits).enumerate() {
             let walk = &mut path.walk;
             let Some(hit) = hit else {
-                if let Some(le) = ctx.lights.environment(&ctx.scene, walk.direction) {
-                    let weight = self.emitter_hit_weight(&path.bounce, || {
-                        ctx.lights.environment_pdf(&ctx.scene, walk.direction)
-                    });
-                    out[path.pixel] += walk.escaped_throughput() * le * weight;
+                if let Some(le) = self.escaped(ctx, walk, &path.bounce) {
+                    out[path.pixel] += le;
                 }
                 continue;
             };
             let point = ctx.surface_point(hit, walk.origin, walk.direction);
             walk.arrive(&ctx.scene, &point, hit.t);
             let wi = -walk.direction;
-            if let Some(emission) = ctx.emitted(&point, wi) {
-                let from = path.bounce.from;
-                let weight = self.emitter_hit_weight(&path.bounce, || {
-                    ctx.lights
-                        .area_pdf_w(point.primitive, from, point.p, point.n_winding)
-                });
-                out[path.pixel] += walk.throughput * emission * weight;
+            if let Some(le) = self.emission(ctx, walk, &path.bounce, &point) {
+                out[path.pixel] += le;
             }
             if depth == ctx.config.max_depth {
                 continue;
