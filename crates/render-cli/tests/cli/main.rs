@@ -36,6 +36,20 @@ fn stderr(output: &Output) -> String {
     String::from_utf8_lossy(&output.stderr).into_owned()
 }
 
+/// Runs the binary with `args`, asserting that it succeeds; its stdout.
+fn stdout_of(args: &[&str]) -> String {
+    let output = render_cli(args);
+    assert!(output.status.success(), "{}", stderr(&output));
+    String::from_utf8(output.stdout).unwrap()
+}
+
+/// Asserts that `stdout` contains every one of `lines`.
+fn assert_mentions(stdout: &str, lines: &[&str]) {
+    for line in lines {
+        assert!(stdout.contains(line), "'{line}' missing from:\n{stdout}");
+    }
+}
+
 fn files_in(dir: &Path) -> Vec<PathBuf> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
         .unwrap()
@@ -305,17 +319,16 @@ fn explain_prints_the_settings_and_renders() {
     let mut args = vec![scene.to_str().unwrap(), "-o", exr.to_str().unwrap()];
     args.extend(TINY);
     args.extend(["--explain", "--no-png", "--threads", "1"]);
-    let output = render_cli(&args);
-    assert!(output.status.success(), "{}", stderr(&output));
-    let stdout = String::from_utf8(output.stdout).unwrap();
-    for line in [
-        "regularize:       selective (scene file)",
-        "iterations:       2 (flag)",
-        "tau0:             30 (default)",
-        "threads:          1",
-    ] {
-        assert!(stdout.contains(line), "'{line}' missing from:\n{stdout}");
-    }
+    let stdout = stdout_of(&args);
+    assert_mentions(
+        &stdout,
+        &[
+            "regularize:       selective (scene file)",
+            "iterations:       2 (flag)",
+            "tau0:             30 (default)",
+            "threads:          1",
+        ],
+    );
     assert!(exr.is_file() && !dir.path().join("out.png").exists());
 }
 
@@ -340,30 +353,28 @@ fn manifest_render_keys_take_effect_and_flags_override_them() {
     let mut args = vec![scene.to_str().unwrap(), "-o", exr.to_str().unwrap()];
     args.extend(TINY);
     args.extend(["--explain", "--no-png", "--integrator", "vcm"]);
-    let output = render_cli(&args);
-    assert!(output.status.success(), "{}", stderr(&output));
-    let stdout = String::from_utf8(output.stdout).unwrap();
-    for line in [
-        "radius:           0.02 (scene file)",
-        "shadow roulette:  0.25 (scene file)",
-        "virtual merges:   off (scene file)",
-        "(0.02 x scene radius;",
-    ] {
-        assert!(stdout.contains(line), "'{line}' missing from:\n{stdout}");
-    }
+    let stdout = stdout_of(&args);
+    assert_mentions(
+        &stdout,
+        &[
+            "radius:           0.02 (scene file)",
+            "shadow roulette:  0.25 (scene file)",
+            "virtual merges:   off (scene file)",
+            "(0.02 x scene radius;",
+        ],
+    );
     args.extend(["--radius", "0.01", "--shadow-roulette", "0"]);
     args.extend(["--virtual-merges", "on"]);
-    let output = render_cli(&args);
-    assert!(output.status.success(), "{}", stderr(&output));
-    let stdout = String::from_utf8(output.stdout).unwrap();
-    for line in [
-        "radius:           0.01 (flag)",
-        "shadow roulette:  0 (flag)",
-        "virtual merges:   on (flag)",
-        "(0.01 x scene radius;",
-    ] {
-        assert!(stdout.contains(line), "'{line}' missing from:\n{stdout}");
-    }
+    let stdout = stdout_of(&args);
+    assert_mentions(
+        &stdout,
+        &[
+            "radius:           0.01 (flag)",
+            "shadow roulette:  0 (flag)",
+            "virtual merges:   on (flag)",
+            "(0.01 x scene radius;",
+        ],
+    );
 }
 
 #[test]
@@ -889,20 +900,19 @@ fn env_lights_any_scene_and_explain_says_so() {
         args.extend(TINY);
         args.extend(["--no-png", "--explain", "--env", sky.to_str().unwrap()]);
         args.extend(["--env-scale", scale, "--env-rotation", "45"]);
-        let output = render_cli(&args);
-        assert!(output.status.success(), "{}", stderr(&output));
-        let stdout = String::from_utf8(output.stdout).unwrap();
+        let stdout = stdout_of(&args);
         let image = read_exr(&exr).unwrap();
         let mean = image.pixels.iter().map(|p| p.element_sum()).sum::<f32>();
         (stdout, mean)
     };
     let (stdout, bright) = render("1");
-    for line in [
-        "environment:      map",
-        "sky.hdr (--env: replaces the scene's own environment): 128x64 texels, scale 1, rotated 45",
-    ] {
-        assert!(stdout.contains(line), "'{line}' missing from:\n{stdout}");
-    }
+    assert_mentions(
+        &stdout,
+        &[
+            "environment:      map",
+            "sky.hdr (--env: replaces the scene's own environment): 128x64 texels, scale 1, rotated 45",
+        ],
+    );
     let (_, dark) = render("0.25");
     assert!(bright > 2.0 * dark, "{bright} vs {dark}");
     let missing = dir.path().join("nope.exr");
