@@ -60,35 +60,27 @@ impl Integrator for PathTracer {
     fn render_iteration(&self, ctx: &SceneContext, n: u64, estimates: &mut [Vec3], stop: Stop<'_>) {
         let width = ctx.resolution().0 as usize;
         let tau_n = ctx.tau_at(n);
-        if self.wavefront {
-            estimates.par_chunks_mut(width).enumerate().for_each_init(
-                wavefront::Queues::default,
-                |queues, (y, row)| {
-                    if stop.requested() {
-                        return;
-                    }
-                    for (k, run) in row.chunks_mut(wavefront::WAVEFRONT).enumerate() {
-                        let x0 = (k * wavefront::WAVEFRONT) as u32;
-                        self.trace_wavefront(ctx, n, (x0, y as u32), run, queues);
-                    }
-                    ctx.flush_ray_count();
-                },
-            );
-            return;
-        }
-        estimates
-            .par_chunks_mut(width)
-            .enumerate()
-            .for_each(|(y, row)| {
+        estimates.par_chunks_mut(width).enumerate().for_each_init(
+            wavefront::Queues::default,
+            |queues, (y, row)| {
                 if stop.requested() {
                     return;
                 }
-                for (x, out) in row.iter_mut().enumerate() {
-                    let (sampler, walk) = ctx.camera_path(n, x as u32, y as u32);
-                    *out = self.trace_path(ctx, walk, &sampler, tau_n);
+                let y = y as u32;
+                if self.wavefront {
+                    for (k, run) in row.chunks_mut(wavefront::WAVEFRONT).enumerate() {
+                        let x0 = (k * wavefront::WAVEFRONT) as u32;
+                        self.trace_wavefront(ctx, (n, tau_n), (x0, y), run, queues);
+                    }
+                } else {
+                    for (x, out) in row.iter_mut().enumerate() {
+                        let (sampler, walk) = ctx.camera_path(n, x as u32, y);
+                        *out = self.trace_path(ctx, walk, &sampler, tau_n);
+                    }
                 }
                 ctx.flush_ray_count();
-            });
+            },
+        );
     }
 }
 

@@ -82,17 +82,17 @@ pub struct Queues {
 }
 
 impl PathTracer {
-    /// The estimates of iteration `n` for the pixels `x0..x0 + out.len()`
-    /// of row `y` (at most [`WAVEFRONT`] of them), as a wavefront.
+    /// The estimates of iteration `n` (whose bound is `tau_n`) for the
+    /// pixels `x0..x0 + out.len()` of row `y` (at most [`WAVEFRONT`] of
+    /// them), as a wavefront.
     pub(super) fn trace_wavefront(
         &self,
         ctx: &SceneContext,
-        n: u64,
+        (n, tau_n): (u64, f64),
         (x0, y): (u32, u32),
         out: &mut [Vec3],
         queues: &mut Queues,
     ) {
-        let tau_n = ctx.tau_at(n);
         let start = PathRegularization::new(ctx.effective_mode(tau_n), Subpath::Camera, tau_n)
             .with_energy(ctx.config.regularization.energy);
         out.fill(Vec3::ZERO);
