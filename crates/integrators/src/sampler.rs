@@ -85,7 +85,9 @@ fn unit_f32(bits: u64) -> f32 {
 /// The random stream of one pixel (or light subpath) in one iteration.
 #[derive(Clone, Copy, Debug)]
 pub struct Sampler {
-    index: u32,
+    /// The point index within its epoch, bit-reversed (as every request
+    /// takes it).
+    index_rev: u32,
     seed: u64,
 }
 
@@ -100,7 +102,10 @@ impl Sampler {
         let epoch = point / POINTS_PER_SEED;
         let index = (point % POINTS_PER_SEED) as u32;
         let seed = mix(mix(mix(seed) ^ stream) ^ epoch.wrapping_mul(0x9e37_79b9_7f4a_7c15));
-        Self { index, seed }
+        Self {
+            index_rev: index.reverse_bits(),
+            seed,
+        }
     }
 
     /// The position in the pixel of a camera subpath.
@@ -150,9 +155,10 @@ impl Sampler {
     pub fn keyed_1d(&self, key: u64) -> f32 {
         /// Sets the hash input apart from the requests' scramble seeds.
         const KEYED: u64 = 0x5851_f42d_4c95_7f2d;
-        unit_f32(mix(
-            self.seed ^ mix(mix(key ^ KEYED) ^ u64::from(self.index))
-        ))
+        unit_f32(mix(self.seed
+            ^ mix(
+                mix(key ^ KEYED) ^ u64::from(self.index_rev.reverse_bits())
+            )))
     }
 
     /// Request `request`: Sobol dimensions 0-3 at this stream's point index
@@ -169,7 +175,7 @@ impl Sampler {
         const DIMENSION_SALTS: [u32; 4] = [0x912f_69ba, 0x174f_18ab, 0x691e_72ca, 0xb40c_c1b8];
         let seed = mix(self.seed ^ u64::from(request)) as u32;
         let shuffled_rev_index =
-            parts::owen_scramble_rev(self.index.reverse_bits(), parts::hash(seed ^ SHUFFLE_SALT));
+            parts::owen_scramble_rev(self.index_rev, parts::hash(seed ^ SHUFFLE_SALT));
         let sobol = sobol_set0_rev(shuffled_rev_index);
         let seed = seed.wrapping_mul(SEED_MULTIPLIER);
         let scramble = parts::Int4::from([seed; 4]) ^ DIMENSION_SALTS.into();
