@@ -142,6 +142,10 @@ impl BuildQuality {
     }
 }
 
+/// "No triangle" for [`Bvh::intersect_leaving`] and
+/// [`Bvh::occluded_between`] (rays from a camera or a point light).
+pub const NO_SURFACE: u32 = u32::MAX;
+
 /// How [`Bvh::build_with`] builds the tree. The default is the measured best
 /// trade-off for a renderer that builds once and traces many rays (see the
 /// crate documentation).
@@ -488,10 +492,32 @@ impl Bvh {
     /// whatever the layout.
     #[must_use]
     pub fn intersect(&self, origin: Vec3, direction: Vec3, t_max: f32) -> Option<Hit> {
+        self.intersect_leaving(origin, direction, t_max, NO_SURFACE)
+    }
+
+    /// [`Bvh::intersect`] of a ray leaving the surface of triangle `surface`
+    /// (a caller id; [`NO_SURFACE`] for none) from an origin offset off it
+    /// to the side `direction` points to ([`offset_ray_origin`]): that
+    /// triangle is not tested. A ray starting off a plane and moving away
+    /// from it cannot meet it, so the result is the same; the test, which
+    /// the traversal always reaches (the triangle's box holds the origin),
+    /// is saved. A sphere id is tested as usual: a ray leaving a sphere can
+    /// meet it again.
+    ///
+    /// [`offset_ray_origin`]: crate::offset_ray_origin
+    #[must_use]
+    pub fn intersect_leaving(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        t_max: f32,
+        surface: u32,
+    ) -> Option<Hit> {
+        let skip = [surface; 2];
         if self.spheres.is_empty() {
-            self.closest::<false>(origin, direction, t_max, |_, _, _| true)
+            self.closest::<false>(origin, direction, t_max, skip, |_, _, _| true)
         } else {
-            self.closest::<true>(origin, direction, t_max, |_, _, _| true)
+            self.closest::<true>(origin, direction, t_max, skip, |_, _, _| true)
         }
     }
 
@@ -511,22 +537,25 @@ impl Bvh {
         mut accept: impl FnMut(u32, f32, f32) -> bool,
     ) -> Option<Hit> {
         let accept = |slot: usize, b1, b2| accept(self.ids[slot], b1, b2);
+        let skip = [NO_SURFACE; 2];
         if self.spheres.is_empty() {
-            self.closest::<false>(origin, direction, t_max, accept)
+            self.closest::<false>(origin, direction, t_max, skip, accept)
         } else {
-            self.closest::<true>(origin, direction, t_max, accept)
+            self.closest::<true>(origin, direction, t_max, skip, accept)
         }
     }
 
     /// The closest-hit traversal; `accept(slot, b1, b2)` may reject a hit.
     /// `SPHERES`: whether any slot may hold a sphere (without, the test is
-    /// the triangle test alone, as before spheres existed).
+    /// the triangle test alone, as before spheres existed). The triangles
+    /// `skip` names are not tested ([`Bvh::intersect_leaving`]).
     #[inline(always)]
     fn closest<const SPHERES: bool>(
         &self,
         origin: Vec3,
         direction: Vec3,
         t_max: f32,
+        skip: [u32; 2],
         mut accept: impl FnMut(usize, f32, f32) -> bool,
     ) -> Option<Hit> {
         let r = self.prepare(origin, direction, t_max)?;
@@ -540,7 +569,8 @@ impl Bvh {
             t < t_max || best.is_some_and(|(b, ..)| self.ids[slot] < self.ids[b])
         };
         let test = |slot: usize, t_max: &mut f32, lane: Lane| {
-            if SPHERES && self.ids[slot] as usize >= self.triangle_count {
+            let id = self.ids[slot];
+            if SPHERES && id as usize >= self.triangle_count {
                 if let Some(t) = self.sphere_test(slot, &r, origin, direction, *t_max)
                     && wins(slot, t, *t_max, best)
                     && accept(slot, 0.0, 0.0)
@@ -549,8 +579,9 @@ impl Bvh {
                     t_int = t;
                     best = Some((slot, 0.0, 0.0));
                 }
-            } else if let Some((t, b1, b2)) =
-                lane.or_scalar(|| r.transform.intersect(&self.triangles[slot], *t_max))
+            } else if !skip.contains(&id)
+                && let Some((t, b1, b2)) =
+                    lane.or_scalar(|| r.transform.intersect(&self.triangles[slot], *t_max))
                 && wins(slot, t, *t_max, best)
                 && accept(slot, b1, b2)
             {
@@ -681,10 +712,29 @@ impl Bvh {
     /// occluded.
     #[must_use]
     pub fn occluded(&self, origin: Vec3, direction: Vec3, t_max: f32) -> bool {
+        self.occluded_between(origin, direction, t_max, [NO_SURFACE; 2])
+    }
+
+    /// [`Bvh::occluded`] of a segment between two surface points, each end
+    /// offset off its surface towards the other ([`offset_ray_origin`]):
+    /// the triangles `surfaces` (caller ids; [`NO_SURFACE`] for none) they
+    /// lie on are not tested, as in [`Bvh::intersect_leaving`]. A shadow
+    /// or connection ray always reaches the leaves of both (their boxes
+    /// hold its ends), and never meets either.
+    ///
+    /// [`offset_ray_origin`]: crate::offset_ray_origin
+    #[must_use]
+    pub fn occluded_between(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        t_max: f32,
+        surfaces: [u32; 2],
+    ) -> bool {
         if self.spheres.is_empty() {
-            self.any::<false>(origin, direction, t_max, |_, _, _| true)
+            self.any::<false>(origin, direction, t_max, surfaces, |_, _, _| true)
         } else {
-            self.any::<true>(origin, direction, t_max, |_, _, _| true)
+            self.any::<true>(origin, direction, t_max, surfaces, |_, _, _| true)
         }
     }
 
@@ -700,10 +750,11 @@ impl Bvh {
         mut accept: impl FnMut(u32, f32, f32) -> bool,
     ) -> bool {
         let accept = |slot: usize, b1, b2| accept(self.ids[slot], b1, b2);
+        let skip = [NO_SURFACE; 2];
         if self.spheres.is_empty() {
-            self.any::<false>(origin, direction, t_max, accept)
+            self.any::<false>(origin, direction, t_max, skip, accept)
         } else {
-            self.any::<true>(origin, direction, t_max, accept)
+            self.any::<true>(origin, direction, t_max, skip, accept)
         }
     }
 
@@ -714,6 +765,7 @@ impl Bvh {
         origin: Vec3,
         direction: Vec3,
         t_max: f32,
+        skip: [u32; 2],
         mut accept: impl FnMut(usize, f32, f32) -> bool,
     ) -> bool {
         let Some(r) = self.prepare(origin, direction, t_max) else {
@@ -722,13 +774,16 @@ impl Bvh {
         let mut occluded = false;
         let test = |slot: usize, t_max: &mut f32, lane: Lane| {
             // The tests take t_max inclusively; an occluder must be before it.
-            let hit = if SPHERES && self.ids[slot] as usize >= self.triangle_count {
+            let id = self.ids[slot];
+            let hit = if SPHERES && id as usize >= self.triangle_count {
                 self.sphere_test(slot, &r, origin, direction, *t_max)
                     .is_some_and(|t| t < *t_max)
                     && accept(slot, 0.0, 0.0)
             } else {
-                lane.or_scalar(|| r.transform.intersect(&self.triangles[slot], *t_max))
-                    .is_some_and(|(t, b1, b2)| t < *t_max && accept(slot, b1, b2))
+                !skip.contains(&id)
+                    && lane
+                        .or_scalar(|| r.transform.intersect(&self.triangles[slot], *t_max))
+                        .is_some_and(|(t, b1, b2)| t < *t_max && accept(slot, b1, b2))
             };
             if hit {
                 occluded = true;

@@ -62,7 +62,7 @@ mod sphere;
 mod traverse;
 mod triangle;
 
-pub use bvh::{BuildOptions, BuildQuality, Bvh, Hit, Layout, MAX_COORDINATE};
+pub use bvh::{BuildOptions, BuildQuality, Bvh, Hit, Layout, MAX_COORDINATE, NO_SURFACE};
 pub use bvh8::Isa;
 pub use grid::HashGrid;
 pub use offset::{offset_ray_origin, offset_ray_origin_bounded, offset_ray_origin_scaled};

@@ -5,7 +5,7 @@
 use std::cell::Cell;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use accel::{BuildOptions, Bvh, Hit};
+use accel::{BuildOptions, Bvh, Hit, NO_SURFACE};
 use glam::Vec3;
 use regularization::tau::{alpha_cap, alpha_tau};
 use regularization::{Lobe, Mode};
@@ -155,9 +155,24 @@ impl SceneContext {
     /// ([`SceneContext::meets`]).
     #[inline]
     pub fn intersect(&self, origin: Vec3, direction: Vec3, t_max: f32) -> Option<Hit> {
+        self.intersect_leaving(origin, direction, t_max, NO_SURFACE)
+    }
+
+    /// [`SceneContext::intersect`] of a ray leaving triangle `surface`
+    /// (`accel::Bvh::intersect_leaving`: the same hit, without testing the
+    /// triangle it leaves).
+    #[inline]
+    pub fn intersect_leaving(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        t_max: f32,
+        surface: u32,
+    ) -> Option<Hit> {
         THREAD_RAYS.set(THREAD_RAYS.get() + 1);
         if self.alpha_tested.is_empty() {
-            self.bvh.intersect(origin, direction, t_max)
+            self.bvh
+                .intersect_leaving(origin, direction, t_max, surface)
         } else {
             self.intersect_alpha(origin, direction, t_max)
         }
@@ -195,9 +210,24 @@ impl SceneContext {
     /// (shadow rays), counted like [`SceneContext::intersect`].
     #[inline]
     pub fn occluded(&self, origin: Vec3, direction: Vec3, t_max: f32) -> bool {
+        self.occluded_between(origin, direction, t_max, [NO_SURFACE; 2])
+    }
+
+    /// [`SceneContext::occluded`] of a segment between triangles `surfaces`
+    /// (`accel::Bvh::occluded_between`: the same answer, without testing
+    /// the triangles its ends lie on).
+    #[inline]
+    pub fn occluded_between(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        t_max: f32,
+        surfaces: [u32; 2],
+    ) -> bool {
         THREAD_RAYS.set(THREAD_RAYS.get() + 1);
         if self.alpha_tested.is_empty() {
-            self.bvh.occluded(origin, direction, t_max)
+            self.bvh
+                .occluded_between(origin, direction, t_max, surfaces)
         } else {
             self.occluded_alpha(origin, direction, t_max)
         }

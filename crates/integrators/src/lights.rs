@@ -123,6 +123,10 @@ pub struct LightPoint {
     /// [`crate::geometry::vertex_scale`], infinity for point lights: no
     /// offset; a sphere point's bound).
     pub error: PointError,
+    /// The emitting triangle, which a shadow ray to `p` need not test
+    /// (`accel::Bvh::occluded_between`); [`accel::NO_SURFACE`] for other
+    /// lights.
+    pub surface: u32,
 }
 
 /// The scene's lights with a power-proportional selection distribution.
@@ -364,6 +368,7 @@ impl Lights {
                     p: position,
                     n: Vec3::ZERO,
                     error: PointError::Vertices(f32::INFINITY),
+                    surface: accel::NO_SURFACE,
                 }),
                 is_delta: true,
                 mis: EmitterPdfs {
@@ -454,6 +459,7 @@ impl Lights {
                         p: q,
                         n,
                         error: PointError::Vertices(self.area_scale[index]),
+                        surface: triangle,
                     }),
                     is_delta: false,
                     mis: self.area_pdfs(triangle, n.dot(-wi)),
@@ -483,6 +489,7 @@ impl Lights {
                         p: q,
                         n,
                         error: PointError::Bounded(error),
+                        surface: accel::NO_SURFACE,
                     }),
                     is_delta: false,
                     mis: self.area_pdfs(primitive, n.dot(-wi)),

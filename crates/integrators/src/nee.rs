@@ -36,7 +36,7 @@ pub fn light_sample(
 /// Whether the shadow ray from `vertex` to the light sample is unoccluded.
 pub fn visible(ctx: &SceneContext, vertex: &PathVertex, ls: &LightSample) -> bool {
     let ray = shadow_ray(vertex, ls);
-    !ctx.occluded(ray.origin, ray.direction, ray.t_max)
+    !ctx.occluded_between(ray.origin, ray.direction, ray.t_max, ray.surfaces)
 }
 
 /// A segment to test for occlusion: `origin + t direction`, t in (0, t_max).
@@ -49,6 +49,9 @@ pub struct ShadowRay {
     pub direction: Vec3,
     /// Where the segment ends, in units of `direction`.
     pub t_max: f32,
+    /// The triangles its ends lie on, which need not be tested
+    /// ([`SceneContext::occluded_between`]).
+    pub surfaces: [u32; 2],
 }
 
 /// The shadow ray from `vertex` to the light sample: both ends moved off
@@ -68,12 +71,14 @@ pub fn shadow_ray(vertex: &PathVertex, ls: &LightSample) -> ShadowRay {
                 origin,
                 direction: end - origin,
                 t_max: 1.0,
+                surfaces: [vertex.point.primitive, lp.surface],
             }
         }
         None => ShadowRay {
             origin,
             direction: ls.wi,
             t_max: f32::INFINITY,
+            surfaces: [vertex.point.primitive, accel::NO_SURFACE],
         },
     }
 }

@@ -2,10 +2,12 @@
 //! it goes, and what it carries. Every subpath of every integrator extends
 //! itself the same way: a BSDF sample at the vertex, then Russian roulette.
 
+use accel::{Hit, NO_SURFACE};
 use glam::Vec3;
 use microfacet::TransportMode;
 use scene::{Medium, Scene};
 
+use crate::context::SceneContext;
 use crate::geometry::SurfacePoint;
 use crate::medium;
 use crate::roulette;
@@ -25,6 +27,10 @@ pub struct Walk {
     /// The absorbing medium the next ray starts into, as its origin's
     /// surface knows ([`crate::medium`]); `None` from cameras and lights.
     pub medium: Option<Medium>,
+    /// The primitive the next ray leaves ([`accel::NO_SURFACE`] from cameras
+    /// and lights), which its query need not test
+    /// ([`SceneContext::intersect_leaving`]).
+    pub surface: u32,
 }
 
 impl Walk {
@@ -35,7 +41,14 @@ impl Walk {
             direction,
             throughput: Vec3::ONE,
             medium: None,
+            surface: NO_SURFACE,
         }
+    }
+
+    /// The closest hit of the next ray.
+    #[inline]
+    pub fn next_hit(&self, ctx: &SceneContext) -> Option<Hit> {
+        ctx.intersect_leaving(self.origin, self.direction, f32::INFINITY, self.surface)
     }
 
     /// The ray has hit `point` after `distance`: the throughput takes the
@@ -73,6 +86,7 @@ impl Walk {
         let s = vertex.sample(u.u_lobe, u.uv_bsdf, mode)?;
         self.throughput *= s.weight;
         self.origin = vertex.point.spawn_origin(s.wo);
+        self.surface = vertex.point.primitive;
         self.direction = s.wo;
         self.medium = vertex.medium_towards(s.wo);
         roulette::survives(depth, &mut self.throughput, scale, u.u_roulette).then_some(s)

@@ -8,4 +8,5 @@ mod common;
 mod grid;
 mod isa;
 mod layouts;
+mod skip;
 mod sphere;

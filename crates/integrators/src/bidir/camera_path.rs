@@ -35,7 +35,7 @@ impl Iteration<'_> {
             let hit = if length == 1 {
                 ctx.intersect_camera_ray(walk.origin, walk.direction)
             } else {
-                ctx.intersect(walk.origin, walk.direction, f32::INFINITY)
+                walk.next_hit(ctx)
             };
             let Some(hit) = hit else {
                 if let Some(le) = ctx.lights.environment(&ctx.scene, walk.direction) {
@@ -199,7 +199,11 @@ impl Iteration<'_> {
         };
         let origin = camera.point.spawn_origin(dir);
         let end = light.point.spawn_origin(-dir);
-        if self.ctx.occluded(origin, end - origin, 1.0) {
+        let surfaces = [camera.point.primitive, light.point.primitive];
+        if self
+            .ctx
+            .occluded_between(origin, end - origin, 1.0, surfaces)
+        {
             return Vec3::ZERO;
         }
         contribution

@@ -127,16 +127,14 @@ impl Iteration<'_> {
         let mut ray = SubpathRay::from_light(&self.mis, &emission.mis.emission());
         let regularization = self.path_regularization(Subpath::Light);
         let mut walk = Walk {
-            origin: emission.origin,
-            direction: emission.direction,
             throughput: emission.throughput,
-            medium: None,
+            ..Walk::new(emission.origin, emission.direction)
         };
         let emitted = walk.throughput.max_element();
         let unsampleable = self.mode == Mode::Unsampleable;
         let mut history = BoundedHistory::default();
         for length in 1..=max_depth {
-            let Some(hit) = ctx.intersect(walk.origin, walk.direction, f32::INFINITY) else {
+            let Some(hit) = walk.next_hit(ctx) else {
                 break;
             };
             let point = ctx.surface_point(&hit, walk.origin, walk.direction);
@@ -252,7 +250,8 @@ impl Iteration<'_> {
         // (`CameraRays::project` refused points before it).
         let depth = (origin - camera.position).dot(camera.forward);
         let beyond_near = 1.0 - camera.near_clip / depth;
-        if ctx.occluded(origin, camera.position - origin, beyond_near) {
+        let surfaces = [vertex.point.primitive, accel::NO_SURFACE];
+        if ctx.occluded_between(origin, camera.position - origin, beyond_near, surfaces) {
             return;
         }
         splats.push(y * camera.resolution.x + x, contribution);

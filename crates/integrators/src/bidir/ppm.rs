@@ -64,7 +64,7 @@ impl Iteration<'_> {
             let hit = if length == 1 {
                 ctx.intersect_camera_ray(walk.origin, walk.direction)
             } else {
-                ctx.intersect(walk.origin, walk.direction, f32::INFINITY)
+                walk.next_hit(ctx)
             };
             let Some(hit) = hit else {
                 if let Some(le) = ctx.lights.environment(&ctx.scene, walk.direction) {

@@ -157,7 +157,7 @@ impl PathTracer {
             let hit = if depth == 1 {
                 ctx.intersect_camera_ray(walk.origin, walk.direction)
             } else {
-                ctx.intersect(walk.origin, walk.direction, f32::INFINITY)
+                walk.next_hit(ctx)
             };
             let Some(hit) = hit else {
                 if let Some(le) = self.escaped(ctx, &walk, &bounce) {

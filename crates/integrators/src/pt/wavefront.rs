@@ -172,13 +172,11 @@ impl PathTracer {
 fn extend(ctx: &SceneContext, depth: u32, paths: &[Path], hits: &mut Vec<Option<Hit>>) {
     hits.clear();
     hits.extend(paths.iter().map(|path| {
-        let Walk {
-            origin, direction, ..
-        } = path.walk;
+        let walk = &path.walk;
         if depth == 1 {
-            ctx.intersect_camera_ray(origin, direction)
+            ctx.intersect_camera_ray(walk.origin, walk.direction)
         } else {
-            ctx.intersect(origin, direction, f32::INFINITY)
+            walk.next_hit(ctx)
         }
     }));
 }
@@ -191,8 +189,9 @@ fn shadow(ctx: &SceneContext, queue: &[ShadowQuery], out: &mut [Vec3]) {
             origin,
             direction,
             t_max,
+            surfaces,
         } = query.ray;
-        if !ctx.occluded(origin, direction, t_max) {
+        if !ctx.occluded_between(origin, direction, t_max, surfaces) {
             out[query.pixel] += query.contribution;
         }
     }
