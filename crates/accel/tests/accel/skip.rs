@@ -46,7 +46,7 @@ fn skipping_the_ends_changes_no_answer() {
                 let from = rng.next_u32() as usize % tris.len();
                 // A bounce: any direction, some grazing.
                 let n = geometric_normal(&tris[from]);
-                let cos = if rng.next_u32() % 4 == 0 {
+                let cos = if rng.next_u32().is_multiple_of(4) {
                     0.01
                 } else {
                     rng.uniform_f32() * 2.0 - 1.0
