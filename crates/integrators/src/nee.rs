@@ -23,6 +23,14 @@ pub fn light_sample(
     uv: Vec2,
 ) -> Option<(LightSample, Vec3)> {
     let ls = ctx.lights.sample(&ctx.scene, vertex.point.p, u_light, uv)?;
+    light_value(vertex, &ls).map(|f| (ls, f))
+}
+
+/// The second half of [`light_sample`]: the vertex's f |cos| towards the
+/// light sample `ls`, times the transmittance of the shadow segment, if
+/// non-zero.
+#[inline]
+pub fn light_value(vertex: &PathVertex, ls: &LightSample) -> Option<Vec3> {
     let mut f = vertex.eval(ls.wi, TransportMode::Radiance);
     if let Some(m) = vertex.medium_towards(ls.wi) {
         let distance = ls
@@ -30,7 +38,7 @@ pub fn light_sample(
             .map_or(f32::INFINITY, |lp| (lp.p - vertex.point.p).length());
         f *= m.transmittance(distance);
     }
-    (f.max_element() > 0.0).then_some((ls, f))
+    (f.max_element() > 0.0).then_some(f)
 }
 
 /// Whether the shadow ray from `vertex` to the light sample is unoccluded.

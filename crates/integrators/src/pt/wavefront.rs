@@ -27,12 +27,14 @@
 //! expected values, and the scalar loop stays the readable reference.
 
 use accel::Hit;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use microfacet::TransportMode;
 use regularization::{PathRegularization, Subpath};
 
 use super::{Bounce, PathTracer};
 use crate::context::SceneContext;
+use crate::geometry::SurfacePoint;
+use crate::lights::LightSample;
 use crate::nee::{self, ShadowRay};
 use crate::sampler::{Sampler, StepSamples};
 use crate::vertex::PathVertex;
@@ -61,6 +63,8 @@ struct Scattering {
     path: usize,
     vertex: PathVertex,
     step: StepSamples,
+    /// The light sample's numbers (choice, point).
+    light: (f32, Vec2),
 }
 
 /// A light sample waiting for its shadow ray.
@@ -77,7 +81,11 @@ struct ShadowQuery {
 pub struct Queues {
     paths: Vec<Path>,
     hits: Vec<Option<Hit>>,
+    /// The points the paths that go on reached, with their index.
+    surfaces: Vec<(usize, SurfacePoint)>,
     scattering: Vec<Scattering>,
+    /// Light samples of the scattering queue's entries (by index).
+    light_samples: Vec<(usize, LightSample)>,
     shadow: Vec<ShadowQuery>,
 }
 
@@ -123,10 +131,12 @@ impl PathTracer {
     }
 
     /// Stage 2: emission and escape, then the vertex and its light sample
-    /// for the paths that go on.
+    /// for the paths that go on, in three passes over the wavefront (the
+    /// surface points, the vertices, the light samples): each pass's work
+    /// for one path is short enough that the processor overlaps it with the
+    /// next path's, whose arithmetic does not depend on it.
     fn shade(&self, ctx: &SceneContext, depth: u32, queues: &mut Queues, out: &mut [Vec3]) {
-        queues.scattering.clear();
-        queues.shadow.clear();
+        queues.surfaces.clear();
         for (index, (path, hit)) in queues.paths.iter_mut().zip(&queues.hits).enumerate() {
             let walk = &mut path.walk;
             let Some(hit) = hit else {
@@ -137,32 +147,58 @@ impl PathTracer {
             };
             let point = ctx.surface_point(hit, walk.origin, walk.direction);
             walk.arrive(&ctx.scene, &point, hit.t);
-            let wi = -walk.direction;
             if let Some(le) = self.emission(ctx, walk, &path.bounce, &point) {
                 out[path.pixel] += le;
             }
-            if depth == ctx.config.max_depth {
-                continue;
+            if depth < ctx.config.max_depth {
+                queues.surfaces.push((index, point));
             }
-            let vertex =
-                PathVertex::new(&ctx.scene, point, wi, walk.throughput, path.regularization);
+        }
+        queues.scattering.clear();
+        for &(index, point) in &queues.surfaces {
+            let path = &mut queues.paths[index];
+            let wi = -path.walk.direction;
+            let vertex = PathVertex::new(
+                &ctx.scene,
+                point,
+                wi,
+                path.walk.throughput,
+                path.regularization,
+            );
             path.regularization = vertex.regularization;
             let u = path.sampler.camera_vertex(depth);
-            if self.use_nee
-                && !vertex.is_specular()
-                && let Some((ls, f)) = nee::light_sample(ctx, &vertex, u.u_light, u.uv_light)
-            {
-                queues.shadow.push(ShadowQuery {
-                    pixel: path.pixel,
-                    ray: nee::shadow_ray(&vertex, &ls),
-                    contribution: walk.throughput * self.light_contribution(&vertex, &ls, f),
-                });
-            }
             queues.scattering.push(Scattering {
                 path: index,
                 vertex,
                 step: u.step,
+                light: (u.u_light, u.uv_light),
             });
+        }
+        queues.shadow.clear();
+        if !self.use_nee {
+            return;
+        }
+        queues.light_samples.clear();
+        for (k, s) in queues.scattering.iter().enumerate() {
+            let (u_light, uv_light) = s.light;
+            if !s.vertex.is_specular()
+                && let Some(ls) = ctx
+                    .lights
+                    .sample(&ctx.scene, s.vertex.point.p, u_light, uv_light)
+            {
+                queues.light_samples.push((k, ls));
+            }
+        }
+        for (k, ls) in &queues.light_samples {
+            let s = &queues.scattering[*k];
+            if let Some(f) = nee::light_value(&s.vertex, ls) {
+                let path = &queues.paths[s.path];
+                queues.shadow.push(ShadowQuery {
+                    pixel: path.pixel,
+                    ray: nee::shadow_ray(&s.vertex, ls),
+                    contribution: path.walk.throughput * self.light_contribution(&s.vertex, ls, f),
+                });
+            }
         }
     }
 }
