@@ -499,10 +499,11 @@ impl Bvh {
     /// (a caller id; [`NO_SURFACE`] for none) from an origin offset off it
     /// to the side `direction` points to ([`offset_ray_origin`]): that
     /// triangle is not tested. A ray starting off a plane and moving away
-    /// from it cannot meet it, so the result is the same; the test, which
-    /// the traversal always reaches (the triangle's box holds the origin),
-    /// is saved. A sphere id is tested as usual: a ray leaving a sphere can
-    /// meet it again.
+    /// from it cannot meet it, so the result is the same, and the test is
+    /// saved whenever the traversal reaches the triangle's leaf (often: its
+    /// box holds the origin, unless it is flat and the ray leaves it). A
+    /// sphere id is tested as usual: a ray leaving a sphere can meet it
+    /// again.
     ///
     /// [`offset_ray_origin`]: crate::offset_ray_origin
     #[must_use]
@@ -718,9 +719,9 @@ impl Bvh {
     /// [`Bvh::occluded`] of a segment between two surface points, each end
     /// offset off its surface towards the other ([`offset_ray_origin`]):
     /// the triangles `surfaces` (caller ids; [`NO_SURFACE`] for none) they
-    /// lie on are not tested, as in [`Bvh::intersect_leaving`]. A shadow
-    /// or connection ray always reaches the leaves of both (their boxes
-    /// hold its ends), and never meets either.
+    /// lie on are not tested, as in [`Bvh::intersect_leaving`]: the segment
+    /// meets neither, and its traversal often reaches both leaves (their
+    /// boxes hold its ends).
     ///
     /// [`offset_ray_origin`]: crate::offset_ray_origin
     #[must_use]
