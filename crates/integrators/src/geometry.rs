@@ -144,9 +144,16 @@ impl SurfacePoint {
         let i = hit.primitive as usize;
         let b = Vec3::new(1.0 - hit.b1 - hit.b2, hit.b1, hit.b2);
         let interpolate = |v: [Vec3; 3]| v[0] * b.x + v[1] * b.y + v[2] * b.z;
-        let ns = interpolate(scene.shading_normals(i, n_winding))
-            .try_normalize()
-            .unwrap_or(n_winding);
+        // Without vertex normals the shading normal is the geometric one,
+        // as it is: interpolating three copies and renormalizing only added
+        // rounding, and a square root and a division to every hit's chain.
+        let ns = if scene.normals.is_empty() {
+            n_winding
+        } else {
+            interpolate(scene.shading_normals(i, n_winding))
+                .try_normalize()
+                .unwrap_or(n_winding)
+        };
         let ng = if ns.dot(n_winding) < 0.0 {
             -n_winding
         } else {
