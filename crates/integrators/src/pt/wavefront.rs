@@ -27,7 +27,7 @@
 //! expected values, and the scalar loop stays the readable reference.
 
 use accel::Hit;
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use microfacet::TransportMode;
 use regularization::{PathRegularization, Subpath};
 
@@ -36,7 +36,7 @@ use crate::context::SceneContext;
 use crate::geometry::SurfacePoint;
 use crate::lights::LightSample;
 use crate::nee::{self, ShadowRay};
-use crate::sampler::{Sampler, StepSamples};
+use crate::sampler::{CameraVertexSamples, Sampler};
 use crate::vertex::PathVertex;
 use crate::walk::Walk;
 
@@ -62,9 +62,8 @@ struct Scattering {
     /// Its index in the wavefront.
     path: usize,
     vertex: PathVertex,
-    step: StepSamples,
-    /// The light sample's numbers (choice, point).
-    light: (f32, Vec2),
+    /// The vertex's numbers: its light sample's, then its step's.
+    u: CameraVertexSamples,
 }
 
 /// A light sample waiting for its shadow ray.
@@ -131,10 +130,10 @@ impl PathTracer {
     }
 
     /// Stage 2: emission and escape, then the vertex and its light sample
-    /// for the paths that go on, in three passes over the wavefront (the
-    /// surface points, the vertices, the light samples): each pass's work
-    /// for one path is short enough that the processor overlaps it with the
-    /// next path's, whose arithmetic does not depend on it.
+    /// for the paths that go on, in four passes over the wavefront (the
+    /// surface points, the vertices, the light samples, their values and
+    /// shadow rays): each a place where one batch kernel can replace the
+    /// per-path calls.
     fn shade(&self, ctx: &SceneContext, depth: u32, queues: &mut Queues, out: &mut [Vec3]) {
         queues.surfaces.clear();
         for (index, (path, hit)) in queues.paths.iter_mut().zip(&queues.hits).enumerate() {
@@ -170,8 +169,7 @@ impl PathTracer {
             queues.scattering.push(Scattering {
                 path: index,
                 vertex,
-                step: u.step,
-                light: (u.u_light, u.uv_light),
+                u,
             });
         }
         queues.shadow.clear();
@@ -180,11 +178,10 @@ impl PathTracer {
         }
         queues.light_samples.clear();
         for (k, s) in queues.scattering.iter().enumerate() {
-            let (u_light, uv_light) = s.light;
             if !s.vertex.is_specular()
-                && let Some(ls) = ctx
-                    .lights
-                    .sample(&ctx.scene, s.vertex.point.p, u_light, uv_light)
+                && let Some(ls) =
+                    ctx.lights
+                        .sample(&ctx.scene, s.vertex.point.p, s.u.u_light, s.u.uv_light)
             {
                 queues.light_samples.push((k, ls));
             }
@@ -241,7 +238,7 @@ fn continue_paths(queues: &mut Queues, depth: u32) {
         let mut path = queues.paths[s.path];
         let Some(sample) = path
             .walk
-            .step(&s.vertex, depth, s.step, TransportMode::Radiance, 1.0)
+            .step(&s.vertex, depth, s.u.step, TransportMode::Radiance, 1.0)
         else {
             continue;
         };
