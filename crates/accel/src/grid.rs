@@ -15,6 +15,9 @@ const MIN_PARALLEL_LEN: usize = 4096;
 /// 2 x 2 x 2 case); beyond it, each candidate's cell is checked instead.
 const SMALL_QUERY_CELLS: usize = 8;
 
+/// Slots a small query gathers before reporting them.
+const FOUND_GROUP: usize = 16;
+
 /// A hashed uniform grid over a set of points, answering "which stored points
 /// lie within `radius` of `q`" ([`HashGrid::for_each_within`]).
 ///
@@ -24,7 +27,11 @@ const SMALL_QUERY_CELLS: usize = 8;
 /// `n.next_power_of_two()` buckets (n = number of points), and the points are
 /// sorted by bucket: memory is about 24 bytes per point plus 4 to 8 bytes of
 /// bucket offsets, independent of the scene's extent. Hash collisions only add
-/// candidates, which the distance test rejects.
+/// candidates, which the distance test rejects. The sorted points are the
+/// grid's slots `0..len()`: a caller that keeps its per-point data in slot
+/// order ([`HashGrid::point_index`]) and queries by slot
+/// ([`HashGrid::for_each_slot_within`]) reads a bucket's data from adjacent
+/// memory.
 ///
 /// # Determinism
 /// The build runs on the current rayon pool, but its result (and so the SET and
@@ -182,6 +189,27 @@ impl HashGrid {
     /// the table has buckets, it scans all points instead. Finds nothing for
     /// a negative or NaN radius or a non-finite `point`. Does not allocate.
     pub fn for_each_within(&self, point: Vec3, radius: f32, mut f: impl FnMut(usize)) {
+        self.for_each_slot_within(point, radius, |slot| f(self.point_index(slot)));
+    }
+
+    /// Index (as given to the build) of the point stored in `slot`, a
+    /// position `0..len()` in the grid's storage order, which keeps the
+    /// points of a bucket together.
+    ///
+    /// # Panics
+    /// If `slot >= len()`.
+    #[inline]
+    #[must_use]
+    pub fn point_index(&self, slot: usize) -> usize {
+        self.keys[slot] as u32 as usize
+    }
+
+    /// [`HashGrid::for_each_within`], reporting each point by its slot
+    /// ([`HashGrid::point_index`]) instead of its index, in the same order.
+    /// Data that a caller keeps per point in slot order is read in the
+    /// order the query visits it: the points of one bucket from adjacent
+    /// memory, where data in index order would cost a cache miss per point.
+    pub fn for_each_slot_within(&self, point: Vec3, radius: f32, mut f: impl FnMut(usize)) {
         if self.is_empty() || !(radius >= 0.0) || !point.is_finite() {
             return;
         }
@@ -211,9 +239,9 @@ impl HashGrid {
 
         if cells > self.starts.len() as u128 {
             // Larger than the table: one pass over all points is cheaper.
-            for (key, p) in self.keys.iter().zip(&self.positions) {
+            for (slot, p) in self.positions.iter().enumerate() {
                 if within(*p) {
-                    f(*key as u32 as usize);
+                    f(slot);
                 }
             }
             return;
@@ -234,17 +262,30 @@ impl HashGrid {
                     }
                 }
             }
-            for &b in &buckets[..n] {
-                let (start, end) = self.bucket_range(b);
-                for (p, key) in self.positions[start..end]
-                    .iter()
-                    .zip(&self.keys[start..end])
-                {
-                    if within(*p) {
-                        f(*key as u32 as usize);
+            // Every bucket's range first: the table reads (each likely a
+            // cache miss) are then in flight together, not one per bucket
+            // after the previous bucket's points.
+            let mut ranges = [(0, 0); SMALL_QUERY_CELLS];
+            for (range, &b) in ranges.iter_mut().zip(&buckets[..n]) {
+                *range = self.bucket_range(b);
+            }
+            // Slots within the radius are gathered without a branch on the
+            // test (about one in four passes: it mispredicts, and each
+            // misprediction stopped the next bucket's reads) and reported in
+            // groups.
+            let mut found = [0u32; FOUND_GROUP];
+            let mut k = 0;
+            for &(start, end) in &ranges[..n] {
+                for slot in start..end {
+                    found[k] = slot as u32;
+                    k += usize::from(within(self.positions[slot]));
+                    if k == FOUND_GROUP {
+                        found.iter().for_each(|&s| f(s as usize));
+                        k = 0;
                     }
                 }
             }
+            found[..k].iter().for_each(|&s| f(s as usize));
             return;
         }
 
@@ -255,10 +296,10 @@ impl HashGrid {
                 for x in x0..=x1 {
                     let cell = [x, y, z];
                     let (start, end) = self.bucket_range(self.bucket(cell));
-                    for j in start..end {
-                        let p = self.positions[j];
+                    for slot in start..end {
+                        let p = self.positions[slot];
                         if within(p) && self.cell_of(p) == cell {
-                            f(self.keys[j] as u32 as usize);
+                            f(slot);
                         }
                     }
                 }

@@ -213,3 +213,28 @@ fn rebuild_with_fewer_points_forgets_old_ones() {
         assert_eq!(sorted(query(&grid, q, r)), brute_force(&points, q, r));
     }
 }
+
+/// Slots: `point_index` is a permutation of the indices, and a query by slot
+/// reports the slots of the points that the query by index reports, in the
+/// same order; data kept in slot order is found at the reported slot.
+#[test]
+fn slot_queries_are_index_queries_in_storage_order() {
+    let mut rng = Pcg32::new(25, 0);
+    let points = test_points(&mut rng, 8000);
+    let grid = HashGrid::with_points(&points, 0.01);
+    let order: Vec<usize> = (0..grid.len()).map(|s| grid.point_index(s)).collect();
+    assert_eq!(sorted(order.clone()), (0..points.len()).collect::<Vec<_>>());
+    let in_slot_order: Vec<Vec3> = order.iter().map(|&i| points[i]).collect();
+    let mut reported = 0;
+    for (q, r) in test_queries(&mut rng, &points, 0.01) {
+        let mut slots = Vec::new();
+        grid.for_each_slot_within(q, r, |s| slots.push(s));
+        let by_slot: Vec<usize> = slots.iter().map(|&s| grid.point_index(s)).collect();
+        assert_eq!(by_slot, query(&grid, q, r), "q {q} r {r}");
+        for (&s, &i) in slots.iter().zip(&by_slot) {
+            assert_eq!(in_slot_order[s], points[i]);
+        }
+        reported += slots.len();
+    }
+    assert!(reported > 1000, "{reported}");
+}

@@ -22,7 +22,7 @@ impl Iteration<'_> {
         &self,
         index: usize,
         light_path: &[LightVertex],
-        photon_map: Option<&PhotonMap<'_>>,
+        photon_map: Option<&PhotonMap>,
     ) -> Vec3 {
         let ctx = self.ctx;
         let max_depth = ctx.config.max_depth;
@@ -216,19 +216,19 @@ impl Iteration<'_> {
         camera: &PathVertex,
         camera_state: &SubpathState,
         length: u32,
-        photon_map: &PhotonMap<'_>,
+        photon_map: &PhotonMap,
     ) -> Vec3 {
-        photon_map.gather(camera, length, self.ctx.config.max_depth, |light| {
+        photon_map.gather(camera, length, self.ctx.config.max_depth, |photon| {
             if !camera
                 .regularization
-                .admits_light_interior(light.earlier_bounded())
+                .admits_light_interior(photon.earlier_bounded())
             {
                 return 0.0;
             }
             self.mis.merge_weight(
-                &light.state,
+                &photon.state,
                 camera_state,
-                &camera.connection_pdfs(light.wi),
+                &camera.connection_pdfs(photon.wi),
             ) as f32
         })
     }

@@ -35,7 +35,7 @@ pub(super) struct LightVertex {
     /// Whether the subpath's earlier vertices are bounded at tau_N, the
     /// previous one in bit 0 (`Mode::Unsampleable`; see
     /// [`LightVertex::earlier_bounded`]).
-    earlier_bounded: u32,
+    pub earlier_bounded: BoundedHistory,
 }
 
 impl LightVertex {
@@ -54,7 +54,7 @@ impl LightVertex {
             state,
             length,
             bound: vertex.throughput.max_element() * vertex.importance_bound(),
-            earlier_bounded: earlier_bounded.0,
+            earlier_bounded,
         }
     }
 
@@ -62,7 +62,7 @@ impl LightVertex {
     /// the previous one back to the first: what
     /// [`PathRegularization::admits_light_interior`] walks (`Mode::Unsampleable`).
     pub fn earlier_bounded(&self) -> impl Iterator<Item = bool> {
-        BoundedHistory(self.earlier_bounded).iter(self.length - 1)
+        self.earlier_bounded.iter(self.length - 1)
     }
 
     /// The vertex rebuilt with `regularization`, the rule of the subpath
@@ -100,7 +100,7 @@ impl BoundedHistory {
     }
 
     /// The last `count` (at most 32) flags, the last one first.
-    fn iter(self, count: u32) -> impl Iterator<Item = bool> {
+    pub fn iter(self, count: u32) -> impl Iterator<Item = bool> {
         (0..count.min(u32::BITS)).map(move |k| self.0 >> k & 1 == 1)
     }
 }

@@ -15,13 +15,12 @@
 
 mod camera_path;
 mod light_path;
+mod photon_map;
 mod ppm;
 #[cfg(test)]
 mod tests;
 
-use accel::HashGrid;
 use glam::Vec3;
-use microfacet::TransportMode;
 use mis::{Heuristic, MisConfig, Techniques};
 use rayon::prelude::*;
 use regularization::{Mode, PathRegularization, Subpath};
@@ -32,8 +31,8 @@ use crate::film::Splats;
 use crate::integrator::{Integrator, Stop};
 use crate::pt::PathTracer;
 use crate::roulette::ShadowRoulette;
-use crate::vertex::PathVertex;
 use light_path::LightVertex;
+use photon_map::{Photon, PhotonMap};
 pub use ppm::ProgressivePhotonMapper;
 
 /// Light subpaths traced together by one task: a fixed partition, so that
@@ -44,9 +43,10 @@ const LIGHT_BLOCK: usize = 256;
 /// milliseconds; spread over the image's light-subpath indices).
 const PILOT_PATHS: usize = 1024;
 
-/// Bytes per photon besides its light vertex: its reference in the photon
-/// list (8) and the hash grid's sort key (8), position copy (12) and bucket
-/// start (at most 8: buckets are the next power of two of the count).
+/// Bytes per photon besides its light vertex and its [`Photon`] record: the
+/// hash grid's sort key (8), position copy (12) and bucket start (at most 8:
+/// buckets are the next power of two of the count), and the light vertex's
+/// reference while the map is built (8).
 const GRID_BYTES_PER_PHOTON: usize = 36;
 
 /// BPT, BPM or VCM: the techniques of the configured algorithm on this
@@ -112,7 +112,9 @@ impl Bidirectional {
             }
         });
         let per_path = vertices.len() as f64 / pilot as f64;
-        let per_vertex = std::mem::size_of::<LightVertex>() + GRID_BYTES_PER_PHOTON;
+        let per_vertex = std::mem::size_of::<LightVertex>()
+            + std::mem::size_of::<Photon>()
+            + GRID_BYTES_PER_PHOTON;
         (per_path * pixels as f64 * per_vertex as f64) as u64
     }
 
@@ -193,58 +195,6 @@ impl Iteration<'_> {
                 connections: techniques.connections,
                 merges: techniques.merging,
             })
-    }
-}
-
-/// The photon map of one iteration: every light vertex and a grid over them.
-struct PhotonMap<'a> {
-    grid: HashGrid,
-    photons: Vec<&'a LightVertex>,
-    radius: f32,
-    /// 1 / (pi r^2 light_paths): the merge kernel's normalisation.
-    normalisation: f32,
-}
-
-impl<'a> PhotonMap<'a> {
-    /// The photon map over every vertex of `paths`, for merges of radius
-    /// `radius` by `light_paths` light subpaths.
-    fn new(paths: &'a LightPaths, radius: f32, light_paths: usize) -> Self {
-        let photons: Vec<&LightVertex> = paths.vertices().collect();
-        let mut grid = HashGrid::new();
-        grid.build_with(photons.len(), radius, |i| photons[i].point.p);
-        Self {
-            grid,
-            photons,
-            radius,
-            normalisation: 1.0 / (std::f32::consts::PI * radius * radius * light_paths as f32),
-        }
-    }
-
-    /// The density estimate at camera vertex `camera`, `length` segments
-    /// from the camera: the sum over the photons within the radius whose
-    /// paths stay within `max_depth` segments of f (camera BSDF towards the
-    /// photon's incoming direction) x photon throughput x `weight(photon)`,
-    /// times the kernel's normalisation (SmallVCM's range query).
-    fn gather(
-        &self,
-        camera: &PathVertex,
-        length: u32,
-        max_depth: u32,
-        weight: impl Fn(&LightVertex) -> f32,
-    ) -> Vec3 {
-        let mut sum = Vec3::ZERO;
-        self.grid.for_each_within(camera.point.p, self.radius, |i| {
-            let light = self.photons[i];
-            if light.length + length > max_depth {
-                return;
-            }
-            let f = camera.f(light.wi, TransportMode::Radiance);
-            if f.max_element() <= 0.0 {
-                return;
-            }
-            sum += f * light.throughput * weight(light);
-        });
-        sum * self.normalisation
     }
 }
 

@@ -46,6 +46,8 @@ impl Integrator for ProgressivePhotonMapper {
             return;
         }
         let photon_map = PhotonMap::new(&paths, it.radius, estimates.len());
+        // Without connections nothing else reads the light vertices.
+        drop(paths);
         it.camera_pass(estimates, |index| it.trace_gather_path(index, &photon_map));
     }
 }
@@ -54,7 +56,7 @@ impl Iteration<'_> {
     /// The camera path of pixel `index` (row-major): emission seen directly
     /// or through delta lobes, and the density estimate at the first
     /// non-specular vertex.
-    fn trace_gather_path(&self, index: usize, photon_map: &PhotonMap<'_>) -> Vec3 {
+    fn trace_gather_path(&self, index: usize, photon_map: &PhotonMap) -> Vec3 {
         let ctx = self.ctx;
         let max_depth = ctx.config.max_depth;
         let (sampler, mut walk) = ctx.camera_path_of(self.n, index);
