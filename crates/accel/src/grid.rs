@@ -15,6 +15,9 @@ const MIN_PARALLEL_LEN: usize = 4096;
 /// 2 x 2 x 2 case); beyond it, each candidate's cell is checked instead.
 const SMALL_QUERY_CELLS: usize = 8;
 
+/// Cells in a block of 2 x 2 x 2, whose buckets are adjacent.
+const BLOCK_CELLS: usize = 8;
+
 /// Slots a small query gathers before reporting them.
 const FOUND_GROUP: usize = 16;
 
@@ -109,7 +112,7 @@ impl HashGrid {
             1.0
         };
         self.inv_cell_size = 1.0 / self.cell_size;
-        let buckets = count.next_power_of_two().clamp(1, MAX_BUCKETS);
+        let buckets = count.next_power_of_two().clamp(BLOCK_CELLS, MAX_BUCKETS);
         self.bucket_mask = buckets as u64 - 1;
 
         // Keys (bucket << 32 | index), sorted: a unique key per point, so the
@@ -320,17 +323,23 @@ impl HashGrid {
         [c(p.x), c(p.y), c(p.z)]
     }
 
-    /// Bucket of a cell: a multiplicative hash of the three coordinates, high
-    /// bits after a 64-bit mix.
+    /// Bucket of a cell: cells are grouped in blocks of 2 x 2 x 2, a block
+    /// goes to [`BLOCK_CELLS`] adjacent buckets (one per cell), picked by a
+    /// multiplicative hash of the block's coordinates (high bits after a
+    /// 64-bit mix). A query's 2 x 2 x 2 cells then lie in 3.4 blocks on
+    /// average instead of 8 unrelated buckets: fewer cache lines of bucket
+    /// starts and of points to read.
     #[inline]
     fn bucket(&self, cell: [i64; 3]) -> u64 {
-        let mut h = (cell[0] as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
-            ^ (cell[1] as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
-            ^ (cell[2] as u64).wrapping_mul(0x1656_67B1_9E37_79F9);
+        let [x, y, z] = cell;
+        let mut h = ((x >> 1) as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+            ^ ((y >> 1) as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
+            ^ ((z >> 1) as u64).wrapping_mul(0x1656_67B1_9E37_79F9);
         h ^= h >> 31;
         h = h.wrapping_mul(0xBF58_476D_1CE4_E5B9);
         h ^= h >> 29;
-        (h >> 32) & self.bucket_mask
+        let within_block = (x & 1) | (y & 1) << 1 | (z & 1) << 2;
+        ((h >> 32) * BLOCK_CELLS as u64 + within_block as u64) & self.bucket_mask
     }
 }
 
