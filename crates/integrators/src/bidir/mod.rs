@@ -112,9 +112,14 @@ impl Bidirectional {
             }
         });
         let per_path = vertices.len() as f64 / pilot as f64;
-        let per_vertex = std::mem::size_of::<LightVertex>()
-            + std::mem::size_of::<Photon>()
-            + GRID_BYTES_PER_PHOTON;
+        // Kept through the iteration: light vertices for connections, or
+        // their photons with positions (`LightPaths`).
+        let kept = if self.techniques.connections {
+            std::mem::size_of::<LightVertex>()
+        } else {
+            std::mem::size_of::<(Vec3, Photon)>()
+        };
+        let per_vertex = kept + std::mem::size_of::<Photon>() + GRID_BYTES_PER_PHOTON;
         (per_path * pixels as f64 * per_vertex as f64) as u64
     }
 
@@ -201,17 +206,28 @@ impl Iteration<'_> {
 /// One iteration's light subpaths, as the blocks of [`LIGHT_BLOCK`] paths
 /// traced them: not copied into one array, a copy that held the light
 /// vertices twice (PPM on `cornell-box` at 512x512: 93 MB of them per
-/// iteration; peak memory 220 MB with the copy, 150 MB without).
+/// iteration; peak memory 220 MB with the copy, 150 MB without). Without
+/// connections (BPM, PPM) nothing reads a light vertex but merges: each
+/// block keeps only its vertices' photons, a third of their size.
 struct LightPaths {
-    /// The light vertices of each block, in light-path order.
+    /// The light vertices of each block, in light-path order (none without
+    /// connections).
     blocks: Vec<Vec<LightVertex>>,
     /// Where light path i's vertices end in its block; they start where
     /// path i - 1's end, or at 0 for a block's first path.
     ends: Vec<usize>,
+    /// Without connections: the position and photon of each light vertex
+    /// of each block, in light-path order.
+    photons: Vec<Vec<(Vec3, Photon)>>,
 }
 
 impl LightPaths {
+    /// The light vertices of path i; none when they were not kept (no
+    /// connections).
     fn path(&self, i: usize) -> &[LightVertex] {
+        if self.blocks[i / LIGHT_BLOCK].is_empty() {
+            return &[];
+        }
         let start = if i.is_multiple_of(LIGHT_BLOCK) {
             0
         } else {
@@ -220,9 +236,28 @@ impl LightPaths {
         &self.blocks[i / LIGHT_BLOCK][start..self.ends[i]]
     }
 
-    /// Every light vertex, in light-path order.
-    fn vertices(&self) -> impl Iterator<Item = &LightVertex> {
-        self.blocks.iter().flatten()
+    /// The photon map over every light vertex, for merges of radius
+    /// `radius` by `light_paths` light subpaths.
+    fn photon_map(&self, radius: f32, light_paths: usize) -> PhotonMap {
+        if self.blocks.iter().all(Vec::is_empty) {
+            let photons: Vec<&(Vec3, Photon)> = self.photons.iter().flatten().collect();
+            PhotonMap::new(
+                photons.len(),
+                radius,
+                light_paths,
+                |i| photons[i].0,
+                |i| photons[i].1,
+            )
+        } else {
+            let vertices: Vec<&LightVertex> = self.blocks.iter().flatten().collect();
+            PhotonMap::new(
+                vertices.len(),
+                radius,
+                light_paths,
+                |i| vertices[i].point.p,
+                |i| Photon::from(vertices[i]),
+            )
+        }
     }
 }
 
@@ -263,7 +298,7 @@ impl Iteration<'_> {
         if self.stop.requested() {
             return;
         }
-        let photon_map = PhotonMap::new(&paths, self.radius, estimates.len());
+        let photon_map = paths.photon_map(self.radius, estimates.len());
         self.camera_pass(estimates, |index| {
             self.trace_camera_path(index, paths.path(index), Some(&photon_map))
         });
@@ -291,7 +326,9 @@ impl Iteration<'_> {
     /// Every light subpath of the iteration, traced in fixed blocks, with
     /// each block's light-tracing splats.
     fn trace_light_paths(&self, light_paths: usize) -> (LightPaths, Vec<Splats>) {
-        let blocks: Vec<(Vec<LightVertex>, Vec<usize>, Splats)> = (0..light_paths)
+        let connections = self.mis.techniques().connections;
+        type Block = (Vec<LightVertex>, Vec<usize>, Vec<(Vec3, Photon)>, Splats);
+        let blocks: Vec<Block> = (0..light_paths)
             .into_par_iter()
             .step_by(LIGHT_BLOCK)
             .map(|first| {
@@ -308,19 +345,29 @@ impl Iteration<'_> {
                     ends.push(vertices.len());
                 }
                 self.ctx.flush_ray_count();
-                // Kept to the end of the iteration: without the growth slack.
-                vertices.shrink_to_fit();
-                (vertices, ends, splats)
+                if connections {
+                    // Kept to the end of the iteration: without the growth slack.
+                    vertices.shrink_to_fit();
+                    (vertices, ends, Vec::new(), splats)
+                } else {
+                    let photons = vertices
+                        .iter()
+                        .map(|v| (v.point.p, Photon::from(v)))
+                        .collect();
+                    (Vec::new(), ends, photons, splats)
+                }
             })
             .collect();
         let mut paths = LightPaths {
             blocks: Vec::with_capacity(blocks.len()),
             ends: Vec::with_capacity(light_paths),
+            photons: Vec::with_capacity(blocks.len()),
         };
         let mut all_splats = Vec::with_capacity(blocks.len());
-        for (vertices, ends, splats) in blocks {
+        for (vertices, ends, photons, splats) in blocks {
             paths.blocks.push(vertices);
             paths.ends.extend(ends);
+            paths.photons.push(photons);
             all_splats.push(splats);
         }
         (paths, all_splats)

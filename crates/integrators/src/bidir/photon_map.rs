@@ -9,7 +9,6 @@ use microfacet::TransportMode;
 use mis::SubpathState;
 use rayon::prelude::*;
 
-use super::LightPaths;
 use super::light_path::{BoundedHistory, LightVertex};
 use crate::vertex::PathVertex;
 
@@ -63,16 +62,22 @@ pub(super) struct PhotonMap {
 }
 
 impl PhotonMap {
-    /// The photon map over every vertex of `paths`, for merges of radius
-    /// `radius` by `light_paths` light subpaths. Built on the current rayon
-    /// pool; the result does not depend on its size.
-    pub fn new(paths: &LightPaths, radius: f32, light_paths: usize) -> Self {
-        let vertices: Vec<&LightVertex> = paths.vertices().collect();
+    /// The photon map over `count` light vertices, vertex i at
+    /// `position(i)` with photon `photon(i)`, for merges of radius `radius`
+    /// by `light_paths` light subpaths. Built on the current rayon pool; the
+    /// result does not depend on its size.
+    pub fn new(
+        count: usize,
+        radius: f32,
+        light_paths: usize,
+        position: impl Fn(usize) -> Vec3 + Sync,
+        photon: impl Fn(usize) -> Photon + Sync,
+    ) -> Self {
         let mut grid = HashGrid::new();
-        grid.build_with(vertices.len(), radius, |i| vertices[i].point.p);
+        grid.build_with(count, radius, position);
         let photons = (0..grid.len())
             .into_par_iter()
-            .map(|slot| Photon::from(vertices[grid.point_index(slot)]))
+            .map(|slot| photon(grid.point_index(slot)))
             .collect();
         Self {
             grid,

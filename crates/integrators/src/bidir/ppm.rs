@@ -45,7 +45,7 @@ impl Integrator for ProgressivePhotonMapper {
         if stop.requested() {
             return;
         }
-        let photon_map = PhotonMap::new(&paths, it.radius, estimates.len());
+        let photon_map = paths.photon_map(it.radius, estimates.len());
         // Without connections nothing else reads the light vertices.
         drop(paths);
         it.camera_pass(estimates, |index| it.trace_gather_path(index, &photon_map));
