@@ -43,10 +43,10 @@ const LIGHT_BLOCK: usize = 256;
 /// milliseconds; spread over the image's light-subpath indices).
 const PILOT_PATHS: usize = 1024;
 
-/// Bytes per photon besides its light vertex and its [`Photon`] record: the
-/// hash grid's sort key (8), position copy (12) and bucket start (at most 8:
-/// buckets are the next power of two of the count), and the light vertex's
-/// reference while the map is built (8).
+/// Bytes per photon besides what its light block keeps (`LightPaths`) and
+/// its [`Photon`] record: the hash grid's sort key (8), position copy (12)
+/// and bucket start (at most 8: buckets are the next power of two of the
+/// count), and the kept item's reference while the map is built (8).
 const GRID_BYTES_PER_PHOTON: usize = 36;
 
 /// BPT, BPM or VCM: the techniques of the configured algorithm on this
@@ -239,6 +239,7 @@ impl LightPaths {
     /// The photon map over every light vertex, for merges of radius
     /// `radius` by `light_paths` light subpaths.
     fn photon_map(&self, radius: f32, light_paths: usize) -> PhotonMap {
+        // Blocks keep either their light vertices or their photons.
         if self.blocks.iter().all(Vec::is_empty) {
             let photons: Vec<&(Vec3, Photon)> = self.photons.iter().flatten().collect();
             PhotonMap::new(
