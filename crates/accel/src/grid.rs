@@ -26,8 +26,9 @@ const FOUND_GROUP: usize = 16;
 ///
 /// # Layout
 /// Cells are cubes of side `2 * radius` (the build radius), so a query of that
-/// radius touches at most 2 x 2 x 2 cells. Cells are hashed into a table of
-/// `n.next_power_of_two()` buckets (n = number of points), and the points are
+/// radius touches at most 2 x 2 x 2 cells. Cells are hashed, in blocks of
+/// 2 x 2 x 2 whose eight buckets are adjacent, into a table of
+/// `n.next_power_of_two()` buckets (n = number of points, at least 8), and the points are
 /// sorted by bucket: memory is about 24 bytes per point plus 4 to 8 bytes of
 /// bucket offsets, independent of the scene's extent. Hash collisions only add
 /// candidates, which the distance test rejects. The sorted points are the
