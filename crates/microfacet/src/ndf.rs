@@ -45,6 +45,12 @@ pub const BLINN_PHONG_EXACT_LAMBDA_MIN_ALPHA: f32 = 0.01;
 /// scaled by 1.02 (SPEC §2).
 pub const BECKMANN_G1_OVER_COS_SAFETY: f32 = 1.02;
 
+/// A Lambda below this leaves G1 = 1/(1 + Lambda) exactly 1 in f32: 1 +
+/// Lambda rounds to 1 below half an ulp of 1, 2^-24, and the factor 4 is
+/// margin for rounding in the bounds of `unit_g1_cot2`. [`Ndf::g1`] returns
+/// 1 without evaluating Lambda where those bounds put it below this.
+const LAMBDA_NEGLIGIBLE: f64 = 1.0 / (1u64 << 26) as f64;
+
 /// The microfacet normal distributions of supp. §1.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum NdfKind {
@@ -65,6 +71,10 @@ pub struct Ndf {
     /// here: five ln Gamma evaluations that were 40 % of every Lambda call
     /// (cachegrind, PT on `smallvcm-2`, whose floor is Blinn-Phong).
     exact: BlinnPhongLambda,
+    /// cot^2 theta above which Lambda < [`LAMBDA_NEGLIGIBLE`], so G1 is
+    /// exactly 1 (see `unit_g1_cot2`): on a glossy Blinn-Phong floor most
+    /// directions skip the exact Lambda's f64 powers and continued fraction.
+    unit_g1_cot2: f32,
 }
 
 /// The factors of Blinn-Phong's exact Lambda that depend on alpha alone
@@ -114,7 +124,13 @@ impl Ndf {
         } else {
             BlinnPhongLambda::NONE
         };
-        Self { kind, alpha, exact }
+        let unit_g1_cot2 = unit_g1_cot2(kind, alpha, &exact);
+        Self {
+            kind,
+            alpha,
+            exact,
+            unit_g1_cot2,
+        }
     }
 
     /// The distribution family.
@@ -237,7 +253,11 @@ impl Ndf {
     }
 
     /// Smith's masking G1(w) = 1 / (1 + Lambda(w)), in [0, 1].
+    /// Exactly 1 where Lambda is too small to move it (`unit_g1_cot2`).
     pub fn g1(&self, w: Vec3) -> f32 {
+        if w.z * w.z >= self.unit_g1_cot2 * sin2_theta(w) {
+            return 1.0;
+        }
         1.0 / (1.0 + self.lambda(w))
     }
 
@@ -319,6 +339,42 @@ impl Ndf {
     pub fn pdf_d_cos(&self, h: Vec3) -> f32 {
         self.d(h) * h.z.max(0.0)
     }
+}
+
+/// The cot^2 theta = mu^2 above which Lambda < [`LAMBDA_NEGLIGIBLE`] = eps,
+/// from upper bounds of Lambda that are decreasing in mu:
+/// - Beckmann, and Blinn-Phong below the exact form's alpha: `lambda_beckmann`
+///   drops its erfc term, Lambda <= exp(-m^2) / (2 m sqrt(pi)) with
+///   m = mu/alpha; for m >= 1 that is below eps once m^2 >= ln(1 / (2 sqrt(pi) eps)).
+/// - Blinn-Phong's exact Lambda drops its incomplete beta term (>= 0):
+///   Lambda <= K (1 + mu^2)^(1/2 - p) / mu with K = C / (2p - 1). On mu >= m0
+///   that is below eps once ln(1 + mu^2) >= ln(K / (m0 eps)) / (p - 1/2).
+///   First with m0 = 1; if the threshold t1 found lies below 1, again with
+///   m0 = sqrt(t1), which gives a larger threshold, so mu >= m0 holds on it.
+/// - GGX: never (its Lambda costs one square root).
+fn unit_g1_cot2(kind: NdfKind, alpha: f32, exact: &BlinnPhongLambda) -> f32 {
+    let alpha = f64::from(alpha);
+    let cot2 = match kind {
+        NdfKind::Ggx => f64::INFINITY,
+        NdfKind::BlinnPhong if exact.c > 0.0 => {
+            let p = 1.0 / (alpha * alpha);
+            let ln_k_over_eps = (exact.c / (2.0 * p - 1.0) / LAMBDA_NEGLIGIBLE).ln();
+            let threshold = |ln_m0: f64| ((ln_k_over_eps - ln_m0) / (p - 0.5)).exp_m1();
+            let t1 = threshold(0.0);
+            if t1 >= 1.0 {
+                t1
+            } else {
+                threshold(0.5 * t1.ln())
+            }
+        }
+        NdfKind::Beckmann | NdfKind::BlinnPhong => {
+            let m2 = (1.0 / (2.0 * PI64.sqrt() * LAMBDA_NEGLIGIBLE))
+                .ln()
+                .max(1.0);
+            m2 * alpha * alpha
+        }
+    };
+    cot2 as f32
 }
 
 /// Beckmann's Lambda (Walter et al. 2007) with m = 1/(a tan theta):
@@ -469,5 +525,35 @@ mod tests {
                 assert_eq!(ndf.lambda(w).to_bits(), direct.to_bits(), "{alpha} {cos}");
             }
         }
+    }
+
+    /// G1's shortcut to 1 changes no bit of G1: on a fine grid of angles
+    /// around each threshold, `g1` equals 1/(1 + Lambda) exactly. The
+    /// thresholds are also not vacuous: on SmallVCM's glossy floor (Blinn-Phong,
+    /// alpha 0.0743) G1 skips Lambda for every direction within 70 degrees of
+    /// the normal. (A `LAMBDA_NEGLIGIBLE` of 2^-16 fails it, checked once.)
+    #[test]
+    fn unit_g1_shortcut_is_exact() {
+        for kind in [NdfKind::Beckmann, NdfKind::BlinnPhong] {
+            for alpha in [1e-3f32, 0.005, 0.01, 0.0743, 0.2, 0.5, 0.9, 1.0] {
+                let ndf = Ndf::new(kind, alpha);
+                let cot = ndf.unit_g1_cot2.sqrt();
+                let mut skipped = 0;
+                for i in -2000..=2000 {
+                    let theta = (1.0f32 / cot).atan() * (1.0 + i as f32 * 1e-4);
+                    let w = Vec3::new(theta.sin(), 0.0, theta.cos());
+                    let full = 1.0 / (1.0 + ndf.lambda(w));
+                    assert_eq!(
+                        ndf.g1(w).to_bits(),
+                        full.to_bits(),
+                        "{kind:?} {alpha} {theta}"
+                    );
+                    skipped += usize::from(w.z * w.z >= ndf.unit_g1_cot2 * sin2_theta(w));
+                }
+                assert!(skipped > 1000, "{kind:?} {alpha}: {skipped}");
+            }
+        }
+        let floor = Ndf::new(NdfKind::BlinnPhong, 0.0743);
+        assert!(floor.unit_g1_cot2 < 70f32.to_radians().tan().recip().powi(2));
     }
 }
