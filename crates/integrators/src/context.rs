@@ -301,9 +301,11 @@ impl SceneContext {
     fn sphere_point(&self, j: usize, hit: &Hit, origin: Vec3, direction: Vec3) -> SurfacePoint {
         let sphere = &self.scene.spheres[j];
         let (p, n, error) = self.bvh.spheres()[j].hit_point(origin, direction, hit.t);
-        let point = SurfacePoint::on_sphere(sphere, hit.primitive, p, n, error);
+        let material = &self.scene.materials[sphere.material as usize];
+        let point =
+            SurfacePoint::on_sphere(sphere, hit.primitive, p, n, error, material.reads_uv());
         if self.normal_mapped
-            && let Some(map) = &self.scene.materials[point.material as usize].maps.normal
+            && let Some(map) = &material.maps.normal
         {
             return crate::normal_map::apply_on_sphere(&self.scene, map, &point, sphere, n);
         }

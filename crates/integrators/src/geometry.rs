@@ -176,13 +176,15 @@ impl SurfacePoint {
     /// outward unit direction `n` from its centre, at `p` with error bound
     /// `error` (`accel::Sphere::hit_point`): geometric and shading normal
     /// are the exact normal (facing the centre for an `inside` sphere), uv
-    /// the sphere's parametrisation.
+    /// the sphere's parametrisation when `reads_uv` (an arc tangent and an
+    /// arc cosine), else zero.
     pub fn on_sphere(
         sphere: &scene::Sphere,
         primitive: u32,
         p: Vec3,
         n: Vec3,
         error: Vec3,
+        reads_uv: bool,
     ) -> Self {
         let n_winding = if sphere.inside { -n } else { n };
         Self {
@@ -190,7 +192,7 @@ impl SurfacePoint {
             n_winding,
             ng: n_winding,
             frame: Frame::from_normal(n_winding),
-            uv: sphere.uv(n),
+            uv: if reads_uv { sphere.uv(n) } else { Vec2::ZERO },
             primitive,
             material: sphere.material,
             error: PointError::Bounded(error),

@@ -336,6 +336,13 @@ impl Material {
         }
     }
 
+    /// True when some texture of the material is read at a point's texture
+    /// coordinates (its lobe's or any map): points of other materials need
+    /// no uv.
+    pub fn reads_uv(&self) -> bool {
+        matches!(self.surface, Surface::Textured(_)) || self.maps != Maps::default()
+    }
+
     /// True when the material emits light (its factor; a texture may still
     /// be black in places).
     pub fn is_emissive(&self) -> bool {
