@@ -32,7 +32,7 @@ use crate::integrator::{Integrator, Stop};
 use crate::pt::PathTracer;
 use crate::roulette::ShadowRoulette;
 use light_path::LightVertex;
-use photon_map::{Photon, PhotonMap};
+use photon_map::{Photon, PhotonMap, PhotonMapBuffers};
 pub use ppm::ProgressivePhotonMapper;
 
 /// Light subpaths traced together by one task: a fixed partition, so that
@@ -51,13 +51,15 @@ const GRID_BYTES_PER_PHOTON: usize = 36;
 
 /// BPT, BPM or VCM: the techniques of the configured algorithm on this
 /// scene, and the scale of the shadow-ray roulette.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Bidirectional {
     techniques: Techniques,
     /// The mean pixel value (largest RGB component) of a small path-traced
     /// preview: the scale of the shadow-ray roulette threshold (0 when the
     /// roulette is off).
     pixel_scale: f32,
+    /// The photon map's buffers, reused by every iteration.
+    photon_map: PhotonMapBuffers,
 }
 
 impl Bidirectional {
@@ -84,6 +86,7 @@ impl Bidirectional {
         Self {
             techniques,
             pixel_scale,
+            photon_map: PhotonMapBuffers::default(),
         }
     }
 
@@ -165,7 +168,8 @@ impl Integrator for Bidirectional {
     fn render_iteration(&self, ctx: &SceneContext, n: u64, estimates: &mut [Vec3], stop: Stop<'_>) {
         let it = self.iteration(ctx, n, stop);
         if self.techniques.merging {
-            it.render_with_photon_map(estimates);
+            self.photon_map
+                .with(|photon_map| it.render_with_photon_map(estimates, photon_map));
         } else {
             it.render_paired(estimates);
         }
@@ -236,13 +240,13 @@ impl LightPaths {
         &self.blocks[i / LIGHT_BLOCK][start..self.ends[i]]
     }
 
-    /// The photon map over every light vertex, for merges of radius
+    /// Rebuilds `map` over every light vertex, for merges of radius
     /// `radius` by `light_paths` light subpaths.
-    fn photon_map(&self, radius: f32, light_paths: usize) -> PhotonMap {
+    fn build_photon_map(&self, map: &mut PhotonMap, radius: f32, light_paths: usize) {
         // Blocks keep either their light vertices or their photons.
         if self.blocks.iter().all(Vec::is_empty) {
             let photons: Vec<&(Vec3, Photon)> = self.photons.iter().flatten().collect();
-            PhotonMap::new(
+            map.rebuild(
                 photons.len(),
                 radius,
                 light_paths,
@@ -251,7 +255,7 @@ impl LightPaths {
             )
         } else {
             let vertices: Vec<&LightVertex> = self.blocks.iter().flatten().collect();
-            PhotonMap::new(
+            map.rebuild(
                 vertices.len(),
                 radius,
                 light_paths,
@@ -293,15 +297,16 @@ impl Iteration<'_> {
 
     /// With merging, every camera subpath may merge with any light vertex:
     /// all light subpaths are traced first and their vertices indexed by a
-    /// hash grid (the photon map, freed at the end of the iteration).
-    fn render_with_photon_map(&self, estimates: &mut [Vec3]) {
+    /// hash grid (the photon map, rebuilt in `photon_map`'s buffers).
+    fn render_with_photon_map(&self, estimates: &mut [Vec3], photon_map: &mut PhotonMap) {
         let (paths, splats) = self.trace_light_paths(estimates.len());
         if self.stop.requested() {
             return;
         }
-        let photon_map = paths.photon_map(self.radius, estimates.len());
+        paths.build_photon_map(photon_map, self.radius, estimates.len());
+        let photon_map = &*photon_map;
         self.camera_pass(estimates, |index| {
-            self.trace_camera_path(index, paths.path(index), Some(&photon_map))
+            self.trace_camera_path(index, paths.path(index), Some(photon_map))
         });
         for s in &splats {
             s.add_to(estimates);

@@ -17,7 +17,7 @@ use crate::integrator::{Integrator, Stop};
 use crate::vertex::PathVertex;
 
 /// The progressive photon mapper.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct ProgressivePhotonMapper {
     /// The merging-only core whose light pass it uses.
     core: Bidirectional,
@@ -45,10 +45,13 @@ impl Integrator for ProgressivePhotonMapper {
         if stop.requested() {
             return;
         }
-        let photon_map = paths.photon_map(it.radius, estimates.len());
-        // Without connections nothing else reads the light vertices.
-        drop(paths);
-        it.camera_pass(estimates, |index| it.trace_gather_path(index, &photon_map));
+        self.core.photon_map.with(|photon_map| {
+            paths.build_photon_map(photon_map, it.radius, estimates.len());
+            // Without connections nothing else reads the light vertices.
+            drop(paths);
+            let photon_map = &*photon_map;
+            it.camera_pass(estimates, |index| it.trace_gather_path(index, photon_map));
+        });
     }
 }
 
