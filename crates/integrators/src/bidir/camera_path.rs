@@ -7,7 +7,7 @@ use mis::{SubpathRay, SubpathState};
 use regularization::Subpath;
 
 use super::light_path::LightVertex;
-use super::{Iteration, PhotonMap};
+use super::{Iteration, PhotonMap, WeightedPhoton};
 use crate::medium;
 use crate::nee;
 use crate::sampler::CameraVertexSamples;
@@ -22,7 +22,7 @@ impl Iteration<'_> {
         &self,
         index: usize,
         light_path: &[LightVertex],
-        photon_map: Option<&PhotonMap>,
+        photon_map: Option<&PhotonMap<WeightedPhoton>>,
     ) -> Vec3 {
         let ctx = self.ctx;
         let max_depth = ctx.config.max_depth;
@@ -216,9 +216,10 @@ impl Iteration<'_> {
         camera: &PathVertex,
         camera_state: &SubpathState,
         length: u32,
-        photon_map: &PhotonMap,
+        photon_map: &PhotonMap<WeightedPhoton>,
     ) -> Vec3 {
-        photon_map.gather(camera, length, self.ctx.config.max_depth, |photon| {
+        photon_map.gather(camera, length, self.ctx.config.max_depth, |record| {
+            let photon = &record.photon;
             if !camera
                 .regularization
                 .admits_light_interior(photon.earlier_bounded())
@@ -226,7 +227,7 @@ impl Iteration<'_> {
                 return 0.0;
             }
             self.mis.merge_weight(
-                &photon.state,
+                &record.state,
                 camera_state,
                 &camera.connection_pdfs(photon.wi),
             ) as f32

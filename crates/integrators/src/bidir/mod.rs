@@ -32,7 +32,7 @@ use crate::integrator::{Integrator, Stop};
 use crate::pt::PathTracer;
 use crate::roulette::ShadowRoulette;
 use light_path::LightVertex;
-use photon_map::{Photon, PhotonMap, PhotonMapBuffers};
+use photon_map::{Photon, PhotonMap, PhotonMapBuffers, PhotonRecord, WeightedPhoton};
 pub use ppm::ProgressivePhotonMapper;
 
 /// Light subpaths traced together by one task: a fixed partition, so that
@@ -44,7 +44,7 @@ const LIGHT_BLOCK: usize = 256;
 const PILOT_PATHS: usize = 1024;
 
 /// Bytes per photon besides what its light block keeps (`LightPaths`) and
-/// its [`Photon`] record: the hash grid's sort key (8), position copy (12)
+/// its record in the photon map: the hash grid's sort key (8), position copy (12)
 /// and bucket start (at most 8: buckets are the next power of two of the
 /// count), and the kept item's reference while the map is built (8).
 const GRID_BYTES_PER_PHOTON: usize = 36;
@@ -59,7 +59,7 @@ pub struct Bidirectional {
     /// roulette is off).
     pixel_scale: f32,
     /// The photon map's buffers, reused by every iteration.
-    photon_map: PhotonMapBuffers,
+    photon_map: PhotonMapBuffers<WeightedPhoton>,
 }
 
 impl Bidirectional {
@@ -100,6 +100,11 @@ impl Bidirectional {
     /// one subpath per pixel; 0 without merging. For refusing a render the
     /// machine cannot hold before it starts.
     pub fn photon_map_bytes(&self, ctx: &SceneContext) -> u64 {
+        self.photon_map_bytes_of::<WeightedPhoton>(ctx)
+    }
+
+    /// [`Bidirectional::photon_map_bytes`] for a map of records `R`.
+    fn photon_map_bytes_of<R>(&self, ctx: &SceneContext) -> u64 {
         if !self.techniques.merging {
             return 0;
         }
@@ -120,9 +125,9 @@ impl Bidirectional {
         let kept = if self.techniques.connections {
             std::mem::size_of::<LightVertex>()
         } else {
-            std::mem::size_of::<(Vec3, Photon)>()
+            std::mem::size_of::<(Vec3, R)>()
         };
-        let per_vertex = kept + std::mem::size_of::<Photon>() + GRID_BYTES_PER_PHOTON;
+        let per_vertex = kept + std::mem::size_of::<R>() + GRID_BYTES_PER_PHOTON;
         (per_path * pixels as f64 * per_vertex as f64) as u64
     }
 
@@ -212,8 +217,9 @@ impl Iteration<'_> {
 /// vertices twice (PPM on `cornell-box` at 512x512: 93 MB of them per
 /// iteration; peak memory 220 MB with the copy, 150 MB without). Without
 /// connections (BPM, PPM) nothing reads a light vertex but merges: each
-/// block keeps only its vertices' photons, a third of their size.
-struct LightPaths {
+/// block keeps only its vertices' photon records `R` (a fifth to a third of
+/// their size).
+struct LightPaths<R> {
     /// The light vertices of each block, in light-path order (none without
     /// connections).
     blocks: Vec<Vec<LightVertex>>,
@@ -222,10 +228,10 @@ struct LightPaths {
     ends: Vec<usize>,
     /// Without connections: the position and photon of each light vertex
     /// of each block, in light-path order.
-    photons: Vec<Vec<(Vec3, Photon)>>,
+    photons: Vec<Vec<(Vec3, R)>>,
 }
 
-impl LightPaths {
+impl<R: PhotonRecord> LightPaths<R> {
     /// The light vertices of path i; none when they were not kept (no
     /// connections).
     fn path(&self, i: usize) -> &[LightVertex] {
@@ -242,10 +248,10 @@ impl LightPaths {
 
     /// Rebuilds `map` over every light vertex, for merges of radius
     /// `radius` by `light_paths` light subpaths.
-    fn build_photon_map(&self, map: &mut PhotonMap, radius: f32, light_paths: usize) {
+    fn build_photon_map(&self, map: &mut PhotonMap<R>, radius: f32, light_paths: usize) {
         // Blocks keep either their light vertices or their photons.
         if self.blocks.iter().all(Vec::is_empty) {
-            let photons: Vec<&(Vec3, Photon)> = self.photons.iter().flatten().collect();
+            let photons: Vec<&(Vec3, R)> = self.photons.iter().flatten().collect();
             map.rebuild(
                 photons.len(),
                 radius,
@@ -260,7 +266,7 @@ impl LightPaths {
                 radius,
                 light_paths,
                 |i| vertices[i].point.p,
-                |i| Photon::from(vertices[i]),
+                |i| R::from(vertices[i]),
             )
         }
     }
@@ -298,7 +304,11 @@ impl Iteration<'_> {
     /// With merging, every camera subpath may merge with any light vertex:
     /// all light subpaths are traced first and their vertices indexed by a
     /// hash grid (the photon map, rebuilt in `photon_map`'s buffers).
-    fn render_with_photon_map(&self, estimates: &mut [Vec3], photon_map: &mut PhotonMap) {
+    fn render_with_photon_map(
+        &self,
+        estimates: &mut [Vec3],
+        photon_map: &mut PhotonMap<WeightedPhoton>,
+    ) {
         let (paths, splats) = self.trace_light_paths(estimates.len());
         if self.stop.requested() {
             return;
@@ -330,11 +340,15 @@ impl Iteration<'_> {
     }
 
     /// Every light subpath of the iteration, traced in fixed blocks, with
-    /// each block's light-tracing splats.
-    fn trace_light_paths(&self, light_paths: usize) -> (LightPaths, Vec<Splats>) {
+    /// each block's light-tracing splats; without connections, kept as
+    /// photon records `R`.
+    fn trace_light_paths<R: PhotonRecord>(
+        &self,
+        light_paths: usize,
+    ) -> (LightPaths<R>, Vec<Splats>) {
         let connections = self.mis.techniques().connections;
-        type Block = (Vec<LightVertex>, Vec<usize>, Vec<(Vec3, Photon)>, Splats);
-        let blocks: Vec<Block> = (0..light_paths)
+        type Block<R> = (Vec<LightVertex>, Vec<usize>, Vec<(Vec3, R)>, Splats);
+        let blocks: Vec<Block<R>> = (0..light_paths)
             .into_par_iter()
             .step_by(LIGHT_BLOCK)
             .map(|first| {
@@ -356,10 +370,7 @@ impl Iteration<'_> {
                     vertices.shrink_to_fit();
                     (vertices, ends, Vec::new(), splats)
                 } else {
-                    let photons = vertices
-                        .iter()
-                        .map(|v| (v.point.p, Photon::from(v)))
-                        .collect();
+                    let photons = vertices.iter().map(|v| (v.point.p, R::from(v))).collect();
                     (Vec::new(), ends, photons, splats)
                 }
             })

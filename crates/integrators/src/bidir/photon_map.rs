@@ -17,13 +17,13 @@ use crate::vertex::PathVertex;
 /// Photons a query keeps before summing their contributions.
 const PHOTON_GROUP: usize = 32;
 
-/// What a merge reads of a light vertex: 64 bytes of its 176, so that the
-/// photons a query finds in one grid bucket share cache lines. (Read
-/// through references to the light vertices, in light-path order, each
-/// photon found was a cache miss: 24 % of VCM's time on `smallvcm-2`.)
+/// What every merge reads of a light vertex: 32 bytes of its 176, two to a
+/// cache line, so that the photons a query finds in one grid bucket share
+/// cache lines. (Read through references to the light vertices, in
+/// light-path order, each photon found was a cache miss: 24 % of VCM's
+/// time on `smallvcm-2`.)
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Photon {
-    pub state: SubpathState,
     /// Unit direction towards the previous vertex (towards the light).
     pub wi: Vec3,
     /// Light subpath throughput up to (excluding) this vertex.
@@ -43,7 +43,6 @@ impl Photon {
 impl From<&LightVertex> for Photon {
     fn from(light: &LightVertex) -> Self {
         Self {
-            state: light.state,
             wi: light.wi,
             throughput: light.throughput,
             length: light.length,
@@ -52,21 +51,70 @@ impl From<&LightVertex> for Photon {
     }
 }
 
-/// Every light vertex of an iteration as a [`Photon`], in the slot order of
+/// A photon with its light subpath's MIS state, for merges weighted against
+/// other techniques (BPM, VCM): 64 bytes. PPM, which weighs nothing, stores
+/// bare [`Photon`]s.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct WeightedPhoton {
+    pub photon: Photon,
+    pub state: SubpathState,
+}
+
+impl From<&LightVertex> for WeightedPhoton {
+    fn from(light: &LightVertex) -> Self {
+        Self {
+            photon: Photon::from(light),
+            state: light.state,
+        }
+    }
+}
+
+/// A record a photon map stores: a light vertex's [`Photon`] and whatever
+/// else its merges read.
+pub(super) trait PhotonRecord: Copy + Send + Sync + for<'a> From<&'a LightVertex> {
+    /// What every merge reads (its length filters the query's photons).
+    fn photon(&self) -> &Photon;
+}
+
+impl PhotonRecord for Photon {
+    fn photon(&self) -> &Photon {
+        self
+    }
+}
+
+impl PhotonRecord for WeightedPhoton {
+    fn photon(&self) -> &Photon {
+        &self.photon
+    }
+}
+
+/// Every light vertex of an iteration as a record `R`, in the slot order of
 /// a grid over their positions. Holds no reference to the light paths.
-#[derive(Debug, Default)]
-pub(super) struct PhotonMap {
+#[derive(Debug)]
+pub(super) struct PhotonMap<R> {
     grid: HashGrid,
-    /// `photons[slot]` is the light vertex `grid.point_index(slot)`.
-    photons: Vec<Photon>,
+    /// `records[slot]` is the light vertex `grid.point_index(slot)`.
+    records: Vec<R>,
     radius: f32,
     /// 1 / (pi r^2 light_paths): the merge kernel's normalisation.
     normalisation: f32,
 }
 
-impl PhotonMap {
+/// An empty map (no buffers yet).
+impl<R> Default for PhotonMap<R> {
+    fn default() -> Self {
+        Self {
+            grid: HashGrid::new(),
+            records: Vec::new(),
+            radius: 0.0,
+            normalisation: 0.0,
+        }
+    }
+}
+
+impl<R: PhotonRecord> PhotonMap<R> {
     /// Rebuilds the map over `count` light vertices, vertex i at
-    /// `position(i)` with photon `photon(i)`, for merges of radius `radius`
+    /// `position(i)` with record `record(i)`, for merges of radius `radius`
     /// by `light_paths` light subpaths, in the buffers of the last build.
     /// Built on the current rayon pool; the result does not depend on its
     /// size.
@@ -76,14 +124,14 @@ impl PhotonMap {
         radius: f32,
         light_paths: usize,
         position: impl Fn(usize) -> Vec3 + Sync,
-        photon: impl Fn(usize) -> Photon + Sync,
+        record: impl Fn(usize) -> R + Sync,
     ) {
         self.grid.build_with(count, radius, position);
         let grid = &self.grid;
         (0..grid.len())
             .into_par_iter()
-            .map(|slot| photon(grid.point_index(slot)))
-            .collect_into_vec(&mut self.photons);
+            .map(|slot| record(grid.point_index(slot)))
+            .collect_into_vec(&mut self.records);
         self.radius = radius;
         self.normalisation = 1.0 / (std::f32::consts::PI * radius * radius * light_paths as f32);
     }
@@ -91,24 +139,25 @@ impl PhotonMap {
     /// The density estimate at camera vertex `camera`, `length` segments
     /// from the camera: the sum over the photons within the radius whose
     /// paths stay within `max_depth` segments of f (camera BSDF towards the
-    /// photon's incoming direction) x photon throughput x `weight(photon)`,
+    /// photon's incoming direction) x photon throughput x `weight(record)`,
     /// times the kernel's normalisation (SmallVCM's range query).
     pub fn gather(
         &self,
         camera: &PathVertex,
         length: u32,
         max_depth: u32,
-        weight: impl Fn(&Photon) -> f32,
+        weight: impl Fn(&R) -> f32,
     ) -> Vec3 {
         let mut sum = Vec3::ZERO;
         let mut add = |slots: &[u32]| {
             for &slot in slots {
-                let photon = &self.photons[slot as usize];
+                let record = &self.records[slot as usize];
+                let photon = record.photon();
                 let f = camera.f(photon.wi, TransportMode::Radiance);
                 if f.max_element() <= 0.0 {
                     continue;
                 }
-                sum += f * photon.throughput * weight(photon);
+                sum += f * photon.throughput * weight(record);
             }
         };
         // The photons found are first only filtered by path length, a few
@@ -120,7 +169,7 @@ impl PhotonMap {
         self.grid
             .for_each_slot_within(camera.point.p, self.radius, |slot| {
                 kept[k] = slot as u32;
-                k += usize::from(self.photons[slot].length + length <= max_depth);
+                k += usize::from(self.records[slot].photon().length + length <= max_depth);
                 if k == PHOTON_GROUP {
                     add(&kept);
                     k = 0;
@@ -135,13 +184,19 @@ impl PhotonMap {
 /// reuses the last one's buffers: fresh ones, about 90 bytes a photon, were
 /// mapped and zeroed by the kernel every iteration (page faults were 2-4 %
 /// of PPM's and BPM's time on the SmallVCM scenes).
-#[derive(Debug, Default)]
-pub(super) struct PhotonMapBuffers(Mutex<PhotonMap>);
+#[derive(Debug)]
+pub(super) struct PhotonMapBuffers<R>(Mutex<PhotonMap<R>>);
 
-impl PhotonMapBuffers {
+impl<R> Default for PhotonMapBuffers<R> {
+    fn default() -> Self {
+        Self(Mutex::new(PhotonMap::default()))
+    }
+}
+
+impl<R> PhotonMapBuffers<R> {
     /// Runs `f` on the kept map, or on a new one while another iteration
     /// holds it (or after a panic poisoned it): never waits.
-    pub fn with<R>(&self, f: impl FnOnce(&mut PhotonMap) -> R) -> R {
+    pub fn with<T>(&self, f: impl FnOnce(&mut PhotonMap<R>) -> T) -> T {
         match self.0.try_lock() {
             Ok(mut map) => f(&mut map),
             Err(_) => f(&mut PhotonMap::default()),
@@ -150,8 +205,21 @@ impl PhotonMapBuffers {
 }
 
 /// A copy starts without buffers: they are a cache, not state.
-impl Clone for PhotonMapBuffers {
+impl<R> Clone for PhotonMapBuffers<R> {
     fn clone(&self) -> Self {
         Self::default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The records' sizes are what their cache-line layout is designed
+    /// for: two bare photons, or one weighted photon, to a 64-byte line.
+    #[test]
+    fn records_fit_cache_lines() {
+        assert_eq!(std::mem::size_of::<Photon>(), 32);
+        assert_eq!(std::mem::size_of::<WeightedPhoton>(), 64);
     }
 }

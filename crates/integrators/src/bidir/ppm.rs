@@ -11,7 +11,7 @@ use glam::Vec3;
 use microfacet::TransportMode;
 use regularization::Subpath;
 
-use super::{Bidirectional, Iteration, PhotonMap};
+use super::{Bidirectional, Iteration, Photon, PhotonMap, PhotonMapBuffers};
 use crate::context::SceneContext;
 use crate::integrator::{Integrator, Stop};
 use crate::vertex::PathVertex;
@@ -21,18 +21,21 @@ use crate::vertex::PathVertex;
 pub struct ProgressivePhotonMapper {
     /// The merging-only core whose light pass it uses.
     core: Bidirectional,
+    /// Its photon map's buffers: bare photons, as no merge is weighted.
+    photon_map: PhotonMapBuffers<Photon>,
 }
 
 impl ProgressivePhotonMapper {
     /// See [`Bidirectional::photon_map_bytes`].
     pub fn photon_map_bytes(&self, ctx: &SceneContext) -> u64 {
-        self.core.photon_map_bytes(ctx)
+        self.core.photon_map_bytes_of::<Photon>(ctx)
     }
 
     /// The photon mapper for `ctx` (its algorithm must be [`crate::Algorithm::Ppm`]).
     pub fn new(ctx: &SceneContext) -> Self {
         Self {
             core: Bidirectional::new(ctx),
+            photon_map: PhotonMapBuffers::default(),
         }
     }
 }
@@ -41,11 +44,11 @@ impl Integrator for ProgressivePhotonMapper {
     fn render_iteration(&self, ctx: &SceneContext, n: u64, estimates: &mut [Vec3], stop: Stop<'_>) {
         let it = self.core.iteration(ctx, n, stop);
         // Without connections the light pass records no splats.
-        let (paths, _) = it.trace_light_paths(estimates.len());
+        let (paths, _) = it.trace_light_paths::<Photon>(estimates.len());
         if stop.requested() {
             return;
         }
-        self.core.photon_map.with(|photon_map| {
+        self.photon_map.with(|photon_map| {
             paths.build_photon_map(photon_map, it.radius, estimates.len());
             // Without connections nothing else reads the light vertices.
             drop(paths);
@@ -59,7 +62,7 @@ impl Iteration<'_> {
     /// The camera path of pixel `index` (row-major): emission seen directly
     /// or through delta lobes, and the density estimate at the first
     /// non-specular vertex.
-    fn trace_gather_path(&self, index: usize, photon_map: &PhotonMap) -> Vec3 {
+    fn trace_gather_path(&self, index: usize, photon_map: &PhotonMap<Photon>) -> Vec3 {
         let ctx = self.ctx;
         let max_depth = ctx.config.max_depth;
         let (sampler, mut walk) = ctx.camera_path_of(self.n, index);
