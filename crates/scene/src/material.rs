@@ -586,4 +586,28 @@ mod tests {
             None
         );
     }
+
+    /// Points skip their uv only for materials that read no texture; a
+    /// texture in any map makes them need it.
+    #[test]
+    fn materials_read_uv_through_any_texture() {
+        let plain = Material::new(
+            "plain".into(),
+            Surface::Diffuse {
+                reflectance: Vec3::splat(0.5),
+            },
+            Vec3::ZERO,
+        );
+        assert!(!plain.reads_uv());
+        let mut emissive = plain.clone();
+        emissive.maps.emission = Some(0);
+        assert!(emissive.reads_uv());
+        let mut cut_out = plain.clone();
+        cut_out.maps.alpha = Alpha::Mask {
+            factor: 1.0,
+            texture: Some(0),
+            cutoff: 0.5,
+        };
+        assert!(cut_out.reads_uv());
+    }
 }
