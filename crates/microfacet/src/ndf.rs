@@ -353,11 +353,10 @@ impl Ndf {
 ///   m0 = sqrt(t1), which gives a larger threshold, so mu >= m0 holds on it.
 /// - GGX: never (its Lambda costs one square root).
 fn unit_g1_cot2(kind: NdfKind, alpha: f32, exact: &BlinnPhongLambda) -> f32 {
-    let alpha = f64::from(alpha);
     let cot2 = match kind {
         NdfKind::Ggx => f64::INFINITY,
         NdfKind::BlinnPhong if exact.c > 0.0 => {
-            let p = 1.0 / (alpha * alpha);
+            let p = blinn_phong_p(alpha);
             let ln_k_over_eps = (exact.c / (2.0 * p - 1.0) / LAMBDA_NEGLIGIBLE).ln();
             let threshold = |ln_m0: f64| ((ln_k_over_eps - ln_m0) / (p - 0.5)).exp_m1();
             let t1 = threshold(0.0);
@@ -371,7 +370,7 @@ fn unit_g1_cot2(kind: NdfKind, alpha: f32, exact: &BlinnPhongLambda) -> f32 {
             let m2 = (1.0 / (2.0 * PI64.sqrt() * LAMBDA_NEGLIGIBLE))
                 .ln()
                 .max(1.0);
-            m2 * alpha * alpha
+            m2 * f64::from(alpha).powi(2)
         }
     };
     cot2 as f32
