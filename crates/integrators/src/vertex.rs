@@ -168,7 +168,7 @@ impl PathVertex {
 
     /// f(wi, wo) |cos(wo, n_s)| for world direction `wo`; on light subpaths
     /// (`Importance`) with the shading-normal correction.
-    #[inline]
+    #[inline(always)]
     pub fn eval(&self, wo: Vec3, mode: TransportMode) -> Vec3 {
         if !self.is_consistent_towards(wo) {
             return Vec3::ZERO;
