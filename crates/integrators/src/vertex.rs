@@ -167,7 +167,8 @@ impl PathVertex {
     }
 
     /// f(wi, wo) |cos(wo, n_s)| for world direction `wo`; on light subpaths
-    /// (`Importance`) with the shading-normal correction.
+    /// (`Importance`) with the shading-normal correction. Always inlined:
+    /// out of line, its first load of `wo` waited on the caller's store.
     #[inline(always)]
     pub fn eval(&self, wo: Vec3, mode: TransportMode) -> Vec3 {
         if !self.is_consistent_towards(wo) {
