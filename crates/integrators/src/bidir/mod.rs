@@ -58,7 +58,9 @@ pub struct Bidirectional {
     /// preview: the scale of the shadow-ray roulette threshold (0 when the
     /// roulette is off).
     pixel_scale: f32,
-    /// The photon map's buffers, reused by every iteration.
+    /// The photon map's buffers, reused by every iteration. Empty (no
+    /// allocation) when no iteration merges: BPT, and PPM, which keeps its
+    /// own map of bare photons beside this core.
     photon_map: PhotonMapBuffers<WeightedPhoton>,
 }
 
