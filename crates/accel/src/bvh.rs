@@ -22,6 +22,7 @@ use fearless_simd::Level;
 use crate::binned::{self, PrimRef};
 use crate::bvh8::{Bvh8, Isa, MAX_BVH8_SLOTS, traverse8};
 use crate::convert::bvh2_to_wide;
+use crate::flat::{self, Flat};
 use crate::leaf::Lane;
 use crate::sphere::Sphere;
 use crate::traverse::{NodeRay, traverse_binary, traverse_wide};
@@ -81,11 +82,19 @@ pub enum Layout {
     /// Binary BVH (the builder's tree, reinsertion, leaf collapse). Faster
     /// to build.
     Binary,
+    /// No tree, for scenes of at most 64 primitives (others get
+    /// [`Layout::Wide`]): every primitive tested, triangles 16 at a time
+    /// in one SIMD operation on the CPU's best instruction set ([`Isa`]),
+    /// with the same results as the scalar test. [`Layout::Wide`] becomes
+    /// this one for such scenes without spheres on CPUs with AVX-512, where
+    /// it was measured faster (docs/benchmarks.md, "Small scenes without a
+    /// tree").
+    Flat,
 }
 
 impl Layout {
     /// Every layout.
-    pub const ALL: [Self; 3] = [Self::Wide, Self::Bvh8, Self::Binary];
+    pub const ALL: [Self; 4] = [Self::Wide, Self::Bvh8, Self::Binary, Self::Flat];
 }
 
 /// The builder: this crate's binned SAH builder (the default), or an
@@ -161,6 +170,8 @@ enum Tree {
     Empty,
     Wide(CwBvh),
     Bvh8(Bvh8),
+    /// No tree: every slot scanned (`flat.rs`).
+    Flat(Flat),
     /// With its number of levels.
     Binary(Bvh2, usize),
 }
@@ -425,6 +436,10 @@ impl Bvh {
             let float = Bvh8::from_cwbvh(wide, &leaf_sizes, &bvh.triangles, other);
             bvh.tree = Tree::Bvh8(float);
         }
+        if flat::scans(options.layout, bvh.triangles.len(), has_spheres) {
+            let other = |slot: usize| bvh.ids[slot] as usize >= count;
+            bvh.tree = Tree::Flat(Flat::new(&bvh.triangles, other));
+        }
         let scene_scale = bounds.0.abs().max(bounds.1.abs()).max_element();
         bvh.scene_exponent = exponent(scene_scale).clamp(-100, 100);
         bvh
@@ -474,6 +489,7 @@ impl Bvh {
     pub fn layout(&self) -> Layout {
         match self.tree {
             Tree::Wide(_) => Layout::Wide,
+            Tree::Flat(_) => Layout::Flat,
             Tree::Bvh8(_) => Layout::Bvh8,
             Tree::Binary(..) | Tree::Empty => Layout::Binary,
         }
@@ -818,6 +834,7 @@ impl Bvh {
             Tree::Bvh8(bvh) => {
                 traverse8::<true>(self.isa, bvh, &r.node, &r.transform, r.t_max, prim);
             }
+            Tree::Flat(flat) => flat::scan(self.isa, flat, &r.transform, r.t_max, prim),
             Tree::Binary(bvh, depth) => traverse_binary(bvh, *depth, &r.node, r.t_max, scalar),
         }
     }
@@ -969,7 +986,7 @@ fn build_bvh2_split(triangles: &[Triangle], options: BuildOptions) -> Bvh2 {
 /// primitive slot.
 fn finish_tree(mut bvh2: Bvh2, options: BuildOptions) -> (Tree, Vec<u32>, Vec<[u8; 8]>) {
     let config = options.quality.params();
-    if matches!(options.layout, Layout::Wide | Layout::Bvh8) {
+    if matches!(options.layout, Layout::Wide | Layout::Bvh8 | Layout::Flat) {
         // The binary tree's bookkeeping of the reinsertion is not needed.
         bvh2.parents = Vec::new();
         bvh2.primitives_to_nodes = Vec::new();

@@ -37,7 +37,7 @@
 
 use std::ops::ControlFlow;
 
-use fearless_simd::{Level, Simd, SimdFrom, dispatch, f32x8};
+use fearless_simd::{Level, Simd, SimdFrom, dispatch, f32x4, f32x8};
 use glam::Vec3A;
 use obvhs::cwbvh::CwBvh;
 
@@ -333,7 +333,7 @@ fn walk<S: Simd, const SOA: bool>(
     mut prim: impl FnMut(usize, &mut f32, Lane) -> ControlFlow<()>,
 ) {
     let ray = Ray8::new(simd, ray);
-    let block_ray = BlockRay::new(simd, triangle);
+    let block_ray = BlockRay::<f32x4<S>>::new(simd, triangle);
     let mut stack = Stack::new();
     stack.push((0, 0.0));
     while let Some((child, entry)) = stack.pop() {
@@ -350,15 +350,8 @@ fn walk<S: Simd, const SOA: bool>(
                 }
                 continue;
             }
-            let lanes = leaf::intersect(simd, block, &block_ray, t_max);
-            let mut candidates = lanes.candidates();
-            while candidates != 0 {
-                let j = candidates.trailing_zeros() as usize;
-                candidates &= candidates - 1;
-                let lane = lanes.lane(j, t_max);
-                if prim(block.first as usize + j, &mut t_max, lane).is_break() {
-                    return;
-                }
+            if leaf::visit(simd, block, &block_ray, &mut t_max, &mut prim).is_break() {
+                return;
             }
             continue;
         }

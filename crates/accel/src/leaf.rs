@@ -33,40 +33,56 @@
 //! Four lanes: the leaves hold one to four triangles
 //! (`bvh::BVH8_LEAF`).
 
-use fearless_simd::{Simd, SimdFrom, f32x4};
+use std::ops::ControlFlow;
+
+use fearless_simd::{Simd, SimdBase, SimdFloat, SimdMask};
 use glam::Vec3A;
 
 use crate::triangle::RayTransform;
 
-/// Triangles per block: the logical SIMD width of the leaf test.
+/// Triangles per block of a [`Layout::Bvh8`](crate::Layout::Bvh8) leaf.
 pub(crate) const BLOCK: usize = 4;
 
-/// Up to [`BLOCK`] triangles, coordinate by coordinate; unused lanes are
-/// zero (a degenerate triangle, and masked out anyway).
+/// A lane vector of `W` floats on the instruction set `S` (`f32x4`,
+/// `f32x8`, `f32x16`: with fewer hardware lanes, one operation is
+/// several instructions with the same per-lane results).
+pub(crate) trait Lanes<S: Simd, const W: usize>:
+    SimdFloat<S, Element = f32> + SimdBase<S, Array = [f32; W]>
+{
+}
+
+impl<S: Simd, const W: usize, V: SimdFloat<S, Element = f32> + SimdBase<S, Array = [f32; W]>>
+    Lanes<S, W> for V
+{
+}
+
+/// Up to `W` triangles, coordinate by coordinate; unused lanes are zero
+/// (a degenerate triangle, and masked out anyway).
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(16))]
-pub(crate) struct TriangleBlock {
+pub(crate) struct TriangleBlock<const W: usize = BLOCK> {
     /// `v[k][axis][lane]`: vertex `k` of each lane's triangle.
-    v: [[[f32; BLOCK]; 3]; 3],
+    v: [[[f32; W]; 3]; 3],
     /// The primitive slot of lane 0; lane `j` holds slot `first + j`.
     pub first: u32,
-    /// Number of lanes in use (1 to [`BLOCK`]).
+    /// Number of lanes in use (1 to `W`).
     pub count: u32,
     /// Bit `j`: lane `j`'s slot holds no triangle (a sphere); the kernel
     /// leaves it to the caller ([`Lane::Scalar`]).
     other: u32,
 }
 
-impl TriangleBlock {
-    /// The block of `triangles` (at most [`BLOCK`]), the first being in
+impl<const W: usize> TriangleBlock<W> {
+    /// The block of `triangles` (at most `W`), the first being in
     /// primitive slot `first`; lanes `j` with `other(j)` hold something
     /// else than a triangle.
     pub(crate) fn new(first: u32, triangles: &[[Vec3A; 3]], other: impl Fn(usize) -> bool) -> Self {
+        assert!(W <= 32, "lane bits fit a u32");
         assert!(
-            (1..=BLOCK).contains(&triangles.len()),
-            "1 to {BLOCK} triangles a block"
+            (1..=W).contains(&triangles.len()),
+            "1 to {W} triangles a block"
         );
-        let mut v = [[[0.0; BLOCK]; 3]; 3];
+        let mut v = [[[0.0; W]; 3]; 3];
         let mut others = 0;
         for (lane, tri) in triangles.iter().enumerate() {
             if other(lane) {
@@ -89,24 +105,27 @@ impl TriangleBlock {
 
 /// A ray's [`RayTransform`] splatted over the lanes: the origin and the
 /// matrix entries that are not exact zeros.
-pub(crate) struct BlockRay<S: Simd> {
+pub(crate) struct BlockRay<V> {
     /// The permutation `[kx, ky, kz]` of the coordinate axes.
     axes: [usize; 3],
     /// The origin's coordinates `kx`, `ky`, `kz`.
-    origin: [f32x4<S>; 3],
+    origin: [V; 3],
     /// The scale: the matrix entries `(0, kx)` and `(1, ky)`.
-    scale: f32x4<S>,
+    scale: V,
     /// Column `kz` of the matrix (the shear).
-    shear: [f32x4<S>; 3],
+    shear: [V; 3],
 }
 
-impl<S: Simd> BlockRay<S> {
+impl<V> BlockRay<V> {
     // No closures here or in the kernel: a closure (`[0, 1, 2].map(..)`)
     // is compiled out of line, without the instruction set's target
     // features, and its SIMD operations become calls (measured 2-4 times
     // slower).
     #[inline(always)]
-    pub(crate) fn new(simd: S, ray: &RayTransform) -> Self {
+    pub(crate) fn new<S: Simd>(simd: S, ray: &RayTransform) -> Self
+    where
+        V: SimdFloat<S, Element = f32>,
+    {
         let [kx, ky, kz] = ray.axes();
         let o = ray.origin();
         let m = ray.shear();
@@ -114,15 +133,15 @@ impl<S: Simd> BlockRay<S> {
         Self {
             axes: [kx, ky, kz],
             origin: [
-                simd.splat_f32x4(o[kx]),
-                simd.splat_f32x4(o[ky]),
-                simd.splat_f32x4(o[kz]),
+                V::simd_from(simd, o[kx]),
+                V::simd_from(simd, o[ky]),
+                V::simd_from(simd, o[kz]),
             ],
-            scale: simd.splat_f32x4(m.col(kx).x),
+            scale: V::simd_from(simd, m.col(kx).x),
             shear: [
-                simd.splat_f32x4(column.x),
-                simd.splat_f32x4(column.y),
-                simd.splat_f32x4(column.z),
+                V::simd_from(simd, column.x),
+                V::simd_from(simd, column.y),
+                V::simd_from(simd, column.z),
             ],
         }
     }
@@ -133,12 +152,20 @@ impl<S: Simd> BlockRay<S> {
     /// c.y * p[kz]`, `z = c.z * p[kz]` with `s` the scale and `c` column
     /// `kz`, the paper's `A[kx] - Sx * A[kz]` times the scale.
     #[inline(always)]
-    fn transform(&self, simd: S, block: &TriangleBlock, k: usize) -> [f32x4<S>; 3] {
+    fn transform<S: Simd, const W: usize>(
+        &self,
+        simd: S,
+        block: &TriangleBlock<W>,
+        k: usize,
+    ) -> [V; 3]
+    where
+        V: Lanes<S, W>,
+    {
         let v = &block.v[k];
         let [kx, ky, kz] = self.axes;
-        let px = f32x4::simd_from(simd, v[kx]) - self.origin[0];
-        let py = f32x4::simd_from(simd, v[ky]) - self.origin[1];
-        let pz = f32x4::simd_from(simd, v[kz]) - self.origin[2];
+        let px = V::simd_from(simd, v[kx]) - self.origin[0];
+        let py = V::simd_from(simd, v[ky]) - self.origin[1];
+        let pz = V::simd_from(simd, v[kz]) - self.origin[2];
         [
             self.scale * px + self.shear[0] * pz,
             self.scale * py + self.shear[1] * pz,
@@ -149,16 +176,16 @@ impl<S: Simd> BlockRay<S> {
 
 /// The kernel's verdict on each lane of a block.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct LaneHits {
+pub(crate) struct LaneHits<const W: usize> {
     /// Bit `j`: lane `j` hits with `0 < t <= t_max` (the `t_max` given to
     /// [`intersect`]).
     hit: u32,
     /// Bit `j`: lane `j` needs the scalar test (an edge function is
     /// exactly zero in f32).
     scalar: u32,
-    t: [f32; BLOCK],
-    b1: [f32; BLOCK],
-    b2: [f32; BLOCK],
+    t: [f32; W],
+    b1: [f32; W],
+    b2: [f32; W],
 }
 
 /// One lane's result for the caller's loop over a leaf.
@@ -189,7 +216,7 @@ impl Lane {
     }
 }
 
-impl LaneHits {
+impl<const W: usize> LaneHits<W> {
     /// The lanes that hit or need the scalar test (bit `j` for lane `j`):
     /// the others are [`Lane::Miss`] at any `t_max`.
     #[inline(always)]
@@ -215,12 +242,12 @@ impl LaneHits {
 /// The watertight test of every lane of `block` (see the module
 /// documentation), hits with `0 < t <= t_max` as the scalar test's.
 #[inline(always)]
-pub(crate) fn intersect<S: Simd>(
+pub(crate) fn intersect<S: Simd, V: Lanes<S, W>, const W: usize>(
     simd: S,
-    block: &TriangleBlock,
-    ray: &BlockRay<S>,
+    block: &TriangleBlock<W>,
+    ray: &BlockRay<V>,
     t_max: f32,
-) -> LaneHits {
+) -> LaneHits<W> {
     let a = ray.transform(simd, block, 0);
     let b = ray.transform(simd, block, 1);
     let c = ray.transform(simd, block, 2);
@@ -228,82 +255,122 @@ pub(crate) fn intersect<S: Simd>(
     let e0 = c[0] * b[1] - c[1] * b[0];
     let e1 = a[0] * c[1] - a[1] * c[0];
     let e2 = b[0] * a[1] - b[1] * a[0];
-    let zero = simd.splat_f32x4(0.0);
-    let scalar =
-        simd.simd_eq_f32x4(e0, zero) | simd.simd_eq_f32x4(e1, zero) | simd.simd_eq_f32x4(e2, zero);
-    let negative =
-        simd.simd_lt_f32x4(e0, zero) | simd.simd_lt_f32x4(e1, zero) | simd.simd_lt_f32x4(e2, zero);
-    let positive =
-        simd.simd_gt_f32x4(e0, zero) | simd.simd_gt_f32x4(e1, zero) | simd.simd_gt_f32x4(e2, zero);
+    let zero = V::simd_from(simd, 0.0);
+    let scalar = e0.simd_eq(zero) | e1.simd_eq(zero) | e2.simd_eq(zero);
+    let negative = e0.simd_lt(zero) | e1.simd_lt(zero) | e2.simd_lt(zero);
+    let positive = e0.simd_gt(zero) | e1.simd_gt(zero) | e2.simd_gt(zero);
     let inside = !(negative & positive);
-    let used = (1u32 << block.count) - 1;
-    let scalar = (simd.to_bitmask_mask32x4(scalar) as u32 | block.other) & used;
-    let candidates = simd.to_bitmask_mask32x4(inside) as u32 & used & !scalar;
+    let used = ((1u64 << block.count) - 1) as u32;
+    let scalar = (scalar.to_bitmask() as u32 | block.other) & used;
+    let candidates = inside.to_bitmask() as u32 & used & !scalar;
     if candidates == 0 {
         // Most leaves a ray reaches it misses: no division, no stores.
         return LaneHits {
             hit: 0,
             scalar,
-            t: [0.0; BLOCK],
-            b1: [0.0; BLOCK],
-            b2: [0.0; BLOCK],
+            t: [0.0; W],
+            b1: [0.0; W],
+            b2: [0.0; W],
         };
     }
     let det = e0 + e1 + e2;
-    let inv_det = simd.splat_f32x4(1.0) / det;
+    let inv_det = V::simd_from(simd, 1.0) / det;
     let b0 = e0 * inv_det;
     let b1 = e1 * inv_det;
     let b2 = e2 * inv_det;
     let t = b0 * a[2] + b1 * b[2] + b2 * c[2];
-    let valid = !simd.simd_eq_f32x4(det, zero)
-        & simd.simd_gt_f32x4(t, zero)
-        & simd.simd_le_f32x4(t, simd.splat_f32x4(t_max));
+    let valid = !det.simd_eq(zero) & t.simd_gt(zero) & t.simd_le(V::simd_from(simd, t_max));
     LaneHits {
-        hit: simd.to_bitmask_mask32x4(valid) as u32 & candidates,
+        hit: valid.to_bitmask() as u32 & candidates,
         scalar,
-        t: t.into(),
-        b1: b1.into(),
-        b2: b2.into(),
+        t: t.to_array(),
+        b1: b1.to_array(),
+        b2: b2.to_array(),
     }
+}
+
+/// Tests `block` and hands the slots whose lane hits or needs the scalar
+/// test to `prim(slot, &mut t_max, lane)` in leaf order, with each lane's
+/// answer at the current `t_max`; stops at the first break.
+#[inline(always)]
+pub(crate) fn visit<S: Simd, V: Lanes<S, W>, const W: usize>(
+    simd: S,
+    block: &TriangleBlock<W>,
+    ray: &BlockRay<V>,
+    t_max: &mut f32,
+    prim: &mut impl FnMut(usize, &mut f32, Lane) -> ControlFlow<()>,
+) -> ControlFlow<()> {
+    let lanes = intersect(simd, block, ray, *t_max);
+    let mut candidates = lanes.candidates();
+    while candidates != 0 {
+        let j = candidates.trailing_zeros() as usize;
+        candidates &= candidates - 1;
+        let lane = lanes.lane(j, *t_max);
+        prim(block.first as usize + j, t_max, lane)?;
+    }
+    ControlFlow::Continue(())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::bvh8::Isa;
-    use fearless_simd::dispatch;
+    use fearless_simd::{dispatch, f32x4, f32x8, f32x16};
     use glam::Vec3;
     use stats::Pcg32;
 
-    /// Every lane of `tris` (in blocks of four) against the scalar test,
-    /// at every instruction set the CPU has; returns how many lanes hit
-    /// and how many went to the scalar test.
+    /// The kernel on `block` at `level` with `W`-lane vectors.
+    macro_rules! lanes {
+        ($vector:ident, $level:expr, $block:expr, $ray:expr, $t_max:expr) => {
+            dispatch!($level, simd => {
+                intersect(simd, $block, &BlockRay::<$vector<_>>::new(simd, $ray), $t_max)
+            })
+        };
+    }
+
+    /// Every lane of `tris` (in blocks of four, eight and sixteen) against
+    /// the scalar test, at every instruction set the CPU has; returns how
+    /// many lanes hit and how many went to the scalar test (per width).
     fn compare(ray: &RayTransform, tris: &[[Vec3A; 3]], t_max: f32) -> (usize, usize) {
-        let (mut hits, mut scalar) = (0, 0);
+        let mut counts = (0, 0);
         for isa in Isa::ALL {
             let Some(level) = isa.level() else { continue };
-            (hits, scalar) = (0, 0);
-            for (b, chunk) in tris.chunks(BLOCK).enumerate() {
-                let block = TriangleBlock::new((b * BLOCK) as u32, chunk, |_| false);
-                let lanes = dispatch!(level, simd => {
-                    intersect(simd, &block, &BlockRay::new(simd, ray), t_max)
-                });
-                for (j, tri) in chunk.iter().enumerate() {
-                    let expected = ray.intersect(tri, t_max);
-                    let bits = |h: Option<(f32, f32, f32)>| {
-                        h.map(|(t, b1, b2)| [t.to_bits(), b1.to_bits(), b2.to_bits()])
-                    };
-                    match lanes.lane(j, t_max) {
-                        Lane::Scalar => scalar += 1,
-                        Lane::Miss => assert_eq!(expected, None, "{isa:?} {tri:?} {ray:?}"),
-                        Lane::Hit(t, b1, b2) => {
-                            hits += 1;
-                            assert_eq!(
-                                bits(Some((t, b1, b2))),
-                                bits(expected),
-                                "{isa:?} {tri:?} {ray:?}"
-                            );
-                        }
+            counts = compare_width::<4>(ray, tris, t_max, |b| lanes!(f32x4, level, b, ray, t_max));
+            let wider = [
+                compare_width::<8>(ray, tris, t_max, |b| lanes!(f32x8, level, b, ray, t_max)),
+                compare_width::<16>(ray, tris, t_max, |b| lanes!(f32x16, level, b, ray, t_max)),
+            ];
+            assert!(wider.iter().all(|&c| c == counts), "{isa:?}");
+        }
+        counts
+    }
+
+    /// [`compare`] at one width, the kernel being `kernel`.
+    fn compare_width<const W: usize>(
+        ray: &RayTransform,
+        tris: &[[Vec3A; 3]],
+        t_max: f32,
+        kernel: impl Fn(&TriangleBlock<W>) -> LaneHits<W>,
+    ) -> (usize, usize) {
+        let (mut hits, mut scalar) = (0, 0);
+        for (b, chunk) in tris.chunks(W).enumerate() {
+            let block = TriangleBlock::<W>::new((b * W) as u32, chunk, |_| false);
+            let lanes = kernel(&block);
+            for (j, tri) in chunk.iter().enumerate() {
+                let expected = ray.intersect(tri, t_max);
+                let bits = |h: Option<(f32, f32, f32)>| {
+                    h.map(|(t, b1, b2)| [t.to_bits(), b1.to_bits(), b2.to_bits()])
+                };
+                match lanes.lane(j, t_max) {
+                    Lane::Scalar => scalar += 1,
+                    Lane::Miss => assert_eq!(expected, None, "{W} lanes {tri:?} {ray:?}"),
+                    Lane::Hit(t, b1, b2) => {
+                        hits += 1;
+                        assert_eq!(
+                            bits(Some((t, b1, b2))),
+                            bits(expected),
+                            "{W} lanes {tri:?} {ray:?}"
+                        );
                     }
                 }
             }
@@ -385,13 +452,18 @@ mod tests {
     #[test]
     fn unused_lanes_never_hit() {
         let t = tri([0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 2.0, 0.0]);
-        let block = TriangleBlock::new(5, &[t], |_| false);
         let ray = RayTransform::new(Vec3::new(0.0, 0.0, 1.0), Vec3::NEG_Z, 1.0);
         let level = Isa::Best.level().unwrap();
-        let lanes = dispatch!(level, simd => {
-            intersect(simd, &block, &BlockRay::new(simd, &ray), f32::INFINITY)
-        });
-        assert_eq!(lanes.scalar, 1, "the vertex hit needs f64");
-        assert_eq!(lanes.hit, 0);
+        let t_max = f32::INFINITY;
+        let block = TriangleBlock::<4>::new(5, &[t], |_| false);
+        let lanes = lanes!(f32x4, level, &block, &ray, t_max);
+        assert_eq!(
+            (lanes.scalar, lanes.hit),
+            (1, 0),
+            "the vertex hit needs f64"
+        );
+        let block = TriangleBlock::<16>::new(5, &[t], |_| false);
+        let lanes = lanes!(f32x16, level, &block, &ray, t_max);
+        assert_eq!((lanes.scalar, lanes.hit), (1, 0), "16 lanes");
     }
 }

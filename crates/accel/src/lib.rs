@@ -9,7 +9,9 @@
 //!   PLOC with reinsertion, converted to an 8-wide BVH in obvhs' compressed
 //!   node format, or with float child boxes tested eight at a time and the
 //!   triangles of a leaf four at a time on the CPU's best SIMD instruction
-//!   set ([`Layout::Bvh8`], [`Isa`])), with
+//!   set ([`Layout::Bvh8`], [`Isa`]), or for a scene of at most 64
+//!   primitives no tree, its triangles tested sixteen at a time
+//!   ([`Layout::Flat`])), with
 //!   closest-hit ([`Bvh::intersect`]) and
 //!   any-hit ([`Bvh::occluded`]) queries that return caller triangle ids and
 //!   barycentrics. The ray/triangle test is this crate's own watertight test
@@ -38,7 +40,9 @@
 //! conversion with float nodes, leaves of up to four triangles and
 //! run-time dispatched SIMD node and leaf tests, traces as fast, faster
 //! on some ray sets and slower on others (docs/benchmarks.md), with 3.2
-//! times the node memory and a 160-byte block per leaf. The default builder,
+//! times the node memory and a 160-byte block per leaf. On a CPU with
+//! AVX-512, the default scans a scene of at most 64 triangles (and no
+//! spheres) without a tree ([`Layout::Flat`]), measured faster there. The default builder,
 //! [`BuildQuality::Binned`], replaced obvhs' `medium` preset for its
 //! memory, with trees that trace as fast or faster (its documentation
 //! has the measurements).
@@ -55,6 +59,7 @@ mod binned;
 mod bvh;
 mod bvh8;
 mod convert;
+mod flat;
 mod grid;
 mod leaf;
 mod offset;

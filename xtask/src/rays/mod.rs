@@ -52,11 +52,13 @@ pub const USAGE: &str =
                     Writes DIR/bench-rlt.md and .json. Runs itself as a
                     release build
       --layout L            wide (the default, the renderer's: compressed
-                            nodes), bvh8 (float nodes, SIMD node tests,
-                            leaves of up to 4 triangles tested at once) or
-                            binary: accel's tree layouts
+                            nodes; no tree for up to 64 triangles on an
+                            AVX-512 CPU), bvh8 (float nodes, SIMD node tests,
+                            leaves of up to 4 triangles tested at once),
+                            binary, or flat (no tree, up to 64 primitives):
+                            accel's layouts
       --isa I               best (default), baseline (SSE4.2), avx2 or avx512:
-                            the instruction set of bvh8's node and leaf tests";
+                            the instruction set of bvh8's and flat's tests";
 
 /// Timed passes per set when `--passes` is not given.
 const DEFAULT_PASSES: usize = 9;
@@ -200,7 +202,12 @@ fn parse_bench(root: &Path, args: &[String]) -> Result<Option<BenchOptions>, Str
                     "bvh8" => accel::Layout::Bvh8,
                     "wide" => accel::Layout::Wide,
                     "binary" => accel::Layout::Binary,
-                    _ => return Err(format!("--layout: '{value}' is not bvh8, wide or binary")),
+                    "flat" => accel::Layout::Flat,
+                    _ => {
+                        return Err(format!(
+                            "--layout: '{value}' is not bvh8, wide, binary or flat"
+                        ));
+                    }
                 }
             }
             "--isa" => {

@@ -13,7 +13,7 @@ use glam::Vec3;
 use stats::Pcg32;
 
 /// The binned builder in every layout (the first is the default).
-fn options() -> [BuildOptions; 3] {
+fn options() -> [BuildOptions; 4] {
     Layout::ALL.map(|layout| BuildOptions {
         layout,
         quality: BuildQuality::Binned,

@@ -133,3 +133,54 @@ fn every_layout_gives_the_same_hits_ties_included() {
     }
     assert!(ties > 100, "only {ties} rays through shared vertices hit");
 }
+
+/// Scenes of at most 64 triangles, where [`Layout::Flat`] scans every
+/// triangle without a tree (and [`Layout::Wide`] may, by the CPU): the
+/// same bits as the binary tree's traversal, ties at shared vertices
+/// included.
+#[test]
+fn the_flat_scan_gives_the_trees_hits() {
+    let mut rng = Pcg32::new(47, 0);
+    let field = height_field(4);
+    let scenes = [
+        ("height field", field.triangles(), field.vertices.clone()),
+        ("box", unit_box().triangles(), unit_box().vertices.clone()),
+        ("soup", random_soup(&mut rng, 64, 0.3), vec![]),
+    ];
+    let mut ties = 0;
+    for (name, tris, vertices) in scenes {
+        assert!(tris.len() <= 64, "{name}");
+        let rays = rays(&mut rng, &tris, &vertices, 4000);
+        let build = |layout| {
+            let bvh = Bvh::build_with(
+                &tris,
+                BuildOptions {
+                    layout,
+                    ..Default::default()
+                },
+            );
+            assert_eq!(bvh.layout(), layout, "{name}");
+            bvh
+        };
+        let reference = single(&build(Layout::Binary), &rays);
+        let hits = reference.iter().filter(|a| a.0.is_some()).count();
+        assert!(hits > rays.len() / 20, "{name}: only {hits} hits");
+        ties += rays
+            .iter()
+            .zip(&reference)
+            .filter(|(r, a)| a.0.is_some() && r.direction == -Vec3::Y)
+            .count();
+        let answers = single(&build(Layout::Flat), &rays);
+        for (i, a) in answers.iter().enumerate() {
+            assert_eq!(*a, reference[i], "{name}, ray {i}: {:?}", rays[i]);
+        }
+    }
+    assert!(ties > 100, "only {ties} rays through shared vertices hit");
+    // Beyond 64 triangles the layout is the compressed tree.
+    let big = random_soup(&mut rng, 65, 0.3);
+    let options = BuildOptions {
+        layout: Layout::Flat,
+        ..Default::default()
+    };
+    assert_eq!(Bvh::build_with(&big, options).layout(), Layout::Wide);
+}

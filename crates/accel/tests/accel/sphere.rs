@@ -10,7 +10,7 @@ use common::*;
 use glam::Vec3;
 use stats::Pcg32;
 
-fn layouts() -> [BuildOptions; 3] {
+fn layouts() -> [BuildOptions; 4] {
     Layout::ALL.map(|layout| BuildOptions {
         layout,
         quality: BuildQuality::Medium,
