@@ -32,6 +32,8 @@ impl Iteration<'_> {
         let mut regularization = self.path_regularization(Subpath::Camera);
         let mut radiance = Vec3::ZERO;
         for length in 1..=max_depth {
+            // Drawn before the ray, as in the path tracer (see there).
+            let u = sampler.camera_vertex(length);
             let hit = if length == 1 {
                 ctx.intersect_camera_ray(walk.origin, walk.direction)
             } else {
@@ -71,7 +73,6 @@ impl Iteration<'_> {
             if length >= max_depth {
                 break;
             }
-            let u = sampler.camera_vertex(length);
             if !vertex.is_specular() {
                 if self.mis.techniques().connections {
                     // The emitter point of next-event estimation is light vertex 0.

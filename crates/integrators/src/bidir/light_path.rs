@@ -134,6 +134,8 @@ impl Iteration<'_> {
         let unsampleable = self.mode == Mode::Unsampleable;
         let mut history = BoundedHistory::default();
         for length in 1..=max_depth {
+            // Drawn before the ray, as in the path tracer (see there).
+            let u = sampler.light_vertex(length);
             let Some(hit) = walk.next_hit(ctx) else {
                 break;
             };
@@ -146,8 +148,9 @@ impl Iteration<'_> {
                 vertices.push(LightVertex::new(&vertex, state, length, history));
             }
             if self.mis.techniques().connections && length < max_depth {
-                let u = sampler.keyed_1d(u64::from(length));
-                self.connect_to_camera(&vertex, &state, history.iter(length - 1), u, splats);
+                let u_roulette = sampler.keyed_1d(u64::from(length));
+                let history = history.iter(length - 1);
+                self.connect_to_camera(&vertex, &state, history, u_roulette, splats);
             }
             if unsampleable {
                 history = history.push(regularization.is_bounded(&vertex.bsdf_original));
@@ -156,7 +159,6 @@ impl Iteration<'_> {
             if length + 2 > max_depth {
                 break;
             }
-            let u = sampler.light_vertex(length);
             let Some(s) = walk.step(&vertex, length, u, TransportMode::Importance, emitted) else {
                 break;
             };

@@ -154,6 +154,11 @@ impl PathTracer {
         };
 
         for depth in 1..=ctx.config.max_depth {
+            // The vertex's random numbers depend on nothing the ray finds:
+            // drawn before it, their arithmetic (a chain of multiplications)
+            // overlaps the ray query instead of waiting behind its
+            // mispredicted branches (PT 0.98-0.99 of the CPU time).
+            let u = sampler.camera_vertex(depth);
             let hit = if depth == 1 {
                 ctx.intersect_camera_ray(walk.origin, walk.direction)
             } else {
@@ -177,7 +182,6 @@ impl PathTracer {
 
             let vertex = PathVertex::new(&ctx.scene, point, wi, walk.throughput, regularization);
             regularization = vertex.regularization;
-            let u = sampler.camera_vertex(depth);
             if self.use_nee
                 && !vertex.is_specular()
                 && let Some(contribution) = self.next_event(ctx, &vertex, &u)
