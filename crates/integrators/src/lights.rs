@@ -112,6 +112,31 @@ pub struct Emission {
     pub mis: EmitterPdfs,
 }
 
+/// What [`Lights::choose`] draws: a light, its selection probability and
+/// the sample numbers, and on an area or sphere light the point.
+#[derive(Clone, Copy, Debug)]
+pub struct LightChoice {
+    index: usize,
+    pmf: f32,
+    u: Vec2,
+    surface: Option<SurfaceSample>,
+}
+
+/// A point sampled uniformly on an emissive triangle or sphere.
+#[derive(Clone, Copy, Debug)]
+struct SurfaceSample {
+    p: Vec3,
+    /// The emitting side's normal.
+    n: Vec3,
+    /// Its emitted radiance.
+    le: Vec3,
+    error: PointError,
+    /// The emitter's primitive (`SurfacePoint::primitive`).
+    primitive: u32,
+    /// The triangle it lies on ([`accel::NO_SURFACE`] on a sphere).
+    surface: u32,
+}
+
 /// A point on a light, with the normal to offset a shadow ray's end.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LightPoint {
@@ -355,7 +380,63 @@ impl Lights {
     /// `None` when the sample carries nothing (back side of an area light,
     /// outside a spot cone, no light).
     pub fn sample(&self, scene: &Scene, p: Vec3, u_select: f32, u: Vec2) -> Option<LightSample> {
+        self.sample_chosen(scene, &self.choose(scene, u_select, u)?, p)
+    }
+
+    /// The part of [`Lights::sample`] that does not depend on the receiver:
+    /// the light chosen by `u_select` and, on an area or sphere light, the
+    /// point `u` gives. `None` without lights or for a powerless one.
+    ///
+    /// The path tracer draws it before the ray that finds the receiver, so
+    /// that its dependent loads and square root overlap that ray's query.
+    #[inline]
+    pub fn choose(&self, scene: &Scene, u_select: f32, u: Vec2) -> Option<LightChoice> {
         let (index, pmf) = self.select(u_select)?;
+        let surface = match self.lights[index] {
+            Light::Area { triangle } => Some(SurfaceSample {
+                p: uniform_triangle(scene.triangle(triangle as usize), u),
+                n: self.area_normal[index],
+                le: area_radiance(scene, triangle, u),
+                error: PointError::Vertices(self.area_scale[index]),
+                primitive: triangle,
+                surface: triangle,
+            }),
+            Light::Sphere { sphere } => {
+                // A uniform point of the whole sphere (density 1 / 4 pi r^2
+                // in area; the half facing away is rejected by
+                // `sample_chosen`).
+                let s = &scene.spheres[sphere as usize];
+                let outward = uniform_sphere(u);
+                let (p, error) = sphere_point(s, outward);
+                Some(SurfaceSample {
+                    p,
+                    n: if s.inside { -outward } else { outward },
+                    le: sphere_radiance(scene, s, outward),
+                    error: PointError::Bounded(error),
+                    primitive: self.first_sphere + sphere,
+                    surface: accel::NO_SURFACE,
+                })
+            }
+            _ => None,
+        };
+        Some(LightChoice {
+            index,
+            pmf,
+            u,
+            surface,
+        })
+    }
+
+    /// [`Lights::sample`] of the light and point `choice`, for the receiver
+    /// at `p`.
+    #[inline]
+    pub fn sample_chosen(
+        &self,
+        scene: &Scene,
+        choice: &LightChoice,
+        p: Vec3,
+    ) -> Option<LightSample> {
+        let LightChoice { index, pmf, u, .. } = *choice;
         let delta = |position: Vec3, intensity: Vec3| {
             let d = position - p;
             let dist2 = d.length_squared();
@@ -439,60 +520,28 @@ impl Lights {
                     mis: self.environment_pdfs_of(pmf * s.pdf),
                 }
             }
-            Light::Area { triangle } => {
-                let q = uniform_triangle(scene.triangle(triangle as usize), u);
-                let n = self.area_normal[index];
-                let d = q - p;
-                let wi = d.try_normalize()?;
-                if n.dot(-wi) <= 0.0 {
+            Light::Area { .. } | Light::Sphere { .. } => {
+                let q = choice.surface?;
+                let wi = (q.p - p).try_normalize()?;
+                if q.n.dot(-wi) <= 0.0 {
                     return None; // One-sided emitter seen from behind.
                 }
-                let pdf = self.area_pdf_w(triangle, p, q, n);
+                let pdf = self.area_pdf_w(q.primitive, p, q.p, q.n);
                 if pdf <= 0.0 {
                     return None;
                 }
                 LightSample {
                     wi,
-                    li: area_radiance(scene, triangle, u),
+                    li: q.le,
                     pdf,
                     point: Some(LightPoint {
-                        p: q,
-                        n,
-                        error: PointError::Vertices(self.area_scale[index]),
-                        surface: triangle,
+                        p: q.p,
+                        n: q.n,
+                        error: q.error,
+                        surface: q.surface,
                     }),
                     is_delta: false,
-                    mis: self.area_pdfs(triangle, n.dot(-wi)),
-                }
-            }
-            Light::Sphere { sphere } => {
-                // A uniform point of the whole sphere (density 1 / 4 pi r^2
-                // in area; the half facing away is rejected below).
-                let s = &scene.spheres[sphere as usize];
-                let outward = uniform_sphere(u);
-                let (q, error) = sphere_point(s, outward);
-                let n = if s.inside { -outward } else { outward };
-                let wi = (q - p).try_normalize()?;
-                if n.dot(-wi) <= 0.0 {
-                    return None; // Emitting side turned away.
-                }
-                let primitive = self.first_sphere + sphere;
-                let pdf = self.area_pdf_w(primitive, p, q, n);
-                if pdf <= 0.0 {
-                    return None;
-                }
-                LightSample {
-                    wi,
-                    li: sphere_radiance(scene, s, outward),
-                    pdf,
-                    point: Some(LightPoint {
-                        p: q,
-                        n,
-                        error: PointError::Bounded(error),
-                        surface: accel::NO_SURFACE,
-                    }),
-                    is_delta: false,
-                    mis: self.area_pdfs(primitive, n.dot(-wi)),
+                    mis: self.area_pdfs(q.primitive, q.n.dot(-wi)),
                 }
             }
         };

@@ -7,7 +7,7 @@ use glam::{Vec2, Vec3};
 use microfacet::TransportMode;
 
 use crate::context::SceneContext;
-use crate::lights::LightSample;
+use crate::lights::{LightChoice, LightSample};
 use crate::vertex::PathVertex;
 
 /// A light sample for `vertex` with the vertex's f |cos| towards it, times
@@ -22,7 +22,22 @@ pub fn light_sample(
     u_light: f32,
     uv: Vec2,
 ) -> Option<(LightSample, Vec3)> {
-    let ls = ctx.lights.sample(&ctx.scene, vertex.point.p, u_light, uv)?;
+    let choice = ctx.lights.choose(&ctx.scene, u_light, uv)?;
+    light_sample_chosen(ctx, vertex, &choice)
+}
+
+/// [`light_sample`] of the light and point `choice` ([`Lights::choose`]).
+///
+/// [`Lights::choose`]: crate::lights::Lights::choose
+#[inline]
+pub fn light_sample_chosen(
+    ctx: &SceneContext,
+    vertex: &PathVertex,
+    choice: &LightChoice,
+) -> Option<(LightSample, Vec3)> {
+    let ls = ctx
+        .lights
+        .sample_chosen(&ctx.scene, choice, vertex.point.p)?;
     light_value(vertex, &ls).map(|f| (ls, f))
 }
 
