@@ -3,34 +3,23 @@
 //! weighted (power heuristic in PT, the VCM recursion in the bidirectional
 //! core) is the integrator's.
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use microfacet::TransportMode;
 
 use crate::context::SceneContext;
 use crate::lights::{LightChoice, LightSample};
 use crate::vertex::PathVertex;
 
-/// A light sample for `vertex` with the vertex's f |cos| towards it, times
-/// the transmittance of the shadow segment where it starts into an
-/// absorbing medium ([`crate::medium`]; lights are outside every medium),
-/// if both are non-zero. The shadow ray is the caller's ([`visible`]): the
+/// The light sample of the light and point `choice` ([`Lights::choose`])
+/// for `vertex`, with the vertex's f |cos| towards it, times the
+/// transmittance of the shadow segment where it starts into an absorbing
+/// medium ([`crate::medium`]; lights are outside every medium), if both are
+/// non-zero. The shadow ray is the caller's ([`visible`]): the
 /// bidirectional core decides its roulette first.
-#[inline]
-pub fn light_sample(
-    ctx: &SceneContext,
-    vertex: &PathVertex,
-    u_light: f32,
-    uv: Vec2,
-) -> Option<(LightSample, Vec3)> {
-    let choice = ctx.lights.choose(&ctx.scene, u_light, uv)?;
-    light_sample_chosen(ctx, vertex, &choice)
-}
-
-/// [`light_sample`] of the light and point `choice` ([`Lights::choose`]).
 ///
 /// [`Lights::choose`]: crate::lights::Lights::choose
 #[inline]
-pub fn light_sample_chosen(
+pub fn light_sample(
     ctx: &SceneContext,
     vertex: &PathVertex,
     choice: &LightChoice,

@@ -8,9 +8,9 @@ use regularization::Subpath;
 
 use super::light_path::LightVertex;
 use super::{Iteration, PhotonMap, WeightedPhoton};
+use crate::lights::LightChoice;
 use crate::medium;
 use crate::nee;
-use crate::sampler::CameraVertexSamples;
 use crate::vertex::PathVertex;
 
 impl Iteration<'_> {
@@ -32,8 +32,12 @@ impl Iteration<'_> {
         let mut regularization = self.path_regularization(Subpath::Camera);
         let mut radiance = Vec3::ZERO;
         for length in 1..=max_depth {
-            // Drawn before the ray, as in the path tracer (see there).
+            // Drawn before the ray, as in the path tracer (see there), with
+            // the light and light point of next-event estimation.
             let u = sampler.camera_vertex(length);
+            let light = (self.mis.techniques().connections)
+                .then(|| ctx.lights.choose(&ctx.scene, u.u_light, u.uv_light))
+                .flatten();
             let hit = if length == 1 {
                 ctx.intersect_camera_ray(walk.origin, walk.direction)
             } else {
@@ -77,7 +81,9 @@ impl Iteration<'_> {
                 if self.mis.techniques().connections {
                     // The emitter point of next-event estimation is light vertex 0.
                     let u_nee = sampler.keyed_1d(u64::from(length) << 32);
-                    radiance += self.next_event(&vertex, &state, &u, u_nee);
+                    if let Some(light) = &light {
+                        radiance += self.next_event(&vertex, &state, light, u_nee);
+                    }
                     for light in light_path {
                         if light.length + length < max_depth {
                             let key = u64::from(length) << 32 | u64::from(light.length);
@@ -99,7 +105,8 @@ impl Iteration<'_> {
         radiance
     }
 
-    /// Next-event estimation (s = 1) at a camera vertex, weighted against
+    /// Next-event estimation (s = 1) at a camera vertex towards the light
+    /// and point `light`, weighted against
     /// every other technique: the contribution to the pixel (camera
     /// throughput included). Its shadow ray goes through the same roulette
     /// as those of connections: its MIS weight shares the path with them.
@@ -107,10 +114,10 @@ impl Iteration<'_> {
         &self,
         vertex: &PathVertex,
         state: &SubpathState,
-        u: &CameraVertexSamples,
+        light: &LightChoice,
         u_roulette: f32,
     ) -> Vec3 {
-        let Some((ls, f)) = nee::light_sample(self.ctx, vertex, u.u_light, u.uv_light) else {
+        let Some((ls, f)) = nee::light_sample(self.ctx, vertex, light) else {
             return Vec3::ZERO;
         };
         let unweighted = vertex.throughput * f * ls.li / ls.pdf;

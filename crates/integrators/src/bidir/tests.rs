@@ -170,7 +170,8 @@ fn complete_paths(it: &Iteration, index: usize) -> Vec<CompletePath> {
         camera.push(point);
         let u = sampler.camera_vertex(length);
         if !vertex.is_specular()
-            && let Some((ls, _)) = nee::light_sample(r, &vertex, u.u_light, u.uv_light)
+            && let Some(light) = r.lights.choose(&r.scene, u.u_light, u.uv_light)
+            && let Some((ls, _)) = nee::light_sample(r, &vertex, &light)
             && nee::visible(r, &vertex, &ls)
             && let Some(lp) = ls.point
         {

@@ -259,7 +259,7 @@ impl PathTracer {
         vertex: &PathVertex,
         light: &LightChoice,
     ) -> Option<Vec3> {
-        let (ls, f) = nee::light_sample_chosen(ctx, vertex, light)?;
+        let (ls, f) = nee::light_sample(ctx, vertex, light)?;
         nee::visible(ctx, vertex, &ls).then(|| self.light_contribution(vertex, &ls, f))
     }
 
