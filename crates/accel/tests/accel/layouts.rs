@@ -88,18 +88,21 @@ fn rays(rng: &mut Pcg32, tris: &[[Vec3; 3]], vertices: &[Vec3], count: usize) ->
     rays
 }
 
-#[test]
-fn every_layout_gives_the_same_hits_ties_included() {
-    let mut rng = Pcg32::new(46, 0);
-    let field = height_field(24);
-    let scenes = [
-        ("height field", field.triangles(), field.vertices.clone()),
-        ("cube sphere", cube_sphere(8, 1.0).triangles(), vec![]),
-        ("soup", random_soup(&mut rng, 2000, 0.05), vec![]),
-    ];
+/// A scene: name, triangles, vertices to aim rays straight down onto.
+type Scene = (&'static str, Vec<[Vec3; 3]>, Vec<Vec3>);
+
+/// Each scene's rays answered by `reference` and by each layout of
+/// `others`: the same bits; returns how many rays through shared vertices
+/// hit (where several triangles meet at exactly the same `t`).
+fn compare_layouts(
+    rng: &mut Pcg32,
+    scenes: Vec<Scene>,
+    reference: Layout,
+    others: &[Layout],
+) -> usize {
     let mut ties = 0;
     for (name, tris, vertices) in scenes {
-        let rays = rays(&mut rng, &tris, &vertices, 4000);
+        let rays = rays(rng, &tris, &vertices, 4000);
         let build = |layout| {
             let bvh = Bvh::build_with(
                 &tris,
@@ -111,26 +114,39 @@ fn every_layout_gives_the_same_hits_ties_included() {
             assert_eq!(bvh.layout(), layout, "{name}");
             bvh
         };
-        let reference = single(&build(Layout::Wide), &rays);
-        let hits = reference.iter().filter(|a| a.0.is_some()).count();
+        let expected = single(&build(reference), &rays);
+        let hits = expected.iter().filter(|a| a.0.is_some()).count();
         assert!(hits > rays.len() / 20, "{name}: only {hits} hits");
-        // A ray through a shared vertex hits several triangles at one t.
         ties += rays
             .iter()
-            .zip(&reference)
+            .zip(&expected)
             .filter(|(r, a)| a.0.is_some() && r.direction == -Vec3::Y)
             .count();
-        for layout in [Layout::Bvh8, Layout::Binary] {
+        for &layout in others {
             let answers = single(&build(layout), &rays);
             for (i, a) in answers.iter().enumerate() {
                 assert_eq!(
-                    *a, reference[i],
+                    *a, expected[i],
                     "{name}, {layout:?}, ray {i}: {:?}",
                     rays[i]
                 );
             }
         }
     }
+    ties
+}
+
+#[test]
+fn every_layout_gives_the_same_hits_ties_included() {
+    let mut rng = Pcg32::new(46, 0);
+    let field = height_field(24);
+    let scenes = vec![
+        ("height field", field.triangles(), field.vertices.clone()),
+        ("cube sphere", cube_sphere(8, 1.0).triangles(), vec![]),
+        ("soup", random_soup(&mut rng, 2000, 0.05), vec![]),
+    ];
+    let others = [Layout::Bvh8, Layout::Binary];
+    let ties = compare_layouts(&mut rng, scenes, Layout::Wide, &others);
     assert!(ties > 100, "only {ties} rays through shared vertices hit");
 }
 
@@ -142,39 +158,13 @@ fn every_layout_gives_the_same_hits_ties_included() {
 fn the_flat_scan_gives_the_trees_hits() {
     let mut rng = Pcg32::new(47, 0);
     let field = height_field(4);
-    let scenes = [
+    let scenes = vec![
         ("height field", field.triangles(), field.vertices.clone()),
         ("box", unit_box().triangles(), unit_box().vertices.clone()),
         ("soup", random_soup(&mut rng, 64, 0.3), vec![]),
     ];
-    let mut ties = 0;
-    for (name, tris, vertices) in scenes {
-        assert!(tris.len() <= 64, "{name}");
-        let rays = rays(&mut rng, &tris, &vertices, 4000);
-        let build = |layout| {
-            let bvh = Bvh::build_with(
-                &tris,
-                BuildOptions {
-                    layout,
-                    ..Default::default()
-                },
-            );
-            assert_eq!(bvh.layout(), layout, "{name}");
-            bvh
-        };
-        let reference = single(&build(Layout::Binary), &rays);
-        let hits = reference.iter().filter(|a| a.0.is_some()).count();
-        assert!(hits > rays.len() / 20, "{name}: only {hits} hits");
-        ties += rays
-            .iter()
-            .zip(&reference)
-            .filter(|(r, a)| a.0.is_some() && r.direction == -Vec3::Y)
-            .count();
-        let answers = single(&build(Layout::Flat), &rays);
-        for (i, a) in answers.iter().enumerate() {
-            assert_eq!(*a, reference[i], "{name}, ray {i}: {:?}", rays[i]);
-        }
-    }
+    assert!(scenes.iter().all(|(_, tris, _)| tris.len() <= 64));
+    let ties = compare_layouts(&mut rng, scenes, Layout::Binary, &[Layout::Flat]);
     assert!(ties > 100, "only {ties} rays through shared vertices hit");
     // Beyond 64 triangles the layout is the compressed tree.
     let big = random_soup(&mut rng, 65, 0.3);
