@@ -387,7 +387,7 @@ impl Lights {
     /// the light chosen by `u_select` and, on an area or sphere light, the
     /// point `u` gives. `None` without lights or for a powerless one.
     ///
-    /// The path tracer draws it before the ray that finds the receiver, so
+    /// Camera subpaths draw it before the ray that finds the receiver, so
     /// that its dependent loads and square root overlap that ray's query.
     #[inline]
     pub fn choose(&self, scene: &Scene, u_select: f32, u: Vec2) -> Option<LightChoice> {
