@@ -1,7 +1,8 @@
 //! Triangle blocks: the triangles of one leaf stored lane by lane
 //! (structure of arrays, Embree's `Triangle4`), and a SIMD kernel that runs
 //! the watertight test of `triangle.rs` on all of them at once
-//! ([`Layout::Bvh8`](crate::Layout::Bvh8)'s leaves).
+//! ([`Layout::Bvh8`](crate::Layout::Bvh8)'s leaves, [`Layout::Flat`](crate::Layout::Flat)'s
+//! blocks).
 //!
 //! **The same results as the scalar test, bit for bit.** Each lane
 //! performs the float operations of [`RayTransform::intersect`] in the
@@ -30,8 +31,10 @@
 //! so queries return the same hits, ties included, and filters (alpha) are
 //! called for the same hits in the same order.
 //!
-//! Four lanes: the leaves hold one to four triangles
-//! (`bvh::BVH8_LEAF`).
+//! Any width: each lane's operations are the same whatever the number of
+//! lanes. [`Layout::Bvh8`](crate::Layout::Bvh8)'s leaves are blocks of up
+//! to four triangles (`bvh::BVH8_LEAF`), [`Layout::Flat`](crate::Layout::Flat)'s
+//! blocks (`flat.rs`) of up to sixteen.
 
 use std::ops::ControlFlow;
 
