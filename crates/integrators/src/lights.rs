@@ -125,16 +125,12 @@ pub struct LightChoice {
 /// A point sampled uniformly on an emissive triangle or sphere.
 #[derive(Clone, Copy, Debug)]
 struct SurfaceSample {
-    p: Vec3,
-    /// The emitting side's normal.
-    n: Vec3,
+    /// The point, its emitting side's normal and the triangle it lies on.
+    point: LightPoint,
     /// Its emitted radiance.
     le: Vec3,
-    error: PointError,
     /// The emitter's primitive (`SurfacePoint::primitive`).
     primitive: u32,
-    /// The triangle it lies on ([`accel::NO_SURFACE`] on a sphere).
-    surface: u32,
 }
 
 /// A point on a light, with the normal to offset a shadow ray's end.
@@ -394,12 +390,14 @@ impl Lights {
         let (index, pmf) = self.select(u_select)?;
         let surface = match self.lights[index] {
             Light::Area { triangle } => Some(SurfaceSample {
-                p: uniform_triangle(scene.triangle(triangle as usize), u),
-                n: self.area_normal[index],
+                point: LightPoint {
+                    p: uniform_triangle(scene.triangle(triangle as usize), u),
+                    n: self.area_normal[index],
+                    error: PointError::Vertices(self.area_scale[index]),
+                    surface: triangle,
+                },
                 le: area_radiance(scene, triangle, u),
-                error: PointError::Vertices(self.area_scale[index]),
                 primitive: triangle,
-                surface: triangle,
             }),
             Light::Sphere { sphere } => {
                 // A uniform point of the whole sphere (density 1 / 4 pi r^2
@@ -409,12 +407,14 @@ impl Lights {
                 let outward = uniform_sphere(u);
                 let (p, error) = sphere_point(s, outward);
                 Some(SurfaceSample {
-                    p,
-                    n: if s.inside { -outward } else { outward },
+                    point: LightPoint {
+                        p,
+                        n: if s.inside { -outward } else { outward },
+                        error: PointError::Bounded(error),
+                        surface: accel::NO_SURFACE,
+                    },
                     le: sphere_radiance(scene, s, outward),
-                    error: PointError::Bounded(error),
                     primitive: self.first_sphere + sphere,
-                    surface: accel::NO_SURFACE,
                 })
             }
             _ => None,
@@ -521,27 +521,26 @@ impl Lights {
                 }
             }
             Light::Area { .. } | Light::Sphere { .. } => {
-                let q = choice.surface?;
-                let wi = (q.p - p).try_normalize()?;
-                if q.n.dot(-wi) <= 0.0 {
+                let SurfaceSample {
+                    point,
+                    le,
+                    primitive,
+                } = choice.surface?;
+                let wi = (point.p - p).try_normalize()?;
+                if point.n.dot(-wi) <= 0.0 {
                     return None; // One-sided emitter seen from behind.
                 }
-                let pdf = self.area_pdf_w(q.primitive, p, q.p, q.n);
+                let pdf = self.area_pdf_w(primitive, p, point.p, point.n);
                 if pdf <= 0.0 {
                     return None;
                 }
                 LightSample {
                     wi,
-                    li: q.le,
+                    li: le,
                     pdf,
-                    point: Some(LightPoint {
-                        p: q.p,
-                        n: q.n,
-                        error: q.error,
-                        surface: q.surface,
-                    }),
+                    point: Some(point),
                     is_delta: false,
-                    mis: self.area_pdfs(q.primitive, q.n.dot(-wi)),
+                    mis: self.area_pdfs(primitive, point.n.dot(-wi)),
                 }
             }
         };

@@ -35,7 +35,10 @@ impl Iteration<'_> {
             // Drawn before the ray, as in the path tracer (see there), with
             // the light and light point of next-event estimation.
             let u = sampler.camera_vertex(length);
-            let light = (self.mis.techniques().connections)
+            let light = self
+                .mis
+                .techniques()
+                .connections
                 .then(|| ctx.lights.choose(&ctx.scene, u.u_light, u.uv_light))
                 .flatten();
             let hit = if length == 1 {
