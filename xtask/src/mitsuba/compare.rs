@@ -28,6 +28,22 @@ pub(super) fn errors(image: &[Vec3], reference: &[Vec3]) -> Errors {
     mean_squared(squared_differences(channels(image), channels(reference)))
 }
 
+/// The errors of each of `run`'s images (its image, then its further
+/// `--seeds`' in order) and their mean: one seed's MSE is an estimate of
+/// the renderer's expected MSE, which N seeds estimate N times better.
+pub(super) fn run_errors(run: &Run, reference: &[Vec3]) -> (Errors, Vec<Errors>) {
+    let each: Vec<Errors> = std::iter::once(&run.image)
+        .chain(&run.seed_images)
+        .map(|image| errors(image, reference))
+        .collect();
+    let n = each.len() as f64;
+    let mean = Errors {
+        mse: each.iter().map(|e| e.mse).sum::<f64>() / n,
+        rel_mse: each.iter().map(|e| e.rel_mse).sum::<f64>() / n,
+    };
+    (mean, each)
+}
+
 /// The reference's own expected contribution to both error measures: its
 /// variance of the mean in place of a squared error.
 pub(super) fn reference_floor(reference: &Reference) -> Errors {
@@ -172,6 +188,31 @@ mod tests {
         // Rounding-sized differences are not.
         let rounded: Vec<Vec3> = reference.iter().map(|p| *p * (1.0 + 2e-6)).collect();
         assert_eq!(agreement(&rounded, &reference, 8, 8).z_image, [0.0; 3]);
+    }
+
+    #[test]
+    fn a_runs_error_is_the_mean_over_its_seeds() {
+        let reference = vec![Vec3::ONE; 16];
+        let shifted = |d: f32| reference.iter().map(|p| *p + Vec3::splat(d)).collect();
+        let run = Run {
+            renderer: "ours (pt)".into(),
+            threads: 1,
+            spp: 4,
+            setup_s: 0.0,
+            render_s: 1.0,
+            render_times: vec![1.0],
+            image: shifted(0.1),
+            seed_images: vec![shifted(0.2), shifted(-0.3)],
+            path: std::path::PathBuf::new(),
+            note: String::new(),
+        };
+        let (mean, each) = run_errors(&run, &reference);
+        let mse: Vec<f64> = each.iter().map(|e| e.mse).collect();
+        for (got, want) in mse.iter().zip([0.01, 0.04, 0.09]) {
+            assert!((got - want).abs() < 1e-7, "{mse:?}");
+        }
+        assert!((mean.mse - 0.14 / 3.0).abs() < 1e-7, "{mean:?}");
+        assert!((mean.rel_mse - 0.14 / 3.0 / 1.01).abs() < 1e-7, "{mean:?}");
     }
 
     #[test]

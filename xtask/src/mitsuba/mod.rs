@@ -107,6 +107,11 @@ pub const USAGE: &str =
                             (default spp/4; 0 skips them)
       --repeat R            time each all-core --spp render R times and report
                             the fastest (default 2; the machine may be shared)
+      --seeds N             the MSE at --spp is the mean over N sampler seeds
+                            (default 1): N - 1 more renders per renderer, all
+                            cores, untimed. On a scene whose error is a few
+                            rare bright samples (Veach's MIS scene) one seed's
+                            MSE is luck; the report lists every seed's
       --no-single-thread    skip the one-thread renders
       --integrator NAME     ours: pt (default), bpt, ppm, bpm or vcm, for our
                             reference and our timed renders (unregularized);
@@ -133,6 +138,8 @@ pub(super) struct Options {
     pub(super) reference_spp: u32,
     pub(super) check_spp: u32,
     pub(super) repeat: u32,
+    /// Sampler seeds whose mean MSE the `--spp` rows report (`--seeds`).
+    pub(super) seeds: u32,
     pub(super) single_thread: bool,
     pub(super) out: PathBuf,
     /// Mitsuba's configurations; ratios are against the first.
@@ -207,6 +214,7 @@ impl Options {
             reference_spp: 1024,
             check_spp: u32::MAX,
             repeat: 2,
+            seeds: 1,
             single_thread: true,
             out: root.join("target/mitsuba"),
             mitsuba: vec![MitsubaConfig::parse("scalar_rgb")?],
@@ -233,6 +241,7 @@ impl Options {
                 "--reference-spp" => o.reference_spp = number("--reference-spp")?,
                 "--check-spp" => o.check_spp = number("--check-spp")?,
                 "--repeat" => o.repeat = number("--repeat")?.max(1),
+                "--seeds" => o.seeds = number("--seeds")?,
                 "--out" => o.out = root.join(value),
                 "--integrator" => {
                     o.integrator = value.parse().map_err(|e| format!("--integrator: {e}"))?;
@@ -258,8 +267,10 @@ impl Options {
         if let Some(file) = xml::scene_file(&o.scene) {
             o.scene = file;
         }
-        if o.spp == 0 || o.reference_spp == 0 || o.width == 0 || o.height == 0 {
-            return Err("--spp, --reference-spp and the resolution must be positive".into());
+        if o.spp == 0 || o.reference_spp == 0 || o.seeds == 0 || o.width == 0 || o.height == 0 {
+            return Err(
+                "--spp, --reference-spp, --seeds and the resolution must be positive".into(),
+            );
         }
         if o.check_spp == u32::MAX {
             o.check_spp = o.spp / 4;
@@ -385,14 +396,22 @@ mod tests {
     #[test]
     fn options_parse_and_reject_bad_values() {
         let root = Path::new("/r");
-        let args: Vec<String> = ["--spp", "8", "--resolution", "64x32", "--no-single-thread"]
-            .iter()
-            .map(|s| s.to_string())
-            .collect();
+        let args: Vec<String> = [
+            "--spp",
+            "8",
+            "--resolution",
+            "64x32",
+            "--no-single-thread",
+            "--seeds",
+            "5",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
         let o = Options::parse(root, &args).unwrap();
         assert_eq!(
-            (o.spp, o.width, o.height, o.single_thread),
-            (8, 64, 32, false)
+            (o.spp, o.width, o.height, o.single_thread, o.seeds),
+            (8, 64, 32, false, 5)
         );
         assert_eq!(o.out, Path::new("/r/target/mitsuba"));
         assert_eq!(
@@ -416,6 +435,7 @@ mod tests {
             &["--spp", "x"],
             &["--resolution", "64"],
             &["--max-depth", "0"],
+            &["--seeds", "0"],
             &["--frobnicate", "1"],
             &["--mitsuba", "cuda_rgb"],
             &["--mitsuba", "scalar_rgb:sobol"],

@@ -21,6 +21,8 @@ use super::{MitsubaConfig, Options};
 /// image shares samples with the reference (`SEED_REFERENCE`).
 const SEED_TEST: u64 = 1;
 const SEED_CHECK: u64 = 2;
+/// The further seeds of `--seeds`: `SEED_MORE`, `SEED_MORE + 1`, ...
+const SEED_MORE: u64 = 1000;
 
 /// Every timed render, ours and Mitsuba's: `--spp` on all cores and (unless
 /// `--no-single-thread`) on one, then `--check-spp` on all cores.
@@ -46,7 +48,45 @@ pub(super) fn render_all(
         runs.extend(ours);
         runs.extend(theirs.into_iter().flatten());
     }
+    add_seed_images(&mut runs, options, |job| {
+        let mut images = vec![render_ours(scene, options, job)?.image];
+        for config in &options.mitsuba {
+            let run = render_mitsuba(root, mitsuba, mitsuba_scene, options, config, job)?;
+            images.push(run.image);
+        }
+        Ok(images)
+    })?;
     Ok(runs)
+}
+
+/// `--seeds`: renders `--spp` with every further seed on all cores, ours
+/// and each Mitsuba configuration in turn (`render(job)`: their images in
+/// that order), and gives each renderer's images to all its `--spp` runs
+/// (a render's error does not depend on its thread count).
+fn add_seed_images(
+    runs: &mut [Run],
+    options: &Options,
+    mut render: impl FnMut(Job) -> Result<Vec<Vec<Vec3>>, String>,
+) -> Result<(), String> {
+    let labels: Vec<String> = std::iter::once(ours(options))
+        .chain(options.mitsuba.iter().map(MitsubaConfig::label))
+        .collect();
+    for k in 1..u64::from(options.seeds) {
+        let job = Job {
+            spp: options.spp,
+            seed: SEED_MORE + k - 1,
+            threads: crate::cores(),
+        };
+        for (label, image) in labels.iter().zip(render(job)?) {
+            for run in runs
+                .iter_mut()
+                .filter(|r| &r.renderer == label && r.spp == options.spp)
+            {
+                run.seed_images.push(image.clone());
+            }
+        }
+    }
+    Ok(())
 }
 
 /// The renders of [`render_all`] in order, with how often each is timed:
@@ -86,6 +126,24 @@ pub(super) struct Job {
     pub(super) threads: usize,
 }
 
+impl Job {
+    /// One of the further seeds of `--seeds`, rendered for its image only.
+    fn is_further_seed(self) -> bool {
+        self.seed >= SEED_MORE
+    }
+
+    /// Its images' file name after the renderer's: spp, threads and, for a
+    /// further seed, the seed.
+    fn file_stem(self) -> String {
+        let Self { spp, seed, threads } = self;
+        if self.is_further_seed() {
+            format!("{spp}spp-{threads}t-seed{seed}")
+        } else {
+            format!("{spp}spp-{threads}t")
+        }
+    }
+}
+
 /// Adds `run`'s time to `acc` (a repeat of the same render), or starts it.
 fn merge(acc: &mut Option<Run>, run: Run) {
     match acc {
@@ -111,6 +169,9 @@ pub(super) struct Run {
     /// Every repeat's render time (the image is the same each time).
     pub(super) render_times: Vec<f64>,
     pub(super) image: Vec<Vec3>,
+    /// The same render with the further `--seeds` (untimed, all cores):
+    /// errors are the mean over `image` and these.
+    pub(super) seed_images: Vec<Vec<Vec3>>,
     pub(super) path: PathBuf,
     pub(super) note: String,
 }
@@ -170,7 +231,7 @@ fn render_ours(scene: &Scene, options: &Options, job: Job) -> Result<Run, String
     let (film, setup_s, render_times, invalid) = render_film(scene, options, job)?;
     let render_s = fastest(&render_times);
     let image = film.mean();
-    let path = options.out.join(format!("ours-{spp}spp-{threads}t.exr"));
+    let path = options.out.join(format!("ours-{}.exr", job.file_stem()));
     crate::write_exr(&path, options.width, options.height, &image)?;
     println!(
         "ours:    {spp:>5} spp, {threads} thread(s): render {} s (BVH {setup_s:.4} s) -> {}",
@@ -185,6 +246,7 @@ fn render_ours(scene: &Scene, options: &Options, job: Job) -> Result<Run, String
         render_s,
         render_times,
         image,
+        seed_images: Vec::new(),
         path,
         note: if invalid > 0 {
             format!("{invalid} NaN/inf samples dropped")
@@ -206,7 +268,8 @@ fn render_mitsuba(
     let script = root.join("xtask/scripts/mitsuba_pt.py");
     let MitsubaConfig { variant, sampler } = config;
     let path = options.out.join(format!(
-        "mitsuba-{variant}-{sampler}-{spp}spp-{threads}t.exr"
+        "mitsuba-{variant}-{sampler}-{}.exr",
+        job.file_stem()
     ));
     // Generous: 300 s plus 10 us per sample (Mitsuba does ~1e6 samples/s per core here).
     let samples = options.pixels() as f64 * f64::from(spp);
@@ -221,7 +284,7 @@ fn render_mitsuba(
             .args(["--seed", &seed.to_string()])
             .args(["--threads", &threads.to_string()])
             .args(["--variant", variant, "--sampler", sampler])
-            .args(["--repeat", &in_process_repeats(config).to_string()]),
+            .args(["--repeat", &in_process_repeats(config, job).to_string()]),
         timeout,
     )
     .map_err(|e| format!("mitsuba render failed: {e}"))?;
@@ -265,6 +328,7 @@ fn render_mitsuba(
         render_s: fastest(&render_times),
         render_times,
         image: img.pixels,
+        seed_images: Vec::new(),
         path,
         note: String::new(),
     })
@@ -272,9 +336,14 @@ fn render_mitsuba(
 
 /// Renders per Mitsuba process: an LLVM variant traces and compiles its
 /// kernels in its first render of a process (from Dr.Jit's disk cache when it
-/// has them), so it renders twice and the fastest (warm) time counts.
-fn in_process_repeats(config: &MitsubaConfig) -> u32 {
-    if config.is_llvm() { 2 } else { 1 }
+/// has them), so it renders twice and the fastest (warm) time counts; once
+/// for the untimed images of further seeds.
+fn in_process_repeats(config: &MitsubaConfig, job: Job) -> u32 {
+    if config.is_llvm() && !job.is_further_seed() {
+        2
+    } else {
+        1
+    }
 }
 
 fn times_of(info: &Value) -> Vec<f64> {
@@ -304,5 +373,46 @@ mod tests {
             ]
         );
         assert_eq!(plan(&options, 1).len(), 2, "one core: no one-thread runs");
+    }
+
+    /// Each further seed's images go to every `--spp` run of their
+    /// renderer, in seed order, and to no other run.
+    #[test]
+    fn seed_images_go_to_the_runs_at_spp() {
+        let options = crate::mitsuba::test_options(&["--spp", "8", "--seeds", "3"]);
+        let run = |renderer: String, spp: u32, threads: usize| Run {
+            renderer,
+            threads,
+            spp,
+            setup_s: 0.0,
+            render_s: 1.0,
+            render_times: vec![1.0],
+            image: Vec::new(),
+            seed_images: Vec::new(),
+            path: PathBuf::new(),
+            note: String::new(),
+        };
+        let (us, them) = (ours(&options), options.mitsuba[0].label());
+        let mut runs = vec![
+            run(us.clone(), 8, 2),
+            run(them.clone(), 8, 2),
+            run(us.clone(), 8, 1),
+            run(us, 2, 2),
+            run(them, 2, 2),
+        ];
+        let mut seeds = Vec::new();
+        add_seed_images(&mut runs, &options, |job| {
+            seeds.push(job.seed);
+            let v = job.seed as f32;
+            Ok(vec![vec![Vec3::splat(v)], vec![Vec3::splat(-v)]])
+        })
+        .unwrap();
+        assert_eq!(seeds, [SEED_MORE, SEED_MORE + 1]);
+        let firsts = |r: &Run| r.seed_images.iter().map(|i| i[0].x).collect::<Vec<_>>();
+        let m = SEED_MORE as f32;
+        assert_eq!(firsts(&runs[0]), [m, m + 1.0]);
+        assert_eq!(firsts(&runs[1]), [-m, -m - 1.0]);
+        assert_eq!(firsts(&runs[2]), [m, m + 1.0]);
+        assert!(runs[3].seed_images.is_empty() && runs[4].seed_images.is_empty());
     }
 }

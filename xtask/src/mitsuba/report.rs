@@ -8,7 +8,7 @@ use serde_json::{Value, json};
 
 use super::Options;
 use super::compare::{
-    Agreement, BLOCKS, Errors, ReferenceError, agreement, errors, floor_fit, reference_floor,
+    Agreement, BLOCKS, Errors, ReferenceError, agreement, floor_fit, reference_floor, run_errors,
 };
 use super::install::Mitsuba;
 use super::reference::Reference;
@@ -33,7 +33,10 @@ const BLOCK_RMS_ALARM: f64 = 1.5;
 /// same spp and threads.
 struct RowMetrics<'a> {
     run: &'a Run,
+    /// The mean over its seeds of `per_seed`.
     raw: Errors,
+    /// Each seed's errors (its image's, then `--seeds`'), raw.
+    per_seed: Vec<Errors>,
     /// Errors less the reference's own error (clamped at 0).
     corrected: Errors,
     ratio_raw: Option<f64>,
@@ -95,14 +98,15 @@ fn reference_error(levels: &Levels, reference: &Reference, raw: &[Errors]) -> Re
 /// One row per run: its errors, raw and less the reference's own.
 fn rows<'a>(
     runs: &'a [Run],
-    raw: &[Errors],
+    raw: Vec<(Errors, Vec<Errors>)>,
     reference_error: &ReferenceError,
 ) -> Vec<RowMetrics<'a>> {
     runs.iter()
         .zip(raw)
-        .map(|(run, &raw)| RowMetrics {
+        .map(|(run, (raw, per_seed))| RowMetrics {
             run,
             raw,
+            per_seed,
             corrected: Errors {
                 mse: (raw.mse - reference_error.used.mse).max(0.0),
                 rel_mse: (raw.rel_mse - reference_error.used.rel_mse).max(0.0),
@@ -220,12 +224,13 @@ impl<'a> Report<'a> {
             runs,
             cores,
         };
-        let raw: Vec<Errors> = runs
+        let raw: Vec<(Errors, Vec<Errors>)> = runs
             .iter()
-            .map(|run| errors(&run.image, &reference.mean))
+            .map(|run| run_errors(run, &reference.mean))
             .collect();
-        let reference_error = reference_error(&levels, reference, &raw);
-        let mut rows = rows(runs, &raw, &reference_error);
+        let means: Vec<Errors> = raw.iter().map(|(mean, _)| *mean).collect();
+        let reference_error = reference_error(&levels, reference, &means);
+        let mut rows = rows(runs, raw, &reference_error);
         let anchor = options.mitsuba[0].label();
         set_ratios_to_anchor(&mut rows, &anchor);
         let agreements = agreements(&rows, reference, options, cores);
@@ -400,6 +405,35 @@ impl<'a> Report<'a> {
              the spp); below 1, the row is faster.",
             self.anchor
         );
+        self.md_seeds(md);
+    }
+
+    /// With `--seeds`: every seed's RMSE of the `--spp` rows.
+    fn md_seeds(&self, md: &mut String) {
+        let o = self.options;
+        if o.seeds < 2 {
+            return;
+        }
+        let _ = writeln!(
+            md,
+            "\nErrors at {} spp are means over {} sampler seeds (one render each, the first timed). \
+             RMSE per seed:\n",
+            o.spp, o.seeds
+        );
+        for r in self.rows.iter().filter(|r| r.per_seed.len() > 1) {
+            let each: Vec<String> = r
+                .per_seed
+                .iter()
+                .map(|e| format!("{:.4e}", e.mse.sqrt()))
+                .collect();
+            let _ = writeln!(
+                md,
+                "- {}, {} thread(s): {}",
+                r.run.renderer,
+                r.run.threads,
+                each.join(", ")
+            );
+        }
     }
 
     /// The rate of MSE ~ spp^-rate per renderer.
@@ -479,6 +513,7 @@ impl<'a> Report<'a> {
             "max_depth": o.max_depth,
             "rr_depth": 3,
             "repeat": o.repeat,
+            "seeds": o.seeds,
             "cores": self.cores,
             "load_average_before": self.load_average.0,
             "load_average_after": self.load_average.1,
@@ -506,6 +541,7 @@ impl<'a> Report<'a> {
                 "setup_s": r.run.setup_s,
                 "samples_per_s": r.samples_per_s(pixels),
                 "mse": r.raw.mse,
+                "mse_per_seed": r.per_seed.iter().map(|e| e.mse).collect::<Vec<_>>(),
                 "rmse": r.raw.mse.sqrt(),
                 "rel_mse": r.raw.rel_mse,
                 "mse_reference_removed": r.corrected.mse,
@@ -587,6 +623,7 @@ mod tests {
             render_s: 0.001 * f64::from(spp) * (if threads == 1 { 2.0 } else { 1.0 }),
             render_times: vec![0.001 * f64::from(spp)],
             image,
+            seed_images: Vec::new(),
             path: PathBuf::from(format!("/out/{spp}.exr")),
             note: String::new(),
         }
@@ -596,7 +633,8 @@ mod tests {
     /// numbers, the agreement table, and a warning for a biased renderer.
     #[test]
     fn report_of_synthetic_runs() {
-        let options = crate::mitsuba::test_options(&["--resolution", "32x32", "--spp", "8"]);
+        let options =
+            crate::mitsuba::test_options(&["--resolution", "32x32", "--spp", "8", "--seeds", "2"]);
         let mean: Vec<Vec3> = (0..options.pixels())
             .map(|i| Vec3::new(0.5, 0.25, 1.0) * (1.0 + (i % 7) as f32 / 7.0))
             .collect();
@@ -617,7 +655,7 @@ mod tests {
         let mitsuba_label = options.mitsuba[0].label();
         const MITSUBA: &str = "mitsuba 3 (path, scalar_rgb, independent)";
         assert_eq!(mitsuba_label, MITSUBA);
-        let runs = vec![
+        let mut runs = vec![
             run(OURS, 8, 2, image(r, 8, 1, 0.0)),
             run(MITSUBA, 8, 2, image(r, 8, 2, 0.05)),
             run(OURS, 8, 1, image(r, 8, 3, 0.0)),
@@ -625,6 +663,10 @@ mod tests {
             run(OURS, 2, 2, image(r, 2, 5, 0.0)),
             run(MITSUBA, 2, 2, image(r, 2, 6, 0.05)),
         ];
+        // --seeds 2: a second image of each 8-spp run (here one with no error).
+        for run in &mut runs[..4] {
+            run.seed_images.push(r.clone());
+        }
         let context = (&options, 2, &mitsuba, 0.25, "1.00 0.50 0.25".to_string());
         let mut report = Report::new(context, &reference, &runs);
         report.load_average.1 = "2.00 1.00 0.50".into();
@@ -643,5 +685,16 @@ mod tests {
         );
         assert!(!alarms.iter().any(|a| a.starts_with(OURS)), "{alarms:?}");
         assert_eq!(report.convergence.len(), 2);
+        // The second seed's zero error halves the first's MSE.
+        let first = super::super::compare::errors(&runs[0].image, r).mse;
+        assert!((report.rows[0].raw.mse - first / 2.0).abs() < 1e-12 * first);
+        assert!(md.contains("means over 2 sampler seeds"), "{md}");
+        assert!(
+            md.contains(&format!(
+                "- {OURS}, 2 thread(s): {:.4e}, 0.0000e0",
+                first.sqrt()
+            )),
+            "{md}"
+        );
     }
 }
