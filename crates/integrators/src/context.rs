@@ -81,6 +81,12 @@ impl SceneContext {
         );
         let bounds = BoundingSphere::of(&scene);
         let lights = Lights::new(&scene, bounds);
+        // Only the path tracer's MIS knows the receiver of an emitter hit.
+        let lights = if config.algorithm == crate::config::Algorithm::Pt {
+            lights.with_sphere_cones(&scene)
+        } else {
+            lights
+        };
         let camera = CameraRays::new(scene.camera);
         let merge_radius = MergeRadius::new(
             config.radius_factor,

