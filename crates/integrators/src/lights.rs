@@ -648,8 +648,8 @@ impl Lights {
                     mis: self.environment_pdfs_of(pmf * s.pdf),
                 }
             }
-            Light::Sphere { sphere } if choice.surface.is_none() => {
-                self.sample_cone(scene, sphere, index, pmf, u, p)?
+            Light::Sphere { sphere } if self.cones[index].is_some() => {
+                self.sample_cone(scene, sphere, index, u, p)?
             }
             Light::Area { .. } | Light::Sphere { .. } => {
                 let SurfaceSample {
@@ -686,19 +686,13 @@ impl Lights {
         scene: &Scene,
         sphere: u32,
         index: usize,
-        pmf: f32,
         u: Vec2,
         p: Vec3,
     ) -> Option<LightSample> {
-        let shape = self.cones[index]?;
-        let primitive = self.first_sphere + sphere;
         let s = &scene.spheres[sphere as usize];
-        let (outward, pdf) = match Cone::of(&shape, p) {
-            Some(cone) => {
-                let n = cone.sample(u);
-                (n.as_vec3(), (f64::from(pmf) * cone.pdf()) as f32)
-            }
-            None => (uniform_sphere(u), 0.0),
+        let outward = match Cone::of(self.cones[index].as_ref()?, p) {
+            Some(cone) => cone.sample(u).as_vec3(),
+            None => uniform_sphere(u),
         };
         let (point, error) = sphere_point(s, outward);
         let wi = (point - p).try_normalize()?;
@@ -706,12 +700,9 @@ impl Lights {
         if cos_light <= 0.0 {
             return None;
         }
-        let pdf = if pdf > 0.0 {
-            pdf
-        } else {
-            self.area_pdfs(primitive, cos_light).direct_pdf * (point - p).length_squared()
-                / cos_light
-        };
+        // The density emitter hits are weighted with, by construction.
+        let primitive = self.first_sphere + sphere;
+        let pdf = self.area_pdf_w(primitive, p, point, outward);
         let mut mis = self.area_pdfs(primitive, cos_light);
         mis.direct_pdf = pdf * cos_light / (point - p).length_squared();
         Some(LightSample {
