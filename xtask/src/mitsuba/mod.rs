@@ -14,7 +14,9 @@
 //!    scene file, every file under its folder);
 //! 4. renders with both renderers at `--spp` (with all cores, and with one
 //!    core unless `--no-single-thread`) and at `--check-spp` (all cores),
-//!    timing the render call only;
+//!    timing the render call only; with `--seeds N`, N - 1 more `--spp`
+//!    renders per renderer with other seeds (untimed, all cores), whose
+//!    errors are averaged with the first's;
 //! 5. compares every image with the reference (RMSE, relMSE, efficiency
 //!    1/(time MSE), time-to-equal-error ratio against Mitsuba) and checks
 //!    that the two renderers estimate the same image (image means, and
