@@ -469,13 +469,19 @@ impl Lights {
             && let Some(sphere) = &self.cones[light]
             && let Some(cone) = Cone::of(sphere, from)
         {
-            return (f64::from(self.pmf[light]) * cone.pdf()) as f32;
+            return self.cone_pdf_w(light, &cone);
         }
         let d = p - from;
         let dist2 = d.length_squared();
         let cos = (n.dot(d) / dist2.sqrt()).abs();
         let pdf = self.area_pdfs(primitive, cos).direct_pdf * dist2 / cos;
         if pdf.is_finite() { pdf } else { 0.0 }
+    }
+
+    /// Next-event density in solid angle, selection included, of sphere
+    /// light `light` sampled by its cone `cone`.
+    fn cone_pdf_w(&self, light: usize, cone: &Cone) -> f32 {
+        (f64::from(self.pmf[light]) * cone.pdf()) as f32
     }
 
     /// The light index of `primitive` when it is an emissive sphere.
@@ -690,7 +696,8 @@ impl Lights {
         p: Vec3,
     ) -> Option<LightSample> {
         let s = &scene.spheres[sphere as usize];
-        let outward = match Cone::of(self.cones[index].as_ref()?, p) {
+        let cone = Cone::of(self.cones[index].as_ref()?, p);
+        let outward = match &cone {
             Some(cone) => cone.sample(u).as_vec3(),
             None => uniform_sphere(u),
         };
@@ -700,9 +707,12 @@ impl Lights {
         if cos_light <= 0.0 {
             return None;
         }
-        // The density emitter hits are weighted with, by construction.
+        // The density emitter hits are weighted with (`area_pdf_w`).
         let primitive = self.first_sphere + sphere;
-        let pdf = self.area_pdf_w(primitive, p, point, outward);
+        let pdf = match &cone {
+            Some(cone) => self.cone_pdf_w(index, cone),
+            None => self.area_pdf_w(primitive, p, point, outward),
+        };
         let mut mis = self.area_pdfs(primitive, cos_light);
         mis.direct_pdf = pdf * cos_light / (point - p).length_squared();
         Some(LightSample {
