@@ -475,6 +475,13 @@ impl Bvh {
         self.bounds
     }
 
+    /// The instruction set the SIMD kernels run on ([`Bvh::set_isa`]):
+    /// callers with kernels of their own use it too, so that a forced
+    /// choice applies to the whole render.
+    pub fn simd_level(&self) -> fearless_simd::Level {
+        self.isa
+    }
+
     /// Chooses the instruction set of [`Layout::Bvh8`]'s node and leaf tests (other
     /// layouts ignore it). Every choice gives the same results bit for bit;
     /// this is for measuring and for testing that they do. Returns `false`,

@@ -561,6 +561,21 @@ impl Lights {
         })
     }
 
+    /// The point of `choice` when it is on an emissive triangle: the point,
+    /// its radiance and the triangle's density in area, selection included
+    /// ([`Lights::area_pdfs`]' `direct_pdf`). What [`Lights::sample_chosen`]
+    /// computes from them for a receiver is simple enough to run for a
+    /// batch of receivers at once (the path tracer's wavefront does).
+    #[inline]
+    pub fn triangle_point(&self, choice: &LightChoice) -> Option<(LightPoint, Vec3, f32)> {
+        let sample = choice.surface?;
+        if !matches!(self.lights[choice.index], Light::Area { .. }) {
+            return None;
+        }
+        let pdf_a = self.area_pdfs(sample.primitive, 0.0).direct_pdf;
+        Some((sample.point, sample.le, pdf_a))
+    }
+
     /// [`Lights::sample`] of the light and point `choice`, for the receiver
     /// at `p`.
     #[inline]

@@ -7,7 +7,7 @@ use glam::Vec3;
 use microfacet::TransportMode;
 
 use crate::context::SceneContext;
-use crate::lights::{LightChoice, LightSample};
+use crate::lights::{LightChoice, LightPoint, LightSample};
 use crate::vertex::PathVertex;
 
 /// The light sample of the light and point `choice` ([`Lights::choose`])
@@ -70,13 +70,20 @@ pub struct ShadowRay {
 /// their surfaces (`accel::offset`), so neither hits its own surface.
 #[inline]
 pub fn shadow_ray(vertex: &PathVertex, ls: &LightSample) -> ShadowRay {
-    let origin = vertex.point.spawn_origin(ls.wi);
-    match ls.point {
+    shadow_ray_towards(vertex, ls.wi, ls.point)
+}
+
+/// [`shadow_ray`] to the light point `point` (`None` for a light at
+/// infinity) in direction `wi`.
+#[inline]
+pub fn shadow_ray_towards(vertex: &PathVertex, wi: Vec3, point: Option<LightPoint>) -> ShadowRay {
+    let origin = vertex.point.spawn_origin(wi);
+    match point {
         Some(lp) => {
             let end = if lp.n == Vec3::ZERO {
                 lp.p
             } else {
-                let n = if lp.n.dot(-ls.wi) > 0.0 { lp.n } else { -lp.n };
+                let n = if lp.n.dot(-wi) > 0.0 { lp.n } else { -lp.n };
                 lp.error.offset(lp.p, n)
             };
             ShadowRay {
@@ -88,7 +95,7 @@ pub fn shadow_ray(vertex: &PathVertex, ls: &LightSample) -> ShadowRay {
         }
         None => ShadowRay {
             origin,
-            direction: ls.wi,
+            direction: wi,
             t_max: f32::INFINITY,
             surfaces: [vertex.point.primitive, accel::NO_SURFACE],
         },

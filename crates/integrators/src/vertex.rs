@@ -9,7 +9,7 @@
 use std::cell::RefCell;
 
 use glam::{Vec2, Vec3};
-use microfacet::{Bsdf, TransportMode};
+use microfacet::{Bsdf, Lambertian, TransportMode};
 use regularization::{AlphaHat, PathRegularization, RegularizationMemo, p_hat, p_hat_of_sample};
 use scene::Scene;
 
@@ -149,6 +149,24 @@ impl PathVertex {
     /// other, it is regularized as that subpath would (SPEC §5).
     pub fn regularized_as(&self, scene: &Scene, regularization: PathRegularization) -> Self {
         Self::new(scene, self.point, self.wi, self.throughput, regularization)
+    }
+
+    /// The vertex's Lambertian lobe, when it has one and no medium behind
+    /// it: its evaluation and density need nothing but the frame and the
+    /// reflectance, so batches of such vertices are shaded lane by lane
+    /// (the path tracer's wavefront).
+    #[inline]
+    pub fn lambertian(&self) -> Option<&Lambertian> {
+        match &self.bsdf {
+            Bsdf::Lambertian(l) if self.medium.is_none() => Some(l),
+            _ => None,
+        }
+    }
+
+    /// `wi` in the vertex's frame.
+    #[inline]
+    pub fn wi_local(&self) -> Vec3 {
+        self.wi_local
     }
 
     /// True when the (regularized) lobe is a delta.

@@ -19,6 +19,7 @@ use crate::sampler::Sampler;
 use crate::vertex::PathVertex;
 use crate::walk::Walk;
 
+mod lanes;
 mod wavefront;
 
 /// Pixels per image side, and paths per pixel, of the preview that
@@ -272,6 +273,13 @@ impl PathTracer {
         } else {
             mis_weight(ls.pdf, vertex.mis_pdf(ls.wi))
         };
-        f * ls.li * (weight / ls.pdf)
+        weighted(f, ls.li, ls.pdf, weight)
     }
+}
+
+/// A light sample's contribution: f |cos| times the radiance `li` over
+/// the density `pdf`, times the MIS `weight`.
+#[inline(always)]
+fn weighted(f: Vec3, li: Vec3, pdf: f32, weight: f32) -> Vec3 {
+    f * li * (weight / pdf)
 }

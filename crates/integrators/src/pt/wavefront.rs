@@ -31,6 +31,7 @@ use glam::Vec3;
 use microfacet::TransportMode;
 use regularization::{PathRegularization, Subpath};
 
+use super::lanes::{LANES, NeeLanes, TriangleSample};
 use super::{Bounce, PathTracer};
 use crate::context::SceneContext;
 use crate::geometry::SurfacePoint;
@@ -85,6 +86,9 @@ pub struct Queues {
     scattering: Vec<Scattering>,
     /// Light samples of the scattering queue's entries (by index).
     light_samples: Vec<(usize, LightSample)>,
+    /// Light points on emissive triangles for Lambertian entries, whose
+    /// samples are computed in lanes ([`lanes`](super::lanes)).
+    triangle_samples: Vec<TriangleSample>,
     shadow: Vec<ShadowQuery>,
 }
 
@@ -177,15 +181,35 @@ impl PathTracer {
             return;
         }
         queues.light_samples.clear();
+        queues.triangle_samples.clear();
         for (k, s) in queues.scattering.iter().enumerate() {
-            if !s.vertex.is_specular()
-                && let Some(ls) =
-                    ctx.lights
-                        .sample(&ctx.scene, s.vertex.point.p, s.u.u_light, s.u.uv_light)
+            if s.vertex.is_specular() {
+                continue;
+            }
+            let Some(choice) = ctx.lights.choose(&ctx.scene, s.u.u_light, s.u.uv_light) else {
+                continue;
+            };
+            if let Some(lambertian) = s.vertex.lambertian()
+                && let Some((point, le, pdf_a)) = ctx.lights.triangle_point(&choice)
+            {
+                // `sample_chosen` returns no sample of zero radiance.
+                if le.max_element() > 0.0 {
+                    queues.triangle_samples.push(TriangleSample {
+                        vertex: k,
+                        reflectance: lambertian.reflectance,
+                        point,
+                        le,
+                        pdf_a,
+                    });
+                }
+            } else if let Some(ls) = ctx
+                .lights
+                .sample_chosen(&ctx.scene, &choice, s.vertex.point.p)
             {
                 queues.light_samples.push((k, ls));
             }
         }
+        self.shade_in_lanes(ctx, queues);
         for (k, ls) in &queues.light_samples {
             let s = &queues.scattering[*k];
             if let Some(f) = nee::light_value(&s.vertex, ls) {
@@ -194,6 +218,37 @@ impl PathTracer {
                     pixel: path.pixel,
                     ray: nee::shadow_ray(&s.vertex, ls),
                     contribution: path.walk.throughput * self.light_contribution(&s.vertex, ls, f),
+                });
+            }
+        }
+    }
+
+    /// The light samples of `queues.triangle_samples`, [`LANES`] at a time,
+    /// and their shadow rays and contributions, as the scalar code gives
+    /// them (`Lights::sample_chosen`, `nee::light_value`,
+    /// `light_contribution`).
+    fn shade_in_lanes(&self, ctx: &SceneContext, queues: &mut Queues) {
+        let mut lanes = NeeLanes::default();
+        for batch in queues.triangle_samples.chunks(LANES) {
+            for (j, t) in batch.iter().enumerate() {
+                lanes.set(j, &queues.scattering[t.vertex].vertex, t);
+            }
+            lanes.clear_from(batch.len());
+            lanes.run(ctx.bvh.simd_level());
+            for (j, t) in batch.iter().enumerate() {
+                let Some(ls) = lanes.sample(j) else { continue };
+                let s = &queues.scattering[t.vertex];
+                let weight = if self.use_bsdf {
+                    super::mis_weight(ls.pdf, ls.bsdf_pdf)
+                } else {
+                    1.0
+                };
+                let path = &queues.paths[s.path];
+                queues.shadow.push(ShadowQuery {
+                    pixel: path.pixel,
+                    ray: nee::shadow_ray_towards(&s.vertex, ls.wi, Some(t.point)),
+                    contribution: path.walk.throughput
+                        * super::weighted(ls.f, t.le, ls.pdf, weight),
                 });
             }
         }

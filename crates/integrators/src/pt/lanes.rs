@@ -1,0 +1,281 @@
+//! Next-event estimation lane by lane: a batch of [`LANES`] Lambertian
+//! vertices, each with a light point on an emissive triangle, in
+//! structure-of-arrays form, and the light samples' directions, densities,
+//! f |cos| and BSDF densities computed as 16-lane vectors (`fearless_simd`,
+//! on the instruction set `accel` chose at run time). One vertex's chain of
+//! square roots and divisions, alone, was what limited the scalar loop
+//! (docs/benchmarks.md, "Where the time goes"); here sixteen share each
+//! instruction.
+//!
+//! **The scalar code's results, bit for bit.** Each lane makes the float
+//! operations of [`Lights::sample_chosen`](crate::lights::Lights::sample_chosen)
+//! (an area light's branch and `area_pdf_w`), [`PathVertex::eval`] and
+//! [`PathVertex::mis_pdf`] for a Lambertian lobe in radiance mode, in the
+//! same order (glam's `dot` is `(x x') + (y y') + (z z')`, its
+//! `try_normalize` a multiplication by `1 / sqrt`), with the same
+//! comparisons. Only IEEE operations, no fused multiply-add: every
+//! instruction set gives the same bits (tested here), and the path
+//! tracer's wavefront-against-scalar byte-identity test covers every
+//! bundled scene, Lambertian surfaces and triangle lights included. Keep
+//! the two in step.
+
+use std::f32::consts::FRAC_1_PI;
+
+use fearless_simd::{Level, Select, Simd, SimdBase, SimdFloat, SimdMask, dispatch, f32x16};
+use glam::Vec3;
+
+use crate::lights::LightPoint;
+use crate::vertex::PathVertex;
+
+/// Vertices per batch: two AVX-512 registers of f32, four AVX2 or eight
+/// SSE ones (the build's baseline).
+pub(super) const LANES: usize = 16;
+
+/// A light point on an emissive triangle chosen for scattering vertex
+/// `vertex` (its index in the wavefront's scattering queue), whose
+/// Lambertian lobe has `reflectance`, with what
+/// [`Lights::triangle_point`](crate::lights::Lights::triangle_point)
+/// returns.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct TriangleSample {
+    pub vertex: usize,
+    pub reflectance: Vec3,
+    pub point: LightPoint,
+    pub le: Vec3,
+    pub pdf_a: f32,
+}
+
+/// One light sample's values, where it is valid.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct LaneSample {
+    /// Unit direction from the vertex to the light point.
+    pub wi: Vec3,
+    /// Density in solid angle, selection included.
+    pub pdf: f32,
+    /// f |cos| at the vertex towards `wi`.
+    pub f: Vec3,
+    /// The vertex's BSDF density for `wi` (MIS).
+    pub bsdf_pdf: f32,
+}
+
+/// A batch's inputs and outputs, coordinate by coordinate (`x[axis][lane]`).
+/// Unused lanes hold zeros: a zero distance, which makes them invalid.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct NeeLanes {
+    /// The receivers' positions, geometric normals, shading normals.
+    p: [[f32; LANES]; 3],
+    ng: [[f32; LANES]; 3],
+    n: [[f32; LANES]; 3],
+    /// `ng . wi` and `wi.z` in the frame, of each vertex's `wi`.
+    ng_wi: [f32; LANES],
+    wi_z: [f32; LANES],
+    reflectance: [[f32; LANES]; 3],
+    /// The light points, their normals and area densities.
+    light_p: [[f32; LANES]; 3],
+    light_n: [[f32; LANES]; 3],
+    pdf_a: [f32; LANES],
+    // Results.
+    wi: [[f32; LANES]; 3],
+    pdf: [f32; LANES],
+    f: [[f32; LANES]; 3],
+    bsdf_pdf: [f32; LANES],
+    /// Bit `j`: lane `j`'s sample is valid.
+    valid: u32,
+}
+
+impl NeeLanes {
+    /// Lane `j` takes the vertex `vertex` and the light point `sample`.
+    #[inline(always)]
+    pub fn set(&mut self, j: usize, vertex: &PathVertex, sample: &TriangleSample) {
+        let point = &vertex.point;
+        for (axis, column) in [
+            (point.p, &mut self.p),
+            (point.ng, &mut self.ng),
+            (vertex.frame.n, &mut self.n),
+            (sample.reflectance, &mut self.reflectance),
+            (sample.point.p, &mut self.light_p),
+            (sample.point.n, &mut self.light_n),
+        ] {
+            column[0][j] = axis.x;
+            column[1][j] = axis.y;
+            column[2][j] = axis.z;
+        }
+        self.ng_wi[j] = point.ng.dot(vertex.wi);
+        self.wi_z[j] = vertex.wi_local().z;
+        self.pdf_a[j] = sample.pdf_a;
+    }
+
+    /// Lanes `from..` unused (a batch's last, partial one).
+    pub fn clear_from(&mut self, from: usize) {
+        for j in from..LANES {
+            self.p.iter_mut().for_each(|c| c[j] = 0.0);
+            self.light_p.iter_mut().for_each(|c| c[j] = 0.0);
+        }
+    }
+
+    /// Every lane's light sample (see the module documentation): what
+    /// `Lights::sample_chosen` and `nee::light_value` compute, `None` in
+    /// lane `j` ([`NeeLanes::sample`]) where either returns `None`; on the
+    /// instruction set `level`, with the same results on every one.
+    pub fn run(&mut self, level: Level) {
+        dispatch!(level, simd => self.run_on(simd));
+    }
+
+    #[inline(always)]
+    fn run_on<S: Simd>(&mut self, simd: S) {
+        // No closures here: one is compiled out of line, without the
+        // instruction set's target features (accel's `leaf.rs` measured
+        // its SIMD operations as calls, 2-4 times slower).
+        type V<S> = f32x16<S>;
+        let p = load3(simd, &self.p);
+        let light_p = load3(simd, &self.light_p);
+        let light_n = load3(simd, &self.light_n);
+        let zero = V::splat(simd, 0.0);
+        let one = V::splat(simd, 1.0);
+        let inv_pi = V::splat(simd, FRAC_1_PI);
+        // sample_chosen: the direction (try_normalize) and the facing test.
+        let d = [light_p[0] - p[0], light_p[1] - p[1], light_p[2] - p[2]];
+        let dist2 = dot(d, d);
+        let rcp = one / dist2.sqrt();
+        let wi = [d[0] * rcp, d[1] * rcp, d[2] * rcp];
+        let facing = dot(light_n, [-wi[0], -wi[1], -wi[2]]);
+        // area_pdf_w.
+        let cos = (dot(light_n, d) / dist2.sqrt()).abs();
+        let pdf = V::from_slice(simd, &self.pdf_a) * dist2 / cos;
+        let pdf = pdf.is_finite().select(pdf, zero);
+        // PathVertex::eval and mis_pdf of a Lambertian lobe.
+        let consistent =
+            (dot(load3(simd, &self.ng), wi) * V::from_slice(simd, &self.ng_wi)).simd_gt(zero);
+        let wo_z = dot(wi, load3(simd, &self.n));
+        let same_hemisphere = (V::from_slice(simd, &self.wi_z) * wo_z).simd_gt(zero);
+        let cos_o = wo_z.abs();
+        let r = load3(simd, &self.reflectance);
+        let f = [
+            same_hemisphere.select(r[0] * inv_pi, zero) * cos_o,
+            same_hemisphere.select(r[1] * inv_pi, zero) * cos_o,
+            same_hemisphere.select(r[2] * inv_pi, zero) * cos_o,
+        ];
+        let bsdf_pdf = same_hemisphere.select(cos_o * inv_pi, zero);
+        let valid = rcp.is_finite()
+            & rcp.simd_gt(zero)
+            & !facing.simd_le(zero)
+            & pdf.simd_gt(zero)
+            & consistent
+            & (f[0].simd_gt(zero) | f[1].simd_gt(zero) | f[2].simd_gt(zero));
+        for axis in 0..3 {
+            wi[axis].store_slice(&mut self.wi[axis]);
+            f[axis].store_slice(&mut self.f[axis]);
+        }
+        pdf.store_slice(&mut self.pdf);
+        bsdf_pdf.store_slice(&mut self.bsdf_pdf);
+        self.valid = valid.to_bitmask() as u32;
+    }
+
+    /// Lane `j`'s light sample after [`NeeLanes::run`], if valid.
+    #[inline(always)]
+    pub fn sample(&self, j: usize) -> Option<LaneSample> {
+        let v = |c: &[[f32; LANES]; 3]| Vec3::new(c[0][j], c[1][j], c[2][j]);
+        (self.valid & (1 << j) != 0).then(|| LaneSample {
+            wi: v(&self.wi),
+            pdf: self.pdf[j],
+            f: v(&self.f),
+            bsdf_pdf: self.bsdf_pdf[j],
+        })
+    }
+}
+
+/// The three coordinates of a batch.
+#[inline(always)]
+fn load3<S: Simd>(simd: S, c: &[[f32; LANES]; 3]) -> [f32x16<S>; 3] {
+    [
+        f32x16::from_slice(simd, &c[0]),
+        f32x16::from_slice(simd, &c[1]),
+        f32x16::from_slice(simd, &c[2]),
+    ]
+}
+
+/// glam's `dot`, lane by lane: `(a.x b.x + a.y b.y) + a.z b.z`.
+#[inline(always)]
+fn dot<S: Simd>(a: [f32x16<S>; 3], b: [f32x16<S>; 3]) -> f32x16<S> {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use stats::Pcg32;
+
+    /// Every instruction set this CPU has (as `accel::Isa` chooses them).
+    fn levels() -> Vec<Level> {
+        let best = Level::new();
+        let mut levels = vec![best];
+        #[cfg(any(target_arch = "x86", target_arch = "x86_64"))]
+        {
+            levels.extend(best.as_sse4_2().map(Level::Sse4_2));
+            levels.extend(best.as_avx2().map(Level::Avx2));
+            levels.extend(best.as_avx512().map(Level::Avx512));
+        }
+        levels
+    }
+
+    /// A batch of random receivers and light points, with the cases that
+    /// end a sample: a light point at the receiver, seen from behind, a
+    /// direction below the surface or against its geometric normal.
+    fn random_batch(rng: &mut Pcg32) -> NeeLanes {
+        let mut lanes = NeeLanes::default();
+        let mut v = |scale: f32| rng.uniform_f32() * 2.0 * scale - scale;
+        for j in 0..LANES {
+            for axis in 0..3 {
+                lanes.p[axis][j] = v(3.0);
+                lanes.ng[axis][j] = v(1.0);
+                lanes.n[axis][j] = v(1.0);
+                lanes.reflectance[axis][j] = v(1.0).abs();
+                lanes.light_p[axis][j] = v(3.0);
+                lanes.light_n[axis][j] = v(1.0);
+            }
+            lanes.ng_wi[j] = v(1.0);
+            lanes.wi_z[j] = v(1.0);
+            lanes.pdf_a[j] = v(2.0).abs();
+        }
+        for axis in 0..3 {
+            lanes.light_p[axis][0] = lanes.p[axis][0];
+        }
+        lanes.pdf_a[1] = 0.0;
+        lanes
+    }
+
+    /// The kernel's results, as bits.
+    fn bits(lanes: &NeeLanes) -> Vec<u32> {
+        let mut out = vec![lanes.valid];
+        for c in [&lanes.wi, &lanes.f] {
+            out.extend(c.iter().flatten().map(|x| x.to_bits()));
+        }
+        out.extend(lanes.pdf.iter().chain(&lanes.bsdf_pdf).map(|x| x.to_bits()));
+        out
+    }
+
+    /// The same bits on every instruction set (the rule of
+    /// docs/benchmarks.md: an image must not depend on the CPU's choice),
+    /// and both valid and invalid lanes among them.
+    #[test]
+    fn every_instruction_set_gives_the_same_bits() {
+        let mut rng = Pcg32::new(11, 5);
+        let mut valid = 0;
+        for _ in 0..200 {
+            let batch = random_batch(&mut rng);
+            let mut expected = None;
+            for level in levels() {
+                let mut lanes = batch;
+                lanes.run(level);
+                let b = bits(&lanes);
+                valid += (expected.is_none()) as u32 * lanes.valid.count_ones();
+                assert_eq!(*expected.get_or_insert(b.clone()), b, "{level:?}");
+            }
+        }
+        let total = 200 * LANES as u32;
+        assert!(
+            valid > total / 20 && valid < total / 2,
+            "{valid} of {total} valid"
+        );
+    }
+}
