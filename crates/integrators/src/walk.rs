@@ -84,11 +84,27 @@ impl Walk {
         scale: f32,
     ) -> Option<VertexSample> {
         let s = vertex.sample(u.u_lobe, u.uv_bsdf, mode)?;
-        self.throughput *= s.weight;
-        self.origin = vertex.point.spawn_origin(s.wo);
+        self.follow(vertex, (s.wo, s.weight), depth, scale, u.u_roulette)
+            .then_some(s)
+    }
+
+    /// The second half of [`Walk::step`]: the walk leaves `vertex` in the
+    /// sampled direction `wo` with the sample's weight (f |cos| / pdf),
+    /// then plays Russian roulette. False when the walk ends.
+    #[inline(always)]
+    pub fn follow(
+        &mut self,
+        vertex: &PathVertex,
+        (wo, weight): (Vec3, Vec3),
+        depth: u32,
+        scale: f32,
+        u_roulette: f32,
+    ) -> bool {
+        self.throughput *= weight;
+        self.origin = vertex.point.spawn_origin(wo);
         self.surface = vertex.point.primitive;
-        self.direction = s.wo;
-        self.medium = vertex.medium_towards(s.wo);
-        roulette::survives(depth, &mut self.throughput, scale, u.u_roulette).then_some(s)
+        self.direction = wo;
+        self.medium = vertex.medium_towards(wo);
+        roulette::survives(depth, &mut self.throughput, scale, u_roulette)
     }
 }

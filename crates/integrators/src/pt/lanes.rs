@@ -1,28 +1,31 @@
-//! Next-event estimation lane by lane: a batch of [`LANES`] Lambertian
-//! vertices, each with a light point on an emissive triangle, in
-//! structure-of-arrays form, and the light samples' directions, densities,
-//! f |cos| and BSDF densities computed as 16-lane vectors (`fearless_simd`,
-//! on the instruction set `accel` chose at run time). One vertex's chain of
-//! square roots and divisions, alone, was what limited the scalar loop
-//! (docs/benchmarks.md, "Where the time goes"); here sixteen share each
-//! instruction.
+//! The path tracer's work at Lambertian vertices in 16 SIMD lanes: a
+//! batch of [`LANES`] vertices in structure-of-arrays form, computed as
+//! 16-lane vectors (`fearless_simd`, on the instruction set `accel` chose
+//! at run time): next-event estimation towards points on emissive
+//! triangles ([`NeeLanes`]: direction, density, f |cos|, BSDF density) and
+//! the BSDF sample ([`StepLanes`]: direction, weight, density). One
+//! vertex's chain of square roots and divisions, alone, was what limited
+//! the scalar loop (docs/benchmarks.md, "Where the time goes"); here
+//! sixteen share each instruction.
 //!
 //! **The scalar code's results, bit for bit.** Each lane makes the float
-//! operations of [`Lights::sample_chosen`](crate::lights::Lights::sample_chosen)
-//! (an area light's branch and `area_pdf_w`), [`PathVertex::eval`] and
-//! [`PathVertex::mis_pdf`] for a Lambertian lobe in radiance mode, in the
-//! same order (glam's `dot` is `(x x') + (y y') + (z z')`, its
-//! `try_normalize` a multiplication by `1 / sqrt`), with the same
-//! comparisons. Only IEEE operations, no fused multiply-add: every
-//! instruction set gives the same bits (tested here), and the path
-//! tracer's wavefront-against-scalar byte-identity test covers every
-//! bundled scene, Lambertian surfaces and triangle lights included. Keep
-//! the two in step.
+//! operations of the scalar functions, in the same order (glam's `dot` is
+//! `(x x') + (y y') + (z z')`, its `try_normalize` a multiplication by
+//! `1 / sqrt`), with the same comparisons: for [`NeeLanes`],
+//! [`Lights::sample_chosen`](crate::lights::Lights::sample_chosen) (an
+//! area light's branch and `area_pdf_w`), [`PathVertex::eval`] and
+//! [`PathVertex::mis_pdf`] of a Lambertian lobe in radiance mode; for
+//! [`StepLanes`], `Lambertian::sample` (its cos and sin are libm's, per
+//! lane) and [`PathVertex::sample`]. Only IEEE operations, no fused
+//! multiply-add: every instruction set gives the same bits (tested here),
+//! and the path tracer's wavefront-against-scalar byte-identity test
+//! covers every bundled scene, Lambertian surfaces and triangle lights
+//! included. Keep the two in step.
 
-use std::f32::consts::FRAC_1_PI;
+use std::f32::consts::{FRAC_1_PI, PI};
 
 use fearless_simd::{Level, Select, Simd, SimdBase, SimdFloat, SimdMask, dispatch, f32x16};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use crate::lights::LightPoint;
 use crate::vertex::PathVertex;
@@ -184,6 +187,150 @@ impl NeeLanes {
     }
 }
 
+/// One BSDF sample's values, where it is valid.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct LaneStep {
+    /// Unit world direction.
+    pub wo: Vec3,
+    /// f |cos| / pdf.
+    pub weight: Vec3,
+    /// Its density in solid angle (and the MIS density: a Lambertian lobe
+    /// is never regularized).
+    pub pdf: f32,
+}
+
+/// BSDF samples of a batch of Lambertian vertices in radiance mode
+/// ([`Lambertian::sample`](microfacet::Lambertian::sample) and
+/// [`PathVertex::sample`]: the same operations, as [`NeeLanes`] makes
+/// them), coordinate by coordinate. Unused lanes have `wi.z` 0, for which
+/// the sample is `None`.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct StepLanes {
+    /// The vertices' frames, geometric normals, `ng . wi` and `wi.z` in the
+    /// frame, reflectances.
+    s: [[f32; LANES]; 3],
+    t: [[f32; LANES]; 3],
+    n: [[f32; LANES]; 3],
+    ng: [[f32; LANES]; 3],
+    ng_wi: [f32; LANES],
+    wi_z: [f32; LANES],
+    reflectance: [[f32; LANES]; 3],
+    /// The first sample number, and cos and sin of the azimuth from the
+    /// second (libm's, computed per lane by [`StepLanes::set`] as
+    /// `Lambertian::sample` does).
+    u: [f32; LANES],
+    cos_phi: [f32; LANES],
+    sin_phi: [f32; LANES],
+    // Results.
+    wo: [[f32; LANES]; 3],
+    weight: [[f32; LANES]; 3],
+    pdf: [f32; LANES],
+    /// Bit `j`: lane `j`'s sample is valid.
+    valid: u32,
+}
+
+impl StepLanes {
+    /// Lane `j` takes the vertex `vertex`, whose Lambertian lobe has
+    /// `reflectance`, and the sample numbers `u`.
+    #[inline(always)]
+    pub fn set(&mut self, j: usize, vertex: &PathVertex, reflectance: Vec3, u: Vec2) {
+        let frame = &vertex.frame;
+        for (axis, column) in [
+            (frame.s, &mut self.s),
+            (frame.t, &mut self.t),
+            (frame.n, &mut self.n),
+            (vertex.point.ng, &mut self.ng),
+            (reflectance, &mut self.reflectance),
+        ] {
+            column[0][j] = axis.x;
+            column[1][j] = axis.y;
+            column[2][j] = axis.z;
+        }
+        self.ng_wi[j] = vertex.point.ng.dot(vertex.wi);
+        self.wi_z[j] = vertex.wi_local().z;
+        self.u[j] = u.x;
+        let phi = 2.0 * PI * u.y;
+        self.cos_phi[j] = phi.cos();
+        self.sin_phi[j] = phi.sin();
+    }
+
+    /// Lane `j` unused.
+    pub fn clear(&mut self, j: usize) {
+        self.wi_z[j] = 0.0;
+    }
+
+    /// Every lane's sample, on the instruction set `level` (the same
+    /// results on every one).
+    pub fn run(&mut self, level: Level) {
+        dispatch!(level, simd => self.run_on(simd));
+    }
+
+    #[inline(always)]
+    fn run_on<S: Simd>(&mut self, simd: S) {
+        type V<S> = f32x16<S>;
+        let zero = V::splat(simd, 0.0);
+        let one = V::splat(simd, 1.0);
+        let inv_pi = V::splat(simd, FRAC_1_PI);
+        let wi_z = V::from_slice(simd, &self.wi_z);
+        let u = V::from_slice(simd, &self.u);
+        // Lambertian::sample.
+        let r = u.sqrt();
+        let z = (one - u).max_precise(zero).sqrt();
+        let wo_local = [
+            r * V::from_slice(simd, &self.cos_phi),
+            r * V::from_slice(simd, &self.sin_phi),
+            z.copysign(wi_z),
+        ];
+        let reflectance = load3(simd, &self.reflectance);
+        let pdf = z * inv_pi;
+        // PathVertex::sample: Frame::to_world, the consistency test, the weight.
+        let (s, t, n) = (
+            load3(simd, &self.s),
+            load3(simd, &self.t),
+            load3(simd, &self.n),
+        );
+        let [x, y, z_local] = wo_local;
+        let wo = [
+            s[0] * x + t[0] * y + n[0] * z_local,
+            s[1] * x + t[1] * y + n[1] * z_local,
+            s[2] * x + t[2] * y + n[2] * z_local,
+        ];
+        let consistent =
+            (dot(load3(simd, &self.ng), wo) * V::from_slice(simd, &self.ng_wi)).simd_gt(zero);
+        let q = z_local.abs() / pdf;
+        let weight = [
+            reflectance[0] * inv_pi * q,
+            reflectance[1] * inv_pi * q,
+            reflectance[2] * inv_pi * q,
+        ];
+        let valid = !wi_z.simd_eq(zero)
+            & !z.simd_eq(zero)
+            & consistent
+            & pdf.simd_gt(zero)
+            & weight[0].is_finite()
+            & weight[1].is_finite()
+            & weight[2].is_finite()
+            & (weight[0].simd_gt(zero) | weight[1].simd_gt(zero) | weight[2].simd_gt(zero));
+        for axis in 0..3 {
+            wo[axis].store_slice(&mut self.wo[axis]);
+            weight[axis].store_slice(&mut self.weight[axis]);
+        }
+        pdf.store_slice(&mut self.pdf);
+        self.valid = valid.to_bitmask() as u32;
+    }
+
+    /// Lane `j`'s sample after [`StepLanes::run`], if valid.
+    #[inline(always)]
+    pub fn sample(&self, j: usize) -> Option<LaneStep> {
+        let v = |c: &[[f32; LANES]; 3]| Vec3::new(c[0][j], c[1][j], c[2][j]);
+        (self.valid & (1 << j) != 0).then(|| LaneStep {
+            wo: v(&self.wo),
+            weight: v(&self.weight),
+            pdf: self.pdf[j],
+        })
+    }
+}
+
 /// The three coordinates of a batch.
 #[inline(always)]
 fn load3<S: Simd>(simd: S, c: &[[f32; LANES]; 3]) -> [f32x16<S>; 3] {
@@ -258,7 +405,7 @@ mod tests {
     /// docs/benchmarks.md: an image must not depend on the CPU's choice),
     /// and both valid and invalid lanes among them.
     #[test]
-    fn every_instruction_set_gives_the_same_bits() {
+    fn every_instruction_set_gives_the_same_light_samples() {
         let mut rng = Pcg32::new(11, 5);
         let mut valid = 0;
         for _ in 0..200 {
@@ -275,6 +422,57 @@ mod tests {
         let total = 200 * LANES as u32;
         assert!(
             valid > total / 20 && valid < total / 2,
+            "{valid} of {total} valid"
+        );
+    }
+
+    /// A batch of random vertices and sample numbers, with the cases that
+    /// end a sample: `wi` in the surface, a direction against the
+    /// geometric normal, `u` = 1 (a grazing direction).
+    fn random_steps(rng: &mut Pcg32) -> StepLanes {
+        let mut lanes = StepLanes::default();
+        let mut v = |scale: f32| rng.uniform_f32() * 2.0 * scale - scale;
+        for j in 0..LANES {
+            for axis in 0..3 {
+                lanes.s[axis][j] = v(1.0);
+                lanes.t[axis][j] = v(1.0);
+                lanes.n[axis][j] = v(1.0);
+                lanes.ng[axis][j] = v(1.0);
+                lanes.reflectance[axis][j] = v(1.0).abs();
+            }
+            lanes.ng_wi[j] = v(1.0);
+            lanes.wi_z[j] = v(1.0);
+            lanes.u[j] = v(1.0).abs();
+            let phi = v(std::f32::consts::PI);
+            (lanes.cos_phi[j], lanes.sin_phi[j]) = (phi.cos(), phi.sin());
+        }
+        lanes.clear(0);
+        lanes.u[1] = 1.0;
+        lanes
+    }
+
+    #[test]
+    fn every_instruction_set_gives_the_same_bsdf_samples() {
+        let mut rng = Pcg32::new(13, 7);
+        let mut valid = 0;
+        for _ in 0..200 {
+            let batch = random_steps(&mut rng);
+            let mut expected = None;
+            for level in levels() {
+                let mut lanes = batch;
+                lanes.run(level);
+                let mut b = vec![lanes.valid];
+                for c in [&lanes.wo, &lanes.weight] {
+                    b.extend(c.iter().flatten().map(|x| x.to_bits()));
+                }
+                b.extend(lanes.pdf.iter().map(|x| x.to_bits()));
+                valid += (expected.is_none()) as u32 * lanes.valid.count_ones();
+                assert_eq!(*expected.get_or_insert(b.clone()), b, "{level:?}");
+            }
+        }
+        let total = 200 * LANES as u32;
+        assert!(
+            valid > total / 10 && valid < total * 3 / 4,
             "{valid} of {total} valid"
         );
     }

@@ -27,11 +27,12 @@
 //! expected values, and the scalar loop stays the readable reference.
 
 use accel::Hit;
+use fearless_simd::Level;
 use glam::Vec3;
 use microfacet::TransportMode;
 use regularization::{PathRegularization, Subpath};
 
-use super::lanes::{LANES, NeeLanes, TriangleSample};
+use super::lanes::{LANES, NeeLanes, StepLanes, TriangleSample};
 use super::{Bounce, PathTracer};
 use crate::context::SceneContext;
 use crate::geometry::SurfacePoint;
@@ -129,7 +130,7 @@ impl PathTracer {
             extend(ctx, depth, &queues.paths, &mut queues.hits);
             self.shade(ctx, depth, queues, out);
             shadow(ctx, &queues.shadow, out);
-            continue_paths(queues, depth);
+            continue_paths(queues, depth, ctx.bvh.simd_level());
         }
     }
 
@@ -285,26 +286,56 @@ fn shadow(ctx: &SceneContext, queue: &[ShadowQuery], out: &mut [Vec3]) {
     }
 }
 
-/// Stage 4: a BSDF sample and roulette for every path that scattered; the
-/// survivors form the next wavefront, in their order.
-fn continue_paths(queues: &mut Queues, depth: u32) {
+/// Stage 4: a BSDF sample and roulette for every path that scattered (the
+/// Lambertian vertices' samples in lanes, [`LANES`] entries at a time, on
+/// the instruction set `level`); the survivors form the next wavefront, in
+/// their order.
+fn continue_paths(queues: &mut Queues, depth: u32, level: Level) {
     let mut survivors = 0;
-    for s in &queues.scattering {
-        let mut path = queues.paths[s.path];
-        let Some(sample) = path
-            .walk
-            .step(&s.vertex, depth, s.u.step, TransportMode::Radiance, 1.0)
-        else {
-            continue;
-        };
-        path.bounce = Bounce {
-            specular: sample.is_specular,
-            mis_pdf: sample.mis_pdf,
-            from: s.vertex.point.p,
-        };
-        // Survivors move down over paths already read (s.path >= survivors).
-        queues.paths[survivors] = path;
-        survivors += 1;
+    let mut lanes = StepLanes::default();
+    for batch in queues.scattering.chunks(LANES) {
+        let mut lambertian = 0u32;
+        for (j, s) in batch.iter().enumerate() {
+            if let Some(l) = s.vertex.lambertian() {
+                lanes.set(j, &s.vertex, l.reflectance, s.u.step.uv_bsdf);
+                lambertian |= 1 << j;
+            } else {
+                lanes.clear(j);
+            }
+        }
+        (batch.len()..LANES).for_each(|j| lanes.clear(j));
+        if lambertian != 0 {
+            lanes.run(level);
+        }
+        for (j, s) in batch.iter().enumerate() {
+            let mut path = queues.paths[s.path];
+            let step = &s.u.step;
+            let sample = if lambertian & (1 << j) != 0 {
+                lanes
+                    .sample(j)
+                    .filter(|ls| {
+                        let sampled = (ls.wo, ls.weight);
+                        path.walk
+                            .follow(&s.vertex, sampled, depth, 1.0, step.u_roulette)
+                    })
+                    .map(|ls| (false, ls.pdf))
+            } else {
+                path.walk
+                    .step(&s.vertex, depth, *step, TransportMode::Radiance, 1.0)
+                    .map(|sample| (sample.is_specular, sample.mis_pdf))
+            };
+            let Some((specular, mis_pdf)) = sample else {
+                continue;
+            };
+            path.bounce = Bounce {
+                specular,
+                mis_pdf,
+                from: s.vertex.point.p,
+            };
+            // Survivors move down over paths already read (s.path >= survivors).
+            queues.paths[survivors] = path;
+            survivors += 1;
+        }
     }
     queues.paths.truncate(survivors);
 }
