@@ -113,6 +113,24 @@ pub struct Emission {
     pub mis: EmitterPdfs,
 }
 
+/// A light choice that is one point, as [`Lights::point_target`] gives
+/// it.
+#[derive(Clone, Copy, Debug)]
+pub struct PointTarget {
+    /// The point (a point light's position, with a zero normal).
+    pub point: LightPoint,
+    /// Radiance of a triangle's point, intensity of a point light.
+    pub emitted: Vec3,
+    /// A triangle's density in area, selection included
+    /// ([`Lights::area_pdfs`]' `direct_pdf`); a point light's selection
+    /// probability.
+    pub pdf: f32,
+    /// A point light: its sample's radiance is the intensity over the
+    /// squared distance, its density the selection probability, and BSDF
+    /// sampling cannot find it (no MIS).
+    pub delta: bool,
+}
+
 /// What [`Lights::choose`] draws: a light, its selection probability and
 /// the sample numbers, and on an area or sphere light the point.
 #[derive(Clone, Copy, Debug)]
@@ -561,19 +579,38 @@ impl Lights {
         })
     }
 
-    /// The point of `choice` when it is on an emissive triangle: the point,
-    /// its radiance and the triangle's density in area, selection included
-    /// ([`Lights::area_pdfs`]' `direct_pdf`). What [`Lights::sample_chosen`]
-    /// computes from them for a receiver is simple enough to run for a
-    /// batch of receivers at once (the path tracer's wavefront does).
+    /// `choice` as [`Lights::sample_chosen`] reads it, when it is a point
+    /// on an emissive triangle or a point light: what it computes from that
+    /// for a receiver is simple enough to run for a batch of receivers at
+    /// once (the path tracer's wavefront does).
     #[inline]
-    pub fn triangle_point(&self, choice: &LightChoice) -> Option<(LightPoint, Vec3, f32)> {
-        let sample = choice.surface?;
-        if !matches!(self.lights[choice.index], Light::Area { .. }) {
-            return None;
+    pub fn point_target(&self, choice: &LightChoice) -> Option<PointTarget> {
+        match self.lights[choice.index] {
+            Light::Area { .. } => {
+                let sample = choice.surface?;
+                Some(PointTarget {
+                    point: sample.point,
+                    emitted: sample.le,
+                    pdf: self.area_pdfs(sample.primitive, 0.0).direct_pdf,
+                    delta: false,
+                })
+            }
+            Light::Point {
+                position,
+                intensity,
+            } => Some(PointTarget {
+                point: LightPoint {
+                    p: position,
+                    n: Vec3::ZERO,
+                    error: PointError::Vertices(f32::INFINITY),
+                    surface: accel::NO_SURFACE,
+                },
+                emitted: intensity,
+                pdf: choice.pmf,
+                delta: true,
+            }),
+            _ => None,
         }
-        let pdf_a = self.area_pdfs(sample.primitive, 0.0).direct_pdf;
-        Some((sample.point, sample.le, pdf_a))
     }
 
     /// [`Lights::sample`] of the light and point `choice`, for the receiver

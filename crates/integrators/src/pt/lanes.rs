@@ -27,25 +27,21 @@ use std::f32::consts::{FRAC_1_PI, PI};
 use fearless_simd::{Level, Select, Simd, SimdBase, SimdFloat, SimdMask, dispatch, f32x16};
 use glam::{Vec2, Vec3};
 
-use crate::lights::LightPoint;
+use crate::lights::PointTarget;
 use crate::vertex::PathVertex;
 
 /// Vertices per batch: two AVX-512 registers of f32, four AVX2 or eight
 /// SSE ones (the build's baseline).
 pub(super) const LANES: usize = 16;
 
-/// A light point on an emissive triangle chosen for scattering vertex
-/// `vertex` (its index in the wavefront's scattering queue), whose
-/// Lambertian lobe has `reflectance`, with what
-/// [`Lights::triangle_point`](crate::lights::Lights::triangle_point)
-/// returns.
+/// The light point `target` chosen for scattering vertex `vertex` (its
+/// index in the wavefront's scattering queue), whose Lambertian lobe has
+/// `reflectance`.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct TriangleSample {
+pub(super) struct TargetSample {
     pub vertex: usize,
     pub reflectance: Vec3,
-    pub point: LightPoint,
-    pub le: Vec3,
-    pub pdf_a: f32,
+    pub target: PointTarget,
 }
 
 /// One light sample's values, where it is valid.
@@ -53,8 +49,12 @@ pub(super) struct TriangleSample {
 pub(super) struct LaneSample {
     /// Unit direction from the vertex to the light point.
     pub wi: Vec3,
-    /// Density in solid angle, selection included.
+    /// Density in solid angle, selection included (a point light's
+    /// selection probability).
     pub pdf: f32,
+    /// Incident radiance (a point light's intensity over the squared
+    /// distance).
+    pub li: Vec3,
     /// f |cos| at the vertex towards `wi`.
     pub f: Vec3,
     /// The vertex's BSDF density for `wi` (MIS).
@@ -73,13 +73,17 @@ pub(super) struct NeeLanes {
     ng_wi: [f32; LANES],
     wi_z: [f32; LANES],
     reflectance: [[f32; LANES]; 3],
-    /// The light points, their normals and area densities.
+    /// The light points, their normals, emission, densities
+    /// ([`PointTarget`]), and 1 for point lights, 0 for triangles.
     light_p: [[f32; LANES]; 3],
     light_n: [[f32; LANES]; 3],
-    pdf_a: [f32; LANES],
+    emitted: [[f32; LANES]; 3],
+    target_pdf: [f32; LANES],
+    delta: [f32; LANES],
     // Results.
     wi: [[f32; LANES]; 3],
     pdf: [f32; LANES],
+    li: [[f32; LANES]; 3],
     f: [[f32; LANES]; 3],
     bsdf_pdf: [f32; LANES],
     /// Bit `j`: lane `j`'s sample is valid.
@@ -89,15 +93,17 @@ pub(super) struct NeeLanes {
 impl NeeLanes {
     /// Lane `j` takes the vertex `vertex` and the light point `sample`.
     #[inline(always)]
-    pub fn set(&mut self, j: usize, vertex: &PathVertex, sample: &TriangleSample) {
+    pub fn set(&mut self, j: usize, vertex: &PathVertex, sample: &TargetSample) {
         let point = &vertex.point;
+        let target = &sample.target;
         for (axis, column) in [
             (point.p, &mut self.p),
             (point.ng, &mut self.ng),
             (vertex.frame.n, &mut self.n),
             (sample.reflectance, &mut self.reflectance),
-            (sample.point.p, &mut self.light_p),
-            (sample.point.n, &mut self.light_n),
+            (target.point.p, &mut self.light_p),
+            (target.point.n, &mut self.light_n),
+            (target.emitted, &mut self.emitted),
         ] {
             column[0][j] = axis.x;
             column[1][j] = axis.y;
@@ -105,7 +111,8 @@ impl NeeLanes {
         }
         self.ng_wi[j] = point.ng.dot(vertex.wi);
         self.wi_z[j] = vertex.wi_local().z;
-        self.pdf_a[j] = sample.pdf_a;
+        self.target_pdf[j] = target.pdf;
+        self.delta[j] = if target.delta { 1.0 } else { 0.0 };
     }
 
     /// Lanes `from..` unused (a batch's last, partial one).
@@ -136,16 +143,25 @@ impl NeeLanes {
         let zero = V::splat(simd, 0.0);
         let one = V::splat(simd, 1.0);
         let inv_pi = V::splat(simd, FRAC_1_PI);
-        // sample_chosen: the direction (try_normalize) and the facing test.
+        let delta = V::from_slice(simd, &self.delta).simd_gt(zero);
+        let target_pdf = V::from_slice(simd, &self.target_pdf);
+        let emitted = load3(simd, &self.emitted);
+        // sample_chosen: the direction (try_normalize) and, on a triangle,
+        // the facing test.
         let d = [light_p[0] - p[0], light_p[1] - p[1], light_p[2] - p[2]];
         let dist2 = dot(d, d);
         let rcp = one / dist2.sqrt();
         let wi = [d[0] * rcp, d[1] * rcp, d[2] * rcp];
         let facing = dot(light_n, [-wi[0], -wi[1], -wi[2]]);
-        // area_pdf_w.
+        // A triangle's area_pdf_w; a point light's selection probability.
         let cos = (dot(light_n, d) / dist2.sqrt()).abs();
-        let pdf = V::from_slice(simd, &self.pdf_a) * dist2 / cos;
-        let pdf = pdf.is_finite().select(pdf, zero);
+        let pdf = target_pdf * dist2 / cos;
+        let pdf = delta.select(target_pdf, pdf.is_finite().select(pdf, zero));
+        let li = [
+            delta.select(emitted[0] / dist2, emitted[0]),
+            delta.select(emitted[1] / dist2, emitted[1]),
+            delta.select(emitted[2] / dist2, emitted[2]),
+        ];
         // PathVertex::eval and mis_pdf of a Lambertian lobe.
         let consistent =
             (dot(load3(simd, &self.ng), wi) * V::from_slice(simd, &self.ng_wi)).simd_gt(zero);
@@ -161,12 +177,14 @@ impl NeeLanes {
         let bsdf_pdf = same_hemisphere.select(cos_o * inv_pi, zero);
         let valid = rcp.is_finite()
             & rcp.simd_gt(zero)
-            & !facing.simd_le(zero)
+            & (delta | !facing.simd_le(zero))
             & pdf.simd_gt(zero)
+            & (li[0].simd_gt(zero) | li[1].simd_gt(zero) | li[2].simd_gt(zero))
             & consistent
             & (f[0].simd_gt(zero) | f[1].simd_gt(zero) | f[2].simd_gt(zero));
         for axis in 0..3 {
             wi[axis].store_slice(&mut self.wi[axis]);
+            li[axis].store_slice(&mut self.li[axis]);
             f[axis].store_slice(&mut self.f[axis]);
         }
         pdf.store_slice(&mut self.pdf);
@@ -181,6 +199,7 @@ impl NeeLanes {
         (self.valid & (1 << j) != 0).then(|| LaneSample {
             wi: v(&self.wi),
             pdf: self.pdf[j],
+            li: v(&self.li),
             f: v(&self.f),
             bsdf_pdf: self.bsdf_pdf[j],
         })
@@ -365,9 +384,10 @@ mod tests {
         levels
     }
 
-    /// A batch of random receivers and light points, with the cases that
-    /// end a sample: a light point at the receiver, seen from behind, a
-    /// direction below the surface or against its geometric normal.
+    /// A batch of random receivers and light points (a quarter of them
+    /// point lights), with the cases that end a sample: a light point at
+    /// the receiver, a triangle seen from behind, a direction below the
+    /// surface or against its geometric normal, no emission.
     fn random_batch(rng: &mut Pcg32) -> NeeLanes {
         let mut lanes = NeeLanes::default();
         let mut v = |scale: f32| rng.uniform_f32() * 2.0 * scale - scale;
@@ -379,22 +399,28 @@ mod tests {
                 lanes.reflectance[axis][j] = v(1.0).abs();
                 lanes.light_p[axis][j] = v(3.0);
                 lanes.light_n[axis][j] = v(1.0);
+                lanes.emitted[axis][j] = v(4.0).abs();
             }
             lanes.ng_wi[j] = v(1.0);
             lanes.wi_z[j] = v(1.0);
-            lanes.pdf_a[j] = v(2.0).abs();
+            lanes.target_pdf[j] = v(2.0).abs();
+            if j % 4 == 3 {
+                lanes.delta[j] = 1.0;
+                lanes.light_n.iter_mut().for_each(|c| c[j] = 0.0);
+            }
         }
         for axis in 0..3 {
             lanes.light_p[axis][0] = lanes.p[axis][0];
+            lanes.emitted[axis][2] = 0.0;
         }
-        lanes.pdf_a[1] = 0.0;
+        lanes.target_pdf[1] = 0.0;
         lanes
     }
 
     /// The kernel's results, as bits.
     fn bits(lanes: &NeeLanes) -> Vec<u32> {
         let mut out = vec![lanes.valid];
-        for c in [&lanes.wi, &lanes.f] {
+        for c in [&lanes.wi, &lanes.li, &lanes.f] {
             out.extend(c.iter().flatten().map(|x| x.to_bits()));
         }
         out.extend(lanes.pdf.iter().chain(&lanes.bsdf_pdf).map(|x| x.to_bits()));

@@ -32,7 +32,7 @@ use glam::Vec3;
 use microfacet::TransportMode;
 use regularization::{PathRegularization, Subpath};
 
-use super::lanes::{LANES, NeeLanes, StepLanes, TriangleSample};
+use super::lanes::{LANES, NeeLanes, StepLanes, TargetSample};
 use super::{Bounce, PathTracer};
 use crate::context::SceneContext;
 use crate::geometry::SurfacePoint;
@@ -87,9 +87,9 @@ pub struct Queues {
     scattering: Vec<Scattering>,
     /// Light samples of the scattering queue's entries (by index).
     light_samples: Vec<(usize, LightSample)>,
-    /// Light points on emissive triangles for Lambertian entries, whose
-    /// samples are computed in lanes ([`lanes`](super::lanes)).
-    triangle_samples: Vec<TriangleSample>,
+    /// Light points (on emissive triangles, or point lights) of Lambertian
+    /// entries, whose samples are computed in lanes ([`lanes`](super::lanes)).
+    target_samples: Vec<TargetSample>,
     shadow: Vec<ShadowQuery>,
 }
 
@@ -182,7 +182,7 @@ impl PathTracer {
             return;
         }
         queues.light_samples.clear();
-        queues.triangle_samples.clear();
+        queues.target_samples.clear();
         for (k, s) in queues.scattering.iter().enumerate() {
             if s.vertex.is_specular() {
                 continue;
@@ -191,18 +191,13 @@ impl PathTracer {
                 continue;
             };
             if let Some(lambertian) = s.vertex.lambertian()
-                && let Some((point, le, pdf_a)) = ctx.lights.triangle_point(&choice)
+                && let Some(target) = ctx.lights.point_target(&choice)
             {
-                // `sample_chosen` returns no sample of zero radiance.
-                if le.max_element() > 0.0 {
-                    queues.triangle_samples.push(TriangleSample {
-                        vertex: k,
-                        reflectance: lambertian.reflectance,
-                        point,
-                        le,
-                        pdf_a,
-                    });
-                }
+                queues.target_samples.push(TargetSample {
+                    vertex: k,
+                    reflectance: lambertian.reflectance,
+                    target,
+                });
             } else if let Some(ls) = ctx
                 .lights
                 .sample_chosen(&ctx.scene, &choice, s.vertex.point.p)
@@ -224,13 +219,13 @@ impl PathTracer {
         }
     }
 
-    /// The light samples of `queues.triangle_samples`, [`LANES`] at a time,
+    /// The light samples of `queues.target_samples`, [`LANES`] at a time,
     /// and their shadow rays and contributions, as the scalar code gives
     /// them (`Lights::sample_chosen`, `nee::light_value`,
     /// `light_contribution`).
     fn shade_in_lanes(&self, ctx: &SceneContext, queues: &mut Queues) {
         let mut lanes = NeeLanes::default();
-        for batch in queues.triangle_samples.chunks(LANES) {
+        for batch in queues.target_samples.chunks(LANES) {
             for (j, t) in batch.iter().enumerate() {
                 lanes.set(j, &queues.scattering[t.vertex].vertex, t);
             }
@@ -239,17 +234,17 @@ impl PathTracer {
             for (j, t) in batch.iter().enumerate() {
                 let Some(ls) = lanes.sample(j) else { continue };
                 let s = &queues.scattering[t.vertex];
-                let weight = if self.use_bsdf {
-                    super::mis_weight(ls.pdf, ls.bsdf_pdf)
-                } else {
+                let weight = if t.target.delta || !self.use_bsdf {
                     1.0
+                } else {
+                    super::mis_weight(ls.pdf, ls.bsdf_pdf)
                 };
                 let path = &queues.paths[s.path];
                 queues.shadow.push(ShadowQuery {
                     pixel: path.pixel,
-                    ray: nee::shadow_ray_towards(&s.vertex, ls.wi, Some(t.point)),
+                    ray: nee::shadow_ray_towards(&s.vertex, ls.wi, Some(t.target.point)),
                     contribution: path.walk.throughput
-                        * super::weighted(ls.f, t.le, ls.pdf, weight),
+                        * super::weighted(ls.f, ls.li, ls.pdf, weight),
                 });
             }
         }
