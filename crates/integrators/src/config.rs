@@ -183,8 +183,10 @@ pub struct RenderConfig {
     /// traces every shadow ray.
     pub shadow_roulette: f32,
     /// PT only: trace the paths of each run of pixels as a wavefront
-    /// (`pt/wavefront.rs`) instead of one path after the other. The image is
-    /// the same, byte for byte; only the speed differs.
+    /// (`pt/wavefront.rs`, the default: its Lambertian vertices are shaded
+    /// in SIMD lanes, `pt/lanes.rs`) instead of one path after the other
+    /// (`false`: the readable reference loop). The image is the same, byte
+    /// for byte; only the speed differs.
     pub wavefront: bool,
 }
 
@@ -237,7 +239,7 @@ impl Default for RenderConfig {
             radius_factor: DEFAULT_RADIUS_FACTOR,
             radius_alpha: DEFAULT_RADIUS_ALPHA,
             shadow_roulette: DEFAULT_SHADOW_ROULETTE,
-            wavefront: false,
+            wavefront: true,
         }
     }
 }

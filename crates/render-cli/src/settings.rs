@@ -192,7 +192,7 @@ impl Settings {
                 virtual_merges: virtual_merges.value,
                 radius_factor: radius.value,
                 shadow_roulette: shadow_roulette.value,
-                wavefront: cli.wavefront,
+                wavefront: !cli.scalar_loop,
                 ..RenderConfig::default()
             },
             budget,

@@ -41,7 +41,14 @@ const ITERATIONS: u64 = 2;
 /// Asserts that the wavefront (2 threads) gives the scalar loop's (1 thread)
 /// estimates, ray count and invalid-sample count; `what` names the case.
 fn assert_same_image(scene: &scene::Scene, config: RenderConfig, what: &str) {
-    let scalar = estimates(scene, config, 1);
+    let scalar = estimates(
+        scene,
+        RenderConfig {
+            wavefront: false,
+            ..config
+        },
+        1,
+    );
     let wavefront = estimates(
         scene,
         RenderConfig {

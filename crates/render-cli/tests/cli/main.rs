@@ -480,11 +480,12 @@ fn interrupt_writes_the_iterations_done_so_far() {
 /// the EXR of the single-process render, byte for byte (VCM: light-tracing
 /// splats and merges included); a merge merges again; gaps, overlaps,
 /// other settings and damaged files are refused naming the file.
-/// `--wavefront` gives the same image bytes as the default path loop, and
-/// shards of either merge with each other (it is left out of the settings
-/// a partial film records).
+/// `--scalar-loop` gives the same image bytes as the default (wavefront)
+/// path loop, and shards of either merge with each other (it is left out of
+/// the settings a partial film records); `--wavefront`, the default, is
+/// still accepted.
 #[test]
-fn wavefront_renders_and_shards_are_the_default_loops() {
+fn scalar_loop_renders_and_shards_are_the_default_loops() {
     let dir = tempfile::tempdir().unwrap();
     let path = |name: &str| dir.path().join(name).to_str().unwrap().to_owned();
     let scene = bundled("glossy-caustic");
@@ -495,21 +496,29 @@ fn wavefront_renders_and_shards_are_the_default_loops() {
         let output = render_cli(&args);
         assert!(output.status.success(), "{args:?}: {}", stderr(&output));
     };
-    run(&["--iterations", "4", "-o", &path("scalar.exr")]);
+    run(&["--iterations", "4", "-o", &path("wavefront.exr")]);
     run(&[
         "--iterations",
         "4",
-        "--wavefront",
+        "--scalar-loop",
         "-o",
-        &path("wavefront.exr"),
+        &path("scalar.exr"),
     ]);
+    run(&["--iterations", "4", "--wavefront", "-o", &path("again.exr")]);
     let (a, b) = (path("a.rltfilm"), path("b.rltfilm"));
-    run(&["--iteration-range", "1..2", "--wavefront", "--partial", &a]);
+    run(&[
+        "--iteration-range",
+        "1..2",
+        "--scalar-loop",
+        "--partial",
+        &a,
+    ]);
     run(&["--iteration-range", "3..4", "--partial", &b]);
     let merged = render_cli(&["merge", &a, &b, "-o", &path("merged.exr"), "--no-png"]);
     assert!(merged.status.success(), "{}", stderr(&merged));
     let bytes = |name: &str| std::fs::read(dir.path().join(name)).unwrap();
     assert_eq!(bytes("wavefront.exr"), bytes("scalar.exr"));
+    assert_eq!(bytes("again.exr"), bytes("wavefront.exr"));
     assert_eq!(bytes("merged.exr"), bytes("scalar.exr"));
 }
 
