@@ -19,11 +19,17 @@
 //!    threads. SmallVCM runs whole iterations in parallel (one per thread),
 //!    so K must be a multiple of the core count for its K extra iterations to
 //!    keep every thread busy: K is rounded up to one.
-//! 4. With `--cpu-time` both run on one thread (`--threads 1`,
-//!    `OMP_NUM_THREADS=1`) and t is the CPU time (user + system) of the
-//!    process: on a machine shared with other work, wall-clock time measures
-//!    the load as much as the code, while CPU time barely moves with it. It
-//!    also leaves out how each program spreads an iteration over the cores.
+//! 4. With `--cpu-time` both run on one thread, pinned to the same core
+//!    (`taskset -c`, util-linux), and t is the CPU time (user + system) of
+//!    the process: on a machine shared with other work, wall-clock time
+//!    measures the load as much as the code, while CPU time barely moves
+//!    with it. It also leaves out how each program spreads an iteration over
+//!    the cores. The pinning is what makes SmallVCM use one thread: it sets
+//!    its thread count to `omp_get_num_procs()` itself, over
+//!    `OMP_NUM_THREADS` (which it ignores), and that count follows the
+//!    process's CPU affinity. Before the eleventh session it ran two threads
+//!    here, each iteration on one of them, while the other iteration
+//!    shared the memory bus and the L3 cache, which inflated its CPU time.
 //!
 //! Same instruction set on both sides: our x86_64 builds target x86-64-v2
 //! (`.cargo/config.toml`: SSE4.2 and POPCNT, no AVX or FMA), so SmallVCM is
@@ -53,7 +59,8 @@ pub const USAGE: &str = "  smallvcm --src DIR [options]
       --repeat R            interleaved rounds, median reported (default 3)
       --algorithms LIST     comma-separated (default pt,bpt,bpm,ppm,vcm)
       --scenes LIST         SmallVCM scene numbers, 1 and/or 2 (default 1,2)
-      --cpu-time            one thread each, timed by CPU time instead of wall clock
+      --cpu-time            one thread each, both pinned to the last core (taskset),
+                            timed by CPU time instead of wall clock
                             (steadier on a busy machine; Linux: reads /proc)
       --out DIR             output folder (default target/smallvcm)";
 
@@ -236,7 +243,7 @@ fn time_ours(
     n: u32,
     options: &Options,
 ) -> Result<f64, String> {
-    let mut command = Command::new(binary);
+    let mut command = program(binary, options);
     command
         .arg(manifest)
         .args(["--integrator", algorithm, "--iterations", &n.to_string()])
@@ -258,7 +265,7 @@ fn time_smallvcm(
 ) -> Result<f64, String> {
     let scene = scene.to_string();
     let n = n.to_string();
-    let mut command = Command::new(binary);
+    let mut command = program(binary, options);
     command
         .args(["-s", &scene, "-a", algorithm, "-i", &n, "-o"])
         .arg(options.out.join("smallvcm.hdr"))
@@ -268,6 +275,24 @@ fn time_smallvcm(
         return cpu_time(&mut command);
     }
     wall_time(&mut command)
+}
+
+/// The command that runs `binary`: with `--cpu-time` under `taskset`, on
+/// the core [`pinned_core`] names.
+fn program(binary: &Path, options: &Options) -> Command {
+    if !options.cpu_time {
+        return Command::new(binary);
+    }
+    let mut command = Command::new("taskset");
+    command.args(["-c", &pinned_core().to_string()]).arg(binary);
+    command
+}
+
+/// The core `--cpu-time` runs both programs on: the last one, so that on a
+/// machine where other work starts on core 0 the two share the same
+/// conditions.
+fn pinned_core() -> usize {
+    crate::cores().saturating_sub(1)
 }
 
 /// Wall-clock seconds of running `command` to its end; an error names the
