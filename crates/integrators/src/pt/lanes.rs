@@ -2,7 +2,8 @@
 //! batch of [`LANES`] vertices in structure-of-arrays form, computed as
 //! 16-lane vectors (`fearless_simd`, on the instruction set `accel` chose
 //! at run time): next-event estimation towards points on emissive
-//! triangles ([`NeeLanes`]: direction, density, f |cos|, BSDF density) and
+//! triangles and point lights ([`NeeLanes`]: direction, density,
+//! radiance, f |cos|, BSDF density) and
 //! the BSDF sample ([`StepLanes`]: direction, weight, density). One
 //! vertex's chain of square roots and divisions, alone, was what limited
 //! the scalar loop (docs/benchmarks.md, "Where the time goes"); here
@@ -13,7 +14,7 @@
 //! `(x x') + (y y') + (z z')`, its `try_normalize` a multiplication by
 //! `1 / sqrt`), with the same comparisons: for [`NeeLanes`],
 //! [`Lights::sample_chosen`](crate::lights::Lights::sample_chosen) (an
-//! area light's branch and `area_pdf_w`), [`PathVertex::eval`] and
+//! area light's branch with `area_pdf_w`, a point light's), [`PathVertex::eval`] and
 //! [`PathVertex::mis_pdf`] of a Lambertian lobe in radiance mode; for
 //! [`StepLanes`], `Lambertian::sample` (its cos and sin are libm's, per
 //! lane) and [`PathVertex::sample`]. Only IEEE operations, no fused

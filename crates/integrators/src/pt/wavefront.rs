@@ -6,11 +6,14 @@
 //! 1. **extend**: the closest hit of every path's ray, as one batch of ray
 //!    queries;
 //! 2. **shade**: emission found and escaped rays (environment), the path
-//!    vertex, and a light sample whose shadow ray joins the shadow queue;
+//!    vertex, and a light sample whose shadow ray joins the shadow queue
+//!    (at Lambertian vertices towards triangle and point lights, 16 vertices
+//!    at a time in SIMD lanes: [`lanes`](super::lanes));
 //! 3. **shadow**: the shadow queue's occlusion queries as one batch, the
 //!    unoccluded contributions added;
-//! 4. **continue**: a BSDF sample and Russian roulette per surviving path;
-//!    the paths that end leave the wavefront (compaction).
+//! 4. **continue**: a BSDF sample (Lambertian ones in lanes) and Russian
+//!    roulette per surviving path; the paths that end leave the wavefront
+//!    (compaction).
 //!
 //! The queues are per worker and sized for its caches (one run of at most
 //! [`WAVEFRONT`] pixels), not global with a barrier per stage: pbrt-v4's
@@ -135,10 +138,10 @@ impl PathTracer {
     }
 
     /// Stage 2: emission and escape, then the vertex and its light sample
-    /// for the paths that go on, in four passes over the wavefront (the
-    /// surface points, the vertices, the light samples, their values and
-    /// shadow rays): each a place where one batch kernel can replace the
-    /// per-path calls.
+    /// for the paths that go on, in passes over the wavefront (the surface
+    /// points, the vertices, the light choices, the light samples in lanes,
+    /// the other light samples' values and shadow rays): consecutive paths'
+    /// chains of work overlap, and each pass is a place for a batch kernel.
     fn shade(&self, ctx: &SceneContext, depth: u32, queues: &mut Queues, out: &mut [Vec3]) {
         queues.surfaces.clear();
         for (index, (path, hit)) in queues.paths.iter_mut().zip(&queues.hits).enumerate() {
