@@ -66,14 +66,8 @@ pub(super) struct LaneSample {
 /// Unused lanes hold zeros: a zero distance, which makes them invalid.
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct NeeLanes {
-    /// The receivers' positions, geometric normals, shading normals.
-    p: [[f32; LANES]; 3],
-    ng: [[f32; LANES]; 3],
-    n: [[f32; LANES]; 3],
-    /// `ng . wi` and `wi.z` in the frame, of each vertex's `wi`.
-    ng_wi: [f32; LANES],
-    wi_z: [f32; LANES],
-    reflectance: [[f32; LANES]; 3],
+    /// The receivers.
+    vertices: VertexLanes,
     /// The light points, their normals, emission, densities
     /// ([`PointTarget`]), and 1 for point lights, 0 for triangles.
     light_p: [[f32; LANES]; 3],
@@ -95,23 +89,11 @@ impl NeeLanes {
     /// Lane `j` takes the vertex `vertex` and the light point `sample`.
     #[inline(always)]
     pub fn set(&mut self, j: usize, vertex: &PathVertex, sample: &TargetSample) {
-        let point = &vertex.point;
+        self.vertices.set(j, vertex, sample.reflectance);
         let target = &sample.target;
-        for (axis, column) in [
-            (point.p, &mut self.p),
-            (point.ng, &mut self.ng),
-            (vertex.frame.n, &mut self.n),
-            (sample.reflectance, &mut self.reflectance),
-            (target.point.p, &mut self.light_p),
-            (target.point.n, &mut self.light_n),
-            (target.emitted, &mut self.emitted),
-        ] {
-            column[0][j] = axis.x;
-            column[1][j] = axis.y;
-            column[2][j] = axis.z;
-        }
-        self.ng_wi[j] = point.ng.dot(vertex.wi);
-        self.wi_z[j] = vertex.wi_local().z;
+        set3(&mut self.light_p, j, target.point.p);
+        set3(&mut self.light_n, j, target.point.n);
+        set3(&mut self.emitted, j, target.emitted);
         self.target_pdf[j] = target.pdf;
         self.delta[j] = if target.delta { 1.0 } else { 0.0 };
     }
@@ -119,8 +101,8 @@ impl NeeLanes {
     /// Lanes `from..` unused (a batch's last, partial one).
     pub fn clear_from(&mut self, from: usize) {
         for j in from..LANES {
-            self.p.iter_mut().for_each(|c| c[j] = 0.0);
-            self.light_p.iter_mut().for_each(|c| c[j] = 0.0);
+            set3(&mut self.vertices.p, j, Vec3::ZERO);
+            set3(&mut self.light_p, j, Vec3::ZERO);
         }
     }
 
@@ -138,7 +120,8 @@ impl NeeLanes {
         // instruction set's target features (accel's `leaf.rs` measured
         // its SIMD operations as calls, 2-4 times slower).
         type V<S> = f32x16<S>;
-        let p = load3(simd, &self.p);
+        let vertices = &self.vertices;
+        let p = load3(simd, &vertices.p);
         let light_p = load3(simd, &self.light_p);
         let light_n = load3(simd, &self.light_n);
         let zero = V::splat(simd, 0.0);
@@ -164,12 +147,13 @@ impl NeeLanes {
             delta.select(emitted[2] / dist2, emitted[2]),
         ];
         // PathVertex::eval and mis_pdf of a Lambertian lobe.
-        let consistent =
-            (dot(load3(simd, &self.ng), wi) * V::from_slice(simd, &self.ng_wi)).simd_gt(zero);
-        let wo_z = dot(wi, load3(simd, &self.n));
-        let same_hemisphere = (V::from_slice(simd, &self.wi_z) * wo_z).simd_gt(zero);
+        let consistent = (dot(load3(simd, &vertices.ng), wi)
+            * V::from_slice(simd, &vertices.ng_wi))
+        .simd_gt(zero);
+        let wo_z = dot(wi, load3(simd, &vertices.n));
+        let same_hemisphere = (V::from_slice(simd, &vertices.wi_z) * wo_z).simd_gt(zero);
         let cos_o = wo_z.abs();
-        let r = load3(simd, &self.reflectance);
+        let r = load3(simd, &vertices.reflectance);
         let f = [
             same_hemisphere.select(r[0] * inv_pi, zero) * cos_o,
             same_hemisphere.select(r[1] * inv_pi, zero) * cos_o,
@@ -226,15 +210,10 @@ pub(super) struct LaneStep {
 /// the sample is `None`.
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct StepLanes {
-    /// The vertices' frames, geometric normals, `ng . wi` and `wi.z` in the
-    /// frame, reflectances.
+    /// The vertices, and their frames' tangents.
+    vertices: VertexLanes,
     s: [[f32; LANES]; 3],
     t: [[f32; LANES]; 3],
-    n: [[f32; LANES]; 3],
-    ng: [[f32; LANES]; 3],
-    ng_wi: [f32; LANES],
-    wi_z: [f32; LANES],
-    reflectance: [[f32; LANES]; 3],
     /// The first sample number, and cos and sin of the azimuth from the
     /// second (libm's, computed per lane by [`StepLanes::set`] as
     /// `Lambertian::sample` does).
@@ -254,20 +233,9 @@ impl StepLanes {
     /// `reflectance`, and the sample numbers `u`.
     #[inline(always)]
     pub fn set(&mut self, j: usize, vertex: &PathVertex, reflectance: Vec3, u: Vec2) {
-        let frame = &vertex.frame;
-        for (axis, column) in [
-            (frame.s, &mut self.s),
-            (frame.t, &mut self.t),
-            (frame.n, &mut self.n),
-            (vertex.point.ng, &mut self.ng),
-            (reflectance, &mut self.reflectance),
-        ] {
-            column[0][j] = axis.x;
-            column[1][j] = axis.y;
-            column[2][j] = axis.z;
-        }
-        self.ng_wi[j] = vertex.point.ng.dot(vertex.wi);
-        self.wi_z[j] = vertex.wi_local().z;
+        self.vertices.set(j, vertex, reflectance);
+        set3(&mut self.s, j, vertex.frame.s);
+        set3(&mut self.t, j, vertex.frame.t);
         self.u[j] = u.x;
         let phi = 2.0 * PI * u.y;
         self.cos_phi[j] = phi.cos();
@@ -276,7 +244,7 @@ impl StepLanes {
 
     /// Lane `j` unused.
     pub fn clear(&mut self, j: usize) {
-        self.wi_z[j] = 0.0;
+        self.vertices.wi_z[j] = 0.0;
     }
 
     /// Every lane's sample, on the instruction set `level` (the same
@@ -291,7 +259,8 @@ impl StepLanes {
         let zero = V::splat(simd, 0.0);
         let one = V::splat(simd, 1.0);
         let inv_pi = V::splat(simd, FRAC_1_PI);
-        let wi_z = V::from_slice(simd, &self.wi_z);
+        let vertices = &self.vertices;
+        let wi_z = V::from_slice(simd, &vertices.wi_z);
         let u = V::from_slice(simd, &self.u);
         // Lambertian::sample.
         let r = u.sqrt();
@@ -301,13 +270,13 @@ impl StepLanes {
             r * V::from_slice(simd, &self.sin_phi),
             z.copysign(wi_z),
         ];
-        let reflectance = load3(simd, &self.reflectance);
+        let reflectance = load3(simd, &vertices.reflectance);
         let pdf = z * inv_pi;
         // PathVertex::sample: Frame::to_world, the consistency test, the weight.
         let (s, t, n) = (
             load3(simd, &self.s),
             load3(simd, &self.t),
-            load3(simd, &self.n),
+            load3(simd, &vertices.n),
         );
         let [x, y, z_local] = wo_local;
         let wo = [
@@ -315,8 +284,9 @@ impl StepLanes {
             s[1] * x + t[1] * y + n[1] * z_local,
             s[2] * x + t[2] * y + n[2] * z_local,
         ];
-        let consistent =
-            (dot(load3(simd, &self.ng), wo) * V::from_slice(simd, &self.ng_wi)).simd_gt(zero);
+        let consistent = (dot(load3(simd, &vertices.ng), wo)
+            * V::from_slice(simd, &vertices.ng_wi))
+        .simd_gt(zero);
         let q = z_local.abs() / pdf;
         let weight = [
             reflectance[0] * inv_pi * q,
@@ -349,6 +319,39 @@ impl StepLanes {
             pdf: self.pdf[j],
         })
     }
+}
+
+/// The Lambertian vertices of a batch, coordinate by coordinate: what both
+/// kernels read of them.
+#[derive(Clone, Copy, Debug, Default)]
+struct VertexLanes {
+    /// Positions, geometric normals, shading normals, reflectances.
+    p: [[f32; LANES]; 3],
+    ng: [[f32; LANES]; 3],
+    n: [[f32; LANES]; 3],
+    reflectance: [[f32; LANES]; 3],
+    /// `ng . wi` and `wi.z` in the frame, of each vertex's `wi`.
+    ng_wi: [f32; LANES],
+    wi_z: [f32; LANES],
+}
+
+impl VertexLanes {
+    /// Lane `j` takes `vertex`, whose Lambertian lobe has `reflectance`.
+    #[inline(always)]
+    fn set(&mut self, j: usize, vertex: &PathVertex, reflectance: Vec3) {
+        set3(&mut self.p, j, vertex.point.p);
+        set3(&mut self.ng, j, vertex.point.ng);
+        set3(&mut self.n, j, vertex.frame.n);
+        set3(&mut self.reflectance, j, reflectance);
+        self.ng_wi[j] = vertex.point.ng.dot(vertex.wi);
+        self.wi_z[j] = vertex.wi_local().z;
+    }
+}
+
+/// Lane `j` of a batch's coordinates takes `v`.
+#[inline(always)]
+fn set3(c: &mut [[f32; LANES]; 3], j: usize, v: Vec3) {
+    (c[0][j], c[1][j], c[2][j]) = (v.x, v.y, v.z);
 }
 
 /// The three coordinates of a batch.
@@ -394,16 +397,16 @@ mod tests {
         let mut v = |scale: f32| rng.uniform_f32() * 2.0 * scale - scale;
         for j in 0..LANES {
             for axis in 0..3 {
-                lanes.p[axis][j] = v(3.0);
-                lanes.ng[axis][j] = v(1.0);
-                lanes.n[axis][j] = v(1.0);
-                lanes.reflectance[axis][j] = v(1.0).abs();
+                lanes.vertices.p[axis][j] = v(3.0);
+                lanes.vertices.ng[axis][j] = v(1.0);
+                lanes.vertices.n[axis][j] = v(1.0);
+                lanes.vertices.reflectance[axis][j] = v(1.0).abs();
                 lanes.light_p[axis][j] = v(3.0);
                 lanes.light_n[axis][j] = v(1.0);
                 lanes.emitted[axis][j] = v(4.0).abs();
             }
-            lanes.ng_wi[j] = v(1.0);
-            lanes.wi_z[j] = v(1.0);
+            lanes.vertices.ng_wi[j] = v(1.0);
+            lanes.vertices.wi_z[j] = v(1.0);
             lanes.target_pdf[j] = v(2.0).abs();
             if j % 4 == 3 {
                 lanes.delta[j] = 1.0;
@@ -411,7 +414,7 @@ mod tests {
             }
         }
         for axis in 0..3 {
-            lanes.light_p[axis][0] = lanes.p[axis][0];
+            lanes.light_p[axis][0] = lanes.vertices.p[axis][0];
             lanes.emitted[axis][2] = 0.0;
         }
         lanes.target_pdf[1] = 0.0;
@@ -463,12 +466,12 @@ mod tests {
             for axis in 0..3 {
                 lanes.s[axis][j] = v(1.0);
                 lanes.t[axis][j] = v(1.0);
-                lanes.n[axis][j] = v(1.0);
-                lanes.ng[axis][j] = v(1.0);
-                lanes.reflectance[axis][j] = v(1.0).abs();
+                lanes.vertices.n[axis][j] = v(1.0);
+                lanes.vertices.ng[axis][j] = v(1.0);
+                lanes.vertices.reflectance[axis][j] = v(1.0).abs();
             }
-            lanes.ng_wi[j] = v(1.0);
-            lanes.wi_z[j] = v(1.0);
+            lanes.vertices.ng_wi[j] = v(1.0);
+            lanes.vertices.wi_z[j] = v(1.0);
             lanes.u[j] = v(1.0).abs();
             let phi = v(std::f32::consts::PI);
             (lanes.cos_phi[j], lanes.sin_phi[j]) = (phi.cos(), phi.sin());
