@@ -24,6 +24,14 @@ pub fn integrator(renderer: &Renderer) -> String {
         "strategies:       {}; Russian roulette from depth {ROULETTE_DEPTH}",
         strategies(renderer)
     );
+    if c.algorithm == Algorithm::Pt {
+        let path_loop = if c.wavefront {
+            "a wavefront: the paths of a run of pixels of a row, bounce by bounce, the light and BSDF samples of their Lambertian vertices 16 at a time in SIMD lanes (--scalar-loop traces one path after the other: the same image)"
+        } else {
+            "one path after the other (--scalar-loop; the default wavefront gives the same image)"
+        };
+        let _ = writeln!(s, "path loop:        {path_loop}");
+    }
     shadow_roulette(&mut s, renderer);
     merging(&mut s, renderer);
     regularization(&mut s, renderer);

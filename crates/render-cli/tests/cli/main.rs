@@ -519,6 +519,19 @@ fn scalar_loop_renders_and_shards_are_the_default_loops() {
     let bytes = |name: &str| std::fs::read(dir.path().join(name)).unwrap();
     assert_eq!(bytes("wavefront.exr"), bytes("scalar.exr"));
     assert_eq!(bytes("again.exr"), bytes("wavefront.exr"));
+    // --explain says which loop runs.
+    for (flag, says) in [
+        ("--wavefront", "a wavefront"),
+        ("--scalar-loop", "one path after"),
+    ] {
+        let args = [&common[..], &["--iterations", "1", "--explain", flag]].concat();
+        let output = render_cli(&[&args[..], &["-o", &path("explain.exr")]].concat());
+        let text = String::from_utf8_lossy(&output.stdout);
+        assert!(
+            text.contains(&format!("path loop:        {says}")),
+            "{flag}: {text}"
+        );
+    }
     assert_eq!(bytes("merged.exr"), bytes("scalar.exr"));
 }
 
