@@ -482,8 +482,9 @@ impl Bvh {
         self.isa
     }
 
-    /// Chooses the instruction set of [`Layout::Bvh8`]'s node and leaf tests (other
-    /// layouts ignore it). Every choice gives the same results bit for bit;
+    /// Chooses the instruction set of the SIMD kernels: [`Layout::Bvh8`]'s node and
+    /// leaf tests, [`Layout::Flat`]'s scan, and callers' kernels that follow
+    /// [`Bvh::simd_level`]. Every choice gives the same results bit for bit;
     /// this is for measuring and for testing that they do. Returns `false`,
     /// changing nothing, when the CPU lacks `isa`.
     pub fn set_isa(&mut self, isa: Isa) -> bool {

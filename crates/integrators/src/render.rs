@@ -137,6 +137,14 @@ impl Renderer {
         }
     }
 
+    /// Runs the SIMD kernels (the BVH's and the path tracer's lanes) on
+    /// `isa` instead of the CPU's best instruction set; returns `false`,
+    /// changing nothing, when the CPU lacks it. Images are the same on
+    /// every one (for measuring, and for the tests that show it).
+    pub fn set_isa(&mut self, isa: accel::Isa) -> bool {
+        self.ctx.bvh.set_isa(isa)
+    }
+
     /// The prepared scene: geometry, lights, camera, settings.
     pub fn context(&self) -> &SceneContext {
         &self.ctx

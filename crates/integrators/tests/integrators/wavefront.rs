@@ -6,6 +6,7 @@
 
 use crate::common;
 
+use accel::Isa;
 use glam::Vec3;
 use integrators::{Mode, RenderConfig, Renderer, Strategies};
 use scene::material::Alpha;
@@ -13,12 +14,23 @@ use scene::material::Alpha;
 /// Per-iteration estimates of `iterations` iterations, as bits, with the
 /// ray count and the invalid-sample count, rendered on `threads` threads.
 fn estimates(scene: &scene::Scene, config: RenderConfig, threads: usize) -> (Vec<u32>, u64, u64) {
+    estimates_on(scene, config, threads, Isa::Best)
+}
+
+/// [`estimates`] with the SIMD kernels on the instruction set `isa`.
+fn estimates_on(
+    scene: &scene::Scene,
+    config: RenderConfig,
+    threads: usize,
+    isa: Isa,
+) -> (Vec<u32>, u64, u64) {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .unwrap();
     pool.install(|| {
-        let renderer = Renderer::new(scene.clone(), config);
+        let mut renderer = Renderer::new(scene.clone(), config);
+        assert!(renderer.set_isa(isa), "{isa:?} was checked to exist");
         let (w, h) = renderer.resolution();
         let mut bits = Vec::new();
         let mut estimates = vec![Vec3::ZERO; w as usize * h as usize];
@@ -129,4 +141,38 @@ fn wavefront_gives_the_scalar_image_with_alpha_and_media() {
     let scene = common::load_manifest("wavefront-media", absorbing, &[], (24, 16));
     let config = common::config(Strategies::Mis, Mode::Selective, 12);
     assert_same_image(&scene, config, "absorbing sphere");
+}
+
+/// The wavefront's SIMD lanes (`pt/lanes.rs`) and the BVH's kernels give
+/// the scalar loop's image on every instruction set the CPU has, the
+/// build's SSE4.2 baseline included: scenes whose Lambertian vertices are
+/// lit by triangle lights and by a point light.
+#[test]
+fn wavefront_gives_the_scalar_image_on_every_instruction_set() {
+    for name in ["cornell-mcguire", "smallvcm-2"] {
+        let scene = bundled(name, 24, 16);
+        let config = common::config(Strategies::Mis, Mode::Off, 8);
+        let scalar = estimates(
+            &scene,
+            RenderConfig {
+                wavefront: false,
+                ..config
+            },
+            1,
+        );
+        let mut tested = 0;
+        for isa in Isa::ALL {
+            if Renderer::new(scene.clone(), config).set_isa(isa) {
+                assert!(
+                    estimates_on(&scene, config, 2, isa) == scalar,
+                    "{name}: the wavefront on {isa:?} differs from the scalar loop"
+                );
+                tested += 1;
+            }
+        }
+        assert!(
+            tested >= 2,
+            "{name}: the best set and the baseline at least"
+        );
+    }
 }
