@@ -98,12 +98,10 @@ impl NeeLanes {
         self.delta[j] = if target.delta { 1.0 } else { 0.0 };
     }
 
-    /// Lanes `from..` unused (a batch's last, partial one).
-    pub fn clear_from(&mut self, from: usize) {
-        for j in from..LANES {
-            set3(&mut self.vertices.p, j, Vec3::ZERO);
-            set3(&mut self.light_p, j, Vec3::ZERO);
-        }
+    /// Lane `j` unused: a zero distance, for which the sample is `None`.
+    pub fn clear(&mut self, j: usize) {
+        set3(&mut self.vertices.p, j, Vec3::ZERO);
+        set3(&mut self.light_p, j, Vec3::ZERO);
     }
 
     /// Every lane's light sample (see the module documentation): what
@@ -242,7 +240,7 @@ impl StepLanes {
         self.sin_phi[j] = phi.sin();
     }
 
-    /// Lane `j` unused.
+    /// Lane `j` unused: `wi.z` 0, for which the sample is `None`.
     pub fn clear(&mut self, j: usize) {
         self.vertices.wi_z[j] = 0.0;
     }

@@ -232,7 +232,7 @@ impl PathTracer {
             for (j, t) in batch.iter().enumerate() {
                 lanes.set(j, &queues.scattering[t.vertex].vertex, t);
             }
-            lanes.clear_from(batch.len());
+            (batch.len()..LANES).for_each(|j| lanes.clear(j));
             lanes.run(ctx.bvh.simd_level());
             for (j, t) in batch.iter().enumerate() {
                 let Some(ls) = lanes.sample(j) else { continue };
