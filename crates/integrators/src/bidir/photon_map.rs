@@ -180,26 +180,45 @@ impl<R: PhotonRecord> PhotonMap<R> {
     }
 }
 
-/// A photon map kept from one iteration to the next, so that each rebuild
-/// reuses the last one's buffers: fresh ones, about 90 bytes a photon, were
-/// mapped and zeroed by the kernel every iteration (page faults were 2-4 %
-/// of PPM's and BPM's time on the SmallVCM scenes).
+/// What merging needs from one iteration to the next: each iteration
+/// reuses the last one's buffers. Fresh ones, about 90 bytes a photon
+/// for the map and 45-80 for the light pass's photon blocks, were mapped
+/// and zeroed by the kernel every iteration (page faults were 2-4 % of
+/// PPM's and BPM's time on the SmallVCM scenes).
 #[derive(Debug)]
-pub(super) struct PhotonMapBuffers<R>(Mutex<PhotonMap<R>>);
+pub(super) struct PhotonMapBuffers<R>(Mutex<Kept<R>>);
+
+/// The buffers [`PhotonMapBuffers`] keeps.
+#[derive(Debug)]
+pub(super) struct Kept<R> {
+    /// The photon map.
+    pub map: PhotonMap<R>,
+    /// The light pass's photon blocks (`LightPaths`), to be refilled.
+    pub blocks: Vec<Vec<(Vec3, R)>>,
+}
 
 impl<R> Default for PhotonMapBuffers<R> {
     fn default() -> Self {
-        Self(Mutex::new(PhotonMap::default()))
+        Self(Mutex::new(Kept::default()))
+    }
+}
+
+impl<R> Default for Kept<R> {
+    fn default() -> Self {
+        Self {
+            map: PhotonMap::default(),
+            blocks: Vec::new(),
+        }
     }
 }
 
 impl<R> PhotonMapBuffers<R> {
-    /// Runs `f` on the kept map, or on a new one while another iteration
-    /// holds it (or after a panic poisoned it): never waits.
-    pub fn with<T>(&self, f: impl FnOnce(&mut PhotonMap<R>) -> T) -> T {
+    /// Runs `f` on the kept buffers, or on new ones while another iteration
+    /// holds them (or after a panic poisoned them): never waits.
+    pub fn with<T>(&self, f: impl FnOnce(&mut Kept<R>) -> T) -> T {
         match self.0.try_lock() {
-            Ok(mut map) => f(&mut map),
-            Err(_) => f(&mut PhotonMap::default()),
+            Ok(mut kept) => f(&mut kept),
+            Err(_) => f(&mut Kept::default()),
         }
     }
 }

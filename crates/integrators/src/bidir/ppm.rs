@@ -43,16 +43,17 @@ impl ProgressivePhotonMapper {
 impl Integrator for ProgressivePhotonMapper {
     fn render_iteration(&self, ctx: &SceneContext, n: u64, estimates: &mut [Vec3], stop: Stop<'_>) {
         let it = self.core.iteration(ctx, n, stop);
-        // Without connections the light pass records no splats.
-        let (paths, _) = it.trace_light_paths::<Photon>(estimates.len());
-        if stop.requested() {
-            return;
-        }
-        self.photon_map.with(|photon_map| {
-            paths.build_photon_map(photon_map, it.radius, estimates.len());
+        self.photon_map.with(|kept| {
+            // Without connections the light pass records no splats.
+            let blocks = std::mem::take(&mut kept.blocks);
+            let (paths, _) = it.trace_light_paths::<Photon>(estimates.len(), blocks);
+            if stop.requested() {
+                return;
+            }
+            paths.build_photon_map(&mut kept.map, it.radius, estimates.len());
             // Without connections nothing else reads the light vertices.
-            drop(paths);
-            let photon_map = &*photon_map;
+            kept.blocks = paths.into_photon_blocks();
+            let photon_map = &kept.map;
             it.camera_pass(estimates, |index| it.trace_gather_path(index, photon_map));
         });
     }
