@@ -4,7 +4,7 @@
 //!
 //! All samplers expect wi strictly above the surface (wi.z > 0).
 
-use std::f64::consts::PI;
+use std::f64::consts::{FRAC_2_SQRT_PI, PI};
 
 use crate::sample::ONE_MINUS_EPSILON;
 use glam::{DVec3, Vec2, Vec3};
@@ -21,10 +21,16 @@ pub const SAMPLE_TAIL_CLAMP: f64 = 1e-7;
 /// the mass: the bracket of the visible-slope inversion.
 const BECKMANN_SLOPE_LIMIT: f64 = 9.0;
 
-/// Newton-bisection steps allowed when inverting the visible-slope CDF; it
+/// Halley-bisection steps allowed when inverting the visible-slope CDF; it
 /// converges in fewer than 10 for every input tried, bisection guarantees
 /// progress for the rest.
 const SLOPE_INVERSION_STEPS: usize = 64;
+
+/// Largest correction (f f'' / 2 f'^2) of Newton's step that the slope
+/// inversion takes as Halley's: beyond it the root is too far for the
+/// cubic model, whose step can then be tiny (and stop the iteration) without
+/// being near the root.
+const HALLEY_MAX_CORRECTION: f64 = 0.5;
 
 /// Stop the slope inversion once a step moves x by less than this.
 const SLOPE_TOLERANCE: f64 = 1e-9;
@@ -92,9 +98,11 @@ pub fn sample_beckmann(wi: Vec3, alpha: f32, u: Vec2) -> Option<Vec3> {
 }
 
 /// Inverts the marginal CDF of the visible Beckmann slope along wi (alpha = 1):
-/// F(x) = N(x)/N(mu), N(x) = erfc(-x) + tan(theta) exp(-x^2)/sqrt(pi),
-/// N'(x) = 2/sqrt(pi) exp(-x^2) (1 - x tan(theta)), by Newton steps kept
-/// inside a shrinking bracket (bisection when a step leaves it).
+/// F(x) = N(x)/N(mu), N(x) = erfc(-x) + tan(theta) exp(-x^2)/sqrt(pi), by
+/// Halley steps (cubic convergence) kept inside a shrinking bracket
+/// (bisection when a step leaves it), with
+/// N'(x) = 2/sqrt(pi) exp(-x^2) (1 - x tan(theta)) and
+/// N''(x) = 2/sqrt(pi) exp(-x^2) (-2x (1 - x tan(theta)) - tan(theta)).
 fn sample_visible_slope_x(cos_theta: f64, sin_theta: f64, u: f64) -> f64 {
     if sin_theta == 0.0 {
         // Normal incidence: the visible slopes are the slopes.
@@ -102,19 +110,44 @@ fn sample_visible_slope_x(cos_theta: f64, sin_theta: f64, u: f64) -> f64 {
     }
     let tan = sin_theta / cos_theta;
     let mu = cos_theta / sin_theta;
-    let n = |x: f64| erfc(-x) + tan * (-x * x).exp() / PI.sqrt();
-    let target = u * n(mu);
+    let n = |x: f64, gauss: f64| erfc(-x) + tan * gauss / PI.sqrt();
+    let gauss_mu = (-mu * mu).exp();
+    let n_mu = n(mu, gauss_mu);
+    let target = u * n_mu;
     let (mut lo, mut hi) = (-BECKMANN_SLOPE_LIMIT, mu.min(BECKMANN_SLOPE_LIMIT));
-    let mut x = erf_inv(2.0 * u - 1.0).clamp(lo, hi);
+    // The slope at normal incidence, unless it lies beyond mu (large u):
+    // there N is quadratic, N(mu) - N(x) ~ N''(mu) (mu - x)^2 / 2 with
+    // N''(mu) = -2/sqrt(pi) exp(-mu^2) tan(theta), so the inverse of that.
+    let mut x = erf_inv(2.0 * u - 1.0);
+    if !(x < hi) {
+        let curvature = FRAC_2_SQRT_PI * gauss_mu * tan;
+        x = mu - (2.0 * (1.0 - u) * n_mu / curvature).sqrt();
+    }
+    x = x.clamp(lo, hi);
     for _ in 0..SLOPE_INVERSION_STEPS {
-        let value = n(x) - target;
+        let gauss = (-x * x).exp();
+        let value = n(x, gauss) - target;
+        if value == 0.0 {
+            break;
+        }
         if value > 0.0 {
             hi = x;
         } else {
             lo = x;
         }
-        let derivative = 2.0 / PI.sqrt() * (-x * x).exp() * (1.0 - x * tan);
-        let mut next = x - value / derivative;
+        let d1 = FRAC_2_SQRT_PI * gauss * (1.0 - x * tan);
+        let d2 = FRAC_2_SQRT_PI * gauss * (-2.0 * x * (1.0 - x * tan) - tan);
+        // Halley's step as Newton's with a correction; where the correction
+        // is large (far from the root, or near x = mu where N' vanishes) its
+        // step can be tiny without converging: Newton's step alone then.
+        let newton = value / d1;
+        let correction = 0.5 * newton * d2 / d1;
+        let delta = if correction.abs() < HALLEY_MAX_CORRECTION {
+            newton / (1.0 - correction)
+        } else {
+            newton
+        };
+        let mut next = x - delta;
         if !(next > lo && next < hi) {
             next = 0.5 * (lo + hi);
         }
