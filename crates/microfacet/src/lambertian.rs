@@ -1,10 +1,10 @@
 //! Ideal diffuse reflection, f = R/pi, two-sided.
 
-use std::f32::consts::{FRAC_1_PI, PI};
+use std::f32::consts::FRAC_1_PI;
 
 use glam::{Vec2, Vec3};
 
-use crate::frame::same_hemisphere;
+use crate::frame::{same_hemisphere, sin_cos_turns};
 use crate::sample::BsdfSample;
 
 /// Lambertian reflector with albedo `reflectance` (each channel in [0, 1]).
@@ -48,12 +48,12 @@ impl Lambertian {
             return None;
         }
         let r = u.x.sqrt();
-        let phi = 2.0 * PI * u.y;
+        let (sin_phi, cos_phi) = sin_cos_turns(u.y);
         let z = (1.0 - u.x).max(0.0).sqrt();
         if z == 0.0 {
             return None;
         }
-        let wo = Vec3::new(r * phi.cos(), r * phi.sin(), z.copysign(wi.z));
+        let wo = Vec3::new(r * cos_phi, r * sin_phi, z.copysign(wi.z));
         Some(BsdfSample {
             wo,
             f: self.reflectance * FRAC_1_PI,

@@ -16,14 +16,15 @@
 //! [`Lights::sample_chosen`](crate::lights::Lights::sample_chosen) (an
 //! area light's branch with `area_pdf_w`, a point light's), [`PathVertex::eval`] and
 //! [`PathVertex::mis_pdf`] of a Lambertian lobe in radiance mode; for
-//! [`StepLanes`], `Lambertian::sample` (its cos and sin are libm's, per
-//! lane) and [`PathVertex::sample`]. Only IEEE operations, no fused
+//! [`StepLanes`], `Lambertian::sample` (its azimuth's sine and cosine
+//! by `microfacet::frame::sin_cos_turns`, whose polynomials make them
+//! in lanes too) and [`PathVertex::sample`]. Only IEEE operations, no fused
 //! multiply-add: every instruction set gives the same bits (tested here),
 //! and the path tracer's wavefront-against-scalar byte-identity test
 //! covers every bundled scene, Lambertian surfaces and triangle lights
 //! included. Keep the two in step.
 
-use std::f32::consts::{FRAC_1_PI, PI};
+use std::f32::consts::{FRAC_1_PI, FRAC_PI_2};
 
 use fearless_simd::{Level, Select, Simd, SimdBase, SimdFloat, SimdMask, dispatch, f32x16};
 use glam::{Vec2, Vec3};
@@ -212,12 +213,9 @@ pub(super) struct StepLanes {
     vertices: VertexLanes,
     s: [[f32; LANES]; 3],
     t: [[f32; LANES]; 3],
-    /// The first sample number, and cos and sin of the azimuth from the
-    /// second (libm's, computed per lane by [`StepLanes::set`] as
-    /// `Lambertian::sample` does).
+    /// The two sample numbers: the radius's and the azimuth's (in turns).
     u: [f32; LANES],
-    cos_phi: [f32; LANES],
-    sin_phi: [f32; LANES],
+    u_phi: [f32; LANES],
     // Results.
     wo: [[f32; LANES]; 3],
     weight: [[f32; LANES]; 3],
@@ -234,10 +232,7 @@ impl StepLanes {
         self.vertices.set(j, vertex, reflectance);
         set3(&mut self.s, j, vertex.frame.s);
         set3(&mut self.t, j, vertex.frame.t);
-        self.u[j] = u.x;
-        let phi = 2.0 * PI * u.y;
-        self.cos_phi[j] = phi.cos();
-        self.sin_phi[j] = phi.sin();
+        (self.u[j], self.u_phi[j]) = (u.x, u.y);
     }
 
     /// Lane `j` unused: `wi.z` 0, for which the sample is `None`.
@@ -262,12 +257,9 @@ impl StepLanes {
         let u = V::from_slice(simd, &self.u);
         // Lambertian::sample.
         let r = u.sqrt();
+        let (sin_phi, cos_phi) = sin_cos_turns(simd, V::from_slice(simd, &self.u_phi));
         let z = (one - u).max_precise(zero).sqrt();
-        let wo_local = [
-            r * V::from_slice(simd, &self.cos_phi),
-            r * V::from_slice(simd, &self.sin_phi),
-            z.copysign(wi_z),
-        ];
+        let wo_local = [r * cos_phi, r * sin_phi, z.copysign(wi_z)];
         let reflectance = load3(simd, &vertices.reflectance);
         let pdf = z * inv_pi;
         // PathVertex::sample: Frame::to_world, the consistency test, the weight.
@@ -360,6 +352,31 @@ fn load3<S: Simd>(simd: S, c: &[[f32; LANES]; 3]) -> [f32x16<S>; 3] {
         f32x16::from_slice(simd, &c[1]),
         f32x16::from_slice(simd, &c[2]),
     ]
+}
+
+/// [`microfacet::frame::sin_cos_turns`], lane by lane: (sin 2 pi u,
+/// cos 2 pi u) by the same exact reduction, polynomials and quadrant.
+#[inline(always)]
+fn sin_cos_turns<S: Simd>(simd: S, u: f32x16<S>) -> (f32x16<S>, f32x16<S>) {
+    let [s0, s1, s2] = microfacet::frame::SIN_POLYNOMIAL;
+    let [c0, c1, c2] = microfacet::frame::COS_POLYNOMIAL;
+    let splat = |c: f32| f32x16::splat(simd, c);
+    let t = splat(4.0) * u;
+    let n = t.round_ties_even();
+    let x = (t - n) * splat(FRAC_PI_2);
+    let x2 = x * x;
+    let sin = x + x * x2 * ((splat(s0) * x2 + splat(s1)) * x2 + splat(s2));
+    let cos =
+        (splat(1.0) - splat(0.5) * x2) + x2 * x2 * ((splat(c0) * x2 + splat(c1)) * x2 + splat(c2));
+    // sin and cos of n pi/2 + x, n in 0..=4.
+    let (n1, n2, n3) = (
+        n.simd_eq(splat(1.0)),
+        n.simd_eq(splat(2.0)),
+        n.simd_eq(splat(3.0)),
+    );
+    let swap = n1 | n3;
+    let (sin, cos) = (swap.select(cos, sin), swap.select(sin, cos));
+    ((n2 | n3).select(-sin, sin), (n1 | n2).select(-cos, cos))
 }
 
 /// glam's `dot`, lane by lane: `(a.x b.x + a.y b.y) + a.z b.z`.
@@ -471,8 +488,7 @@ mod tests {
             lanes.vertices.ng_wi[j] = v(1.0);
             lanes.vertices.wi_z[j] = v(1.0);
             lanes.u[j] = v(1.0).abs();
-            let phi = v(std::f32::consts::PI);
-            (lanes.cos_phi[j], lanes.sin_phi[j]) = (phi.cos(), phi.sin());
+            lanes.u_phi[j] = v(1.0).abs();
         }
         lanes.clear(0);
         lanes.u[1] = 1.0;
@@ -503,5 +519,41 @@ mod tests {
             valid > total / 10 && valid < total * 3 / 4,
             "{valid} of {total} valid"
         );
+    }
+
+    /// The lanes' sine and cosine of an azimuth are the scalar function's
+    /// bits (`microfacet::frame::sin_cos_turns`, which `Lambertian::sample`
+    /// uses), at every instruction set, across the quadrants' boundaries too.
+    #[test]
+    fn azimuths_in_lanes_are_the_scalar_ones() {
+        let mut rng = Pcg32::new(5, 3);
+        let mut us: Vec<f32> = (0..4096).map(|_| rng.uniform_f32()).collect();
+        for q in [0.0f32, 0.125, 0.25, 0.375, 0.5, 0.625, 0.75, 0.875, 1.0] {
+            us.extend(
+                [q.next_down(), q, q.next_up()]
+                    .into_iter()
+                    .filter(|u| (0.0..=1.0).contains(u)),
+            );
+        }
+        for level in levels() {
+            for chunk in us.chunks(LANES) {
+                let mut u = [0.5; LANES];
+                u[..chunk.len()].copy_from_slice(chunk);
+                let (mut sin, mut cos) = ([0.0; LANES], [0.0; LANES]);
+                dispatch!(level, simd => {
+                    let (s, c) = sin_cos_turns(simd, f32x16::from_slice(simd, &u));
+                    s.store_slice(&mut sin);
+                    c.store_slice(&mut cos);
+                });
+                for (j, &u) in chunk.iter().enumerate() {
+                    let (s, c) = microfacet::frame::sin_cos_turns(u);
+                    assert_eq!(
+                        (sin[j].to_bits(), cos[j].to_bits()),
+                        (s.to_bits(), c.to_bits()),
+                        "u {u} on {level:?}"
+                    );
+                }
+            }
+        }
     }
 }
