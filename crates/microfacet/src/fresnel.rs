@@ -1,7 +1,7 @@
 //! Fresnel reflectance (SPEC §3): exact unpolarised dielectric, complex-IOR
 //! conductor, and Schlick's approximation from F0.
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 use crate::frame::cos2_theta_t;
 
@@ -66,31 +66,21 @@ pub fn dielectric_f64(cos_theta_i: f64, eta: f64) -> (f64, f64) {
 
 /// Fresnel reflectance of a conductor with complex index eta + i k, per RGB
 /// channel (pbrt-v4 `FrComplex`; the same equations as `dielectric` with a
-/// complex eta, where total internal reflection cannot occur).
-/// `cos_theta_i` is clamped to [0, 1].
+/// complex eta, where total internal reflection cannot occur), the three
+/// channels at once in SSE lanes: each lane makes the operations of the
+/// one-channel formula, so the result is the same. `cos_theta_i` is clamped
+/// to [0, 1].
 pub fn conductor(cos_theta_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
-    let c = cos_theta_i.clamp(0.0, 1.0);
-    Vec3::new(
-        conductor_channel(c, eta.x, k.x),
-        conductor_channel(c, eta.y, k.y),
-        conductor_channel(c, eta.z, k.z),
-    )
-}
-
-fn conductor_channel(cos_i: f32, eta: f32, k: f32) -> f32 {
-    let eta = Complex::new(eta, k);
-    let sin2_i = 1.0 - cos_i * cos_i;
-    let sin2_t = Complex::real(sin2_i).div(eta.mul(eta));
-    let cos_t = Complex::real(1.0).sub(sin2_t).sqrt();
-    let ci = Complex::real(cos_i);
+    let c = Vec3A::splat(cos_theta_i.clamp(0.0, 1.0));
+    let eta = Complex3::new(eta.into(), k.into());
+    let sin2_i = Vec3A::ONE - c * c;
+    let sin2_t = Complex3::real(sin2_i).div(eta.mul(eta));
+    let cos_t = Complex3::real(Vec3A::ONE).sub(sin2_t).sqrt();
+    let ci = Complex3::real(c);
     let r_parallel = eta.mul(ci).sub(cos_t).div(eta.mul(ci).add(cos_t));
     let r_perpendicular = ci.sub(eta.mul(cos_t)).div(ci.add(eta.mul(cos_t)));
     let f = 0.5 * (r_parallel.norm2() + r_perpendicular.norm2());
-    if f.is_finite() {
-        f.clamp(0.0, 1.0)
-    } else {
-        1.0
-    }
+    Vec3A::select(f.is_finite_mask(), f.clamp(Vec3A::ZERO, Vec3A::ONE), Vec3A::ONE).into()
 }
 
 /// Schlick's approximation F0 + (1 - F0)(1 - cos)^5 (Schlick 1994), used for
@@ -163,19 +153,19 @@ pub fn schlick_average(f0: Vec3) -> Vec3 {
     f0 + (Vec3::ONE - f0) / 21.0
 }
 
-/// Just enough complex arithmetic for the conductor Fresnel equations.
-#[derive(Clone, Copy, Debug)]
-struct Complex {
-    re: f32,
-    im: f32,
+/// Three complex numbers, one per RGB channel, as lanes.
+#[derive(Clone, Copy)]
+struct Complex3 {
+    re: Vec3A,
+    im: Vec3A,
 }
 
-impl Complex {
-    fn new(re: f32, im: f32) -> Self {
+impl Complex3 {
+    fn new(re: Vec3A, im: Vec3A) -> Self {
         Self { re, im }
     }
-    fn real(re: f32) -> Self {
-        Self { re, im: 0.0 }
+    fn real(re: Vec3A) -> Self {
+        Self::new(re, Vec3A::ZERO)
     }
     fn add(self, o: Self) -> Self {
         Self::new(self.re + o.re, self.im + o.im)
@@ -190,28 +180,30 @@ impl Complex {
         )
     }
     fn div(self, o: Self) -> Self {
-        let scale = 1.0 / o.norm2();
+        let scale = Vec3A::ONE / o.norm2();
         Self::new(
             scale * (self.re * o.re + self.im * o.im),
             scale * (self.im * o.re - self.re * o.im),
         )
     }
-    fn norm2(self) -> f32 {
+    fn norm2(self) -> Vec3A {
         self.re * self.re + self.im * self.im
     }
-    /// Principal square root.
+    /// Principal square root (0 where the norm is 0).
     fn sqrt(self) -> Self {
         let n = self.norm2().sqrt();
-        if n == 0.0 {
-            return Self::real(0.0);
-        }
         let t1 = (0.5 * (n + self.re.abs())).sqrt();
         let t2 = 0.5 * self.im / t1;
-        if self.re >= 0.0 {
-            Self::new(t1, t2)
-        } else {
-            Self::new(t2.abs(), t1.copysign(self.im))
-        }
+        let non_negative = self.re.cmpge(Vec3A::ZERO);
+        let root = Self::new(
+            Vec3A::select(non_negative, t1, t2.abs()),
+            Vec3A::select(non_negative, t2, t1.copysign(self.im)),
+        );
+        let zero = n.cmpeq(Vec3A::ZERO);
+        Self::new(
+            Vec3A::select(zero, Vec3A::ZERO, root.re),
+            Vec3A::select(zero, Vec3A::ZERO, root.im),
+        )
     }
 }
 
