@@ -9,6 +9,7 @@
 use std::f32::consts::PI;
 
 use glam::{Vec2, Vec3};
+use microfacet::frame::sin_cos_turns;
 use mis::EmitterKind;
 use scene::{Light, Scene};
 
@@ -274,9 +275,9 @@ impl Cone {
         let cos_alpha =
             sin2_theta / sin_max + cos_theta * (1.0 - sin2_theta / self.sin2_max).max(0.0).sqrt();
         let sin_alpha = (1.0 - cos_alpha * cos_alpha).max(0.0).sqrt();
-        let phi = 2.0 * std::f64::consts::PI * f64::from(u.y);
+        let (sin_phi, cos_phi) = sin_cos_turns(u.y);
         let (t, b) = self.axis.any_orthonormal_pair();
-        (t * phi.cos() + b * phi.sin()) * sin_alpha + self.axis * cos_alpha
+        (t * f64::from(cos_phi) + b * f64::from(sin_phi)) * sin_alpha + self.axis * cos_alpha
     }
 }
 
@@ -1042,8 +1043,8 @@ pub fn uniform_cone_pdf(cos_max: f32) -> f32 {
 pub fn uniform_cone(u: Vec2, cos_max: f32) -> Vec3 {
     let z = 1.0 - u.x * (1.0 - cos_max);
     let r = (1.0 - z * z).max(0.0).sqrt();
-    let phi = 2.0 * PI * u.y;
-    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    let (sin_phi, cos_phi) = sin_cos_turns(u.y);
+    Vec3::new(r * cos_phi, r * sin_phi, z)
 }
 
 /// Shirley-Chiu concentric map of the unit square onto the unit disk.
@@ -1070,6 +1071,6 @@ pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
 pub fn uniform_sphere(u: Vec2) -> Vec3 {
     let z = 1.0 - 2.0 * u.x;
     let r = (1.0 - z * z).max(0.0).sqrt();
-    let phi = 2.0 * PI * u.y;
-    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    let (sin_phi, cos_phi) = sin_cos_turns(u.y);
+    Vec3::new(r * cos_phi, r * sin_phi, z)
 }

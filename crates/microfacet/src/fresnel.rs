@@ -80,7 +80,12 @@ pub fn conductor(cos_theta_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
     let r_parallel = eta.mul(ci).sub(cos_t).div(eta.mul(ci).add(cos_t));
     let r_perpendicular = ci.sub(eta.mul(cos_t)).div(ci.add(eta.mul(cos_t)));
     let f = 0.5 * (r_parallel.norm2() + r_perpendicular.norm2());
-    Vec3A::select(f.is_finite_mask(), f.clamp(Vec3A::ZERO, Vec3A::ONE), Vec3A::ONE).into()
+    Vec3A::select(
+        f.is_finite_mask(),
+        f.clamp(Vec3A::ZERO, Vec3A::ONE),
+        Vec3A::ONE,
+    )
+    .into()
 }
 
 /// Schlick's approximation F0 + (1 - F0)(1 - cos)^5 (Schlick 1994), used for
