@@ -116,8 +116,9 @@ fn sample_visible_slope_x(cos_theta: f64, sin_theta: f64, u: f64) -> f64 {
     let target = u * n_mu;
     let (mut lo, mut hi) = (-BECKMANN_SLOPE_LIMIT, mu.min(BECKMANN_SLOPE_LIMIT));
     // The slope at normal incidence, unless it lies beyond mu (large u):
-    // there N is quadratic, N(mu) - N(x) ~ N''(mu) (mu - x)^2 / 2 with
-    // N''(mu) = -2/sqrt(pi) exp(-mu^2) tan(theta), so the inverse of that.
+    // near mu N is quadratic (N'(mu) = 0), N(mu) - N(x) ~ |N''(mu)| (mu - x)^2 / 2
+    // with |N''(mu)| = 2/sqrt(pi) exp(-mu^2) tan(theta), and N(mu) - N(x) is
+    // (1 - u) N(mu) at the root: the start solves that.
     let mut x = erf_inv(2.0 * u - 1.0);
     if !(x < hi) {
         let curvature = FRAC_2_SQRT_PI * gauss_mu * tan;
