@@ -67,9 +67,9 @@ pub fn dielectric_f64(cos_theta_i: f64, eta: f64) -> (f64, f64) {
 /// Fresnel reflectance of a conductor with complex index eta + i k, per RGB
 /// channel (pbrt-v4 `FrComplex`; the same equations as `dielectric` with a
 /// complex eta, where total internal reflection cannot occur), the three
-/// channels at once in `Vec3A` lanes (SSE on x86-64): each lane makes the operations of the
-/// one-channel formula, so the result is the same. `cos_theta_i` is clamped
-/// to [0, 1].
+/// channels at once in `Vec3A` lanes (SSE on x86-64): each lane makes the
+/// operations of the one-channel formula, so the result is the same.
+/// `cos_theta_i` is clamped to [0, 1].
 pub fn conductor(cos_theta_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
     let c = Vec3A::splat(cos_theta_i.clamp(0.0, 1.0));
     let eta = Complex3::new(eta.into(), k.into());
