@@ -482,6 +482,31 @@ impl Bvh {
         self.isa
     }
 
+    /// The name of the instruction set of [`Bvh::simd_level`]: "AVX-512",
+    /// "AVX2", "SSE4.2" or "Neon", else "the platform's baseline" (for
+    /// reports such as `render-cli --explain`).
+    #[must_use]
+    pub fn simd_name(&self) -> &'static str {
+        #[cfg(any(target_arch = "x86", target_arch = "x86_64"))]
+        {
+            // Each level also answers for those below it: the widest first.
+            if self.isa.as_avx512().is_some() {
+                return "AVX-512";
+            }
+            if self.isa.as_avx2().is_some() {
+                return "AVX2";
+            }
+            if self.isa.as_sse4_2().is_some() {
+                return "SSE4.2";
+            }
+        }
+        #[cfg(target_arch = "aarch64")]
+        if self.isa.as_neon().is_some() {
+            return "Neon";
+        }
+        "the platform's baseline"
+    }
+
     /// Chooses the instruction set of the SIMD kernels: [`Layout::Bvh8`]'s node and
     /// leaf tests, [`Layout::Flat`]'s scan, and callers' kernels that follow
     /// [`Bvh::simd_level`]. Every choice gives the same results bit for bit;
@@ -1226,6 +1251,22 @@ mod tests {
             }
         }
         assert!(compared >= 2);
+    }
+
+    /// `simd_name` names the instruction set `set_isa` chose.
+    #[cfg(any(target_arch = "x86", target_arch = "x86_64"))]
+    #[test]
+    fn simd_name_follows_the_chosen_instruction_set() {
+        let mut bvh = Bvh::build(&[[Vec3::ZERO, Vec3::X, Vec3::Y]]);
+        for (isa, name) in [
+            (Isa::Baseline, "SSE4.2"),
+            (Isa::Avx2, "AVX2"),
+            (Isa::Avx512, "AVX-512"),
+        ] {
+            if bvh.set_isa(isa) {
+                assert_eq!(bvh.simd_name(), name);
+            }
+        }
     }
 
     #[test]

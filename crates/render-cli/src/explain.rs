@@ -32,11 +32,31 @@ pub fn integrator(renderer: &Renderer) -> String {
         };
         let _ = writeln!(s, "path loop:        {path_loop}");
     }
+    ray_queries(&mut s, renderer);
     shadow_roulette(&mut s, renderer);
     merging(&mut s, renderer);
     regularization(&mut s, renderer);
     left_out(&mut s, renderer);
     s
+}
+
+/// The acceleration structure and the instruction set its kernels (and the
+/// path tracer's lanes) run on.
+fn ray_queries(s: &mut String, renderer: &Renderer) {
+    let bvh = &renderer.context().bvh;
+    let structure = match bvh.layout() {
+        accel::Layout::Flat => "no tree (every primitive tested, 16 at a time)",
+        accel::Layout::Bvh8 => "an 8-wide BVH of float boxes",
+        accel::Layout::Binary => "a binary BVH",
+        _ => "an 8-wide BVH of compressed boxes",
+    };
+    let _ = writeln!(
+        s,
+        "ray queries:      {} triangles, {} spheres; {structure}; SIMD kernels on {} (the CPU's best, chosen at run time; every instruction set gives the same image)",
+        bvh.triangle_count(),
+        bvh.spheres().len(),
+        bvh.simd_name()
+    );
 }
 
 /// The shadow-ray roulette's threshold, if there is one.

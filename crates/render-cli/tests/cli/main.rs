@@ -327,6 +327,8 @@ fn explain_prints_the_settings_and_renders() {
             "iterations:       2 (flag)",
             "tau0:             30 (default)",
             "threads:          1",
+            "ray queries:      32 triangles, 0 spheres; ",
+            "; SIMD kernels on ",
         ],
     );
     assert!(exr.is_file() && !dir.path().join("out.png").exists());
