@@ -600,12 +600,7 @@ impl Lights {
                 position,
                 intensity,
             } => Some(PointTarget {
-                point: LightPoint {
-                    p: position,
-                    n: Vec3::ZERO,
-                    error: PointError::Vertices(f32::INFINITY),
-                    surface: accel::NO_SURFACE,
-                },
+                point: delta_light_point(position),
                 emitted: intensity,
                 pdf: choice.pmf,
                 delta: true,
@@ -632,12 +627,7 @@ impl Lights {
                 wi,
                 li: intensity / dist2,
                 pdf: pmf,
-                point: Some(LightPoint {
-                    p: position,
-                    n: Vec3::ZERO,
-                    error: PointError::Vertices(f32::INFINITY),
-                    surface: accel::NO_SURFACE,
-                }),
+                point: Some(delta_light_point(position)),
                 is_delta: true,
                 mis: EmitterPdfs {
                     kind: EmitterKind::Point,
@@ -1016,6 +1006,17 @@ fn sphere_point(s: &scene::Sphere, n: Vec3) -> (Vec3, Vec3) {
         radius: s.radius,
     }
     .point_at(n)
+}
+
+/// The light point of a point or spot light at `position`: no surface, no
+/// normal, and no error bound (a shadow ray ends exactly there).
+fn delta_light_point(position: Vec3) -> LightPoint {
+    LightPoint {
+        p: position,
+        n: Vec3::ZERO,
+        error: PointError::Vertices(f32::INFINITY),
+        surface: accel::NO_SURFACE,
+    }
 }
 
 /// Radiance emitted by sphere `s` at its point in outward direction `n`:
