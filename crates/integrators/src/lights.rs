@@ -536,7 +536,7 @@ impl Lights {
     ///
     /// Camera subpaths draw it before the ray that finds the receiver, so
     /// that its dependent loads and square root overlap that ray's query.
-    #[inline]
+    #[inline(always)]
     pub fn choose(&self, scene: &Scene, u_select: f32, u: Vec2) -> Option<LightChoice> {
         let (index, pmf) = self.select(u_select)?;
         let surface = match self.lights[index] {

@@ -362,6 +362,12 @@ impl Material {
 
 impl Surface {
     /// The lobe at texture coordinate `uv`.
+    ///
+    /// Always inlined, with the textured case out of line
+    /// ([`TexturedPbr::bsdf`]): returned through memory, the lobe's fields
+    /// were reloaded by every path vertex right after this function stored
+    /// them, and the loads waited on the stores.
+    #[inline(always)]
     pub fn bsdf(&self, uv: Vec2, textures: &[Texture]) -> Bsdf {
         match *self {
             Surface::Diffuse { reflectance } => Bsdf::Lambertian(Lambertian { reflectance }),
@@ -373,7 +379,7 @@ impl Surface {
             Surface::ThinDielectric { ior, tint } => {
                 Bsdf::ThinDielectric(ThinDielectric { eta: ior, tint })
             }
-            Surface::Textured(pbr) => pbr.resolve(uv, textures).bsdf(uv, textures),
+            Surface::Textured(pbr) => pbr.bsdf(uv, textures),
         }
     }
 
@@ -435,6 +441,12 @@ impl TexturedPbr {
             ndf: NdfKind::Ggx,
             shadowing: Shadowing::Smith,
         }
+    }
+
+    /// The lobe at `uv`: [`TexturedPbr::resolve`]'s.
+    #[inline(never)]
+    pub fn bsdf(&self, uv: Vec2, textures: &[Texture]) -> Bsdf {
+        self.resolve(uv, textures).bsdf(uv, textures)
     }
 
     /// The untextured surface for the factors modulated by the textures at `uv`.
