@@ -39,10 +39,16 @@ pub struct PathVertex {
     /// [`PathVertex::new`]: every evaluation at the vertex needs it,
     /// connections many times.
     wi_local: Vec3,
-    /// The BSDF as the material defines it (textures resolved).
-    pub bsdf_original: Bsdf,
-    /// The BSDF actually used: `bsdf_original` with alpha-hat.
+    /// The BSDF actually used: the material's ([`PathVertex::bsdf_original`])
+    /// with alpha-hat.
     pub bsdf: Bsdf,
+    /// The BSDF as the material defines it (textures resolved), kept only
+    /// where regularization changed it (`alpha_hat` is `Some`); otherwise
+    /// it is `bsdf`. Most vertices are not regularized, and writing the
+    /// lobe twice was a tenth of the wavefront path tracer's own time: the
+    /// copy's wide loads waited on the narrow stores that had just built
+    /// the lobe.
+    original: Option<Bsdf>,
     /// The regularized roughness, when regularization raised alpha here.
     pub alpha_hat: Option<AlphaHat>,
     /// Product of f |cos| / pdf along the subpath up to (excluding) this vertex.
@@ -96,39 +102,42 @@ impl PathVertex {
         regularization: PathRegularization,
     ) -> Self {
         let material = &scene.materials[point.material as usize];
-        let bsdf_original = material.surface.bsdf(point.uv, &scene.textures);
-        let two_sided = !matches!(bsdf_original, Bsdf::Dielectric(_));
+        let mut bsdf = material.surface.bsdf(point.uv, &scene.textures);
+        let two_sided = !matches!(bsdf, Bsdf::Dielectric(_));
         let frame = if two_sided && point.frame.n.dot(wi) < 0.0 {
             point.frame.flipped()
         } else {
             point.frame
         };
+        let (after, camera_only) = regularization.through_vertex(&bsdf);
         // Under tau = infinity (no regularization, a light subpath or a
         // sampleable prefix in `unsampleable` mode: most vertices) the lobe
         // stays as it is. The memo only where a lobe may be widened with its
-        // compensation: reaching it costs about 40 instructions.
-        let tau = regularization.tau();
-        let (bsdf, alpha_hat) = if tau == f64::INFINITY {
-            (bsdf_original, None)
-        } else if regularization.compensates() && bsdf_original.alpha().is_some() {
-            WIDENED.with_borrow_mut(|memo| regularization.regularize_with(&bsdf_original, memo))
-        } else {
-            regularization.regularize(&bsdf_original)
-        };
-        let alpha_hat = alpha_hat.filter(|hat| Some(hat.alpha) != bsdf_original.alpha());
-        let tau = if alpha_hat.is_some() {
-            tau
-        } else {
-            f64::INFINITY
-        };
-        let (after, camera_only) = regularization.through_vertex(&bsdf_original);
+        // compensation: reaching it costs about 40 instructions. A lobe
+        // whose alpha-hat is its own alpha comes back unchanged.
+        let mut tau = regularization.tau();
+        let (mut original, mut alpha_hat) = (None, None);
+        if tau != f64::INFINITY {
+            let (widened, hat) = if regularization.compensates() && bsdf.alpha().is_some() {
+                WIDENED.with_borrow_mut(|memo| regularization.regularize_with(&bsdf, memo))
+            } else {
+                regularization.regularize(&bsdf)
+            };
+            alpha_hat = hat.filter(|hat| Some(hat.alpha) != bsdf.alpha());
+            if alpha_hat.is_some() {
+                original = Some(std::mem::replace(&mut bsdf, widened));
+            }
+        }
+        if alpha_hat.is_none() {
+            tau = f64::INFINITY;
+        }
         Self {
             point,
             frame,
             wi,
             wi_local: frame.to_local(wi),
-            bsdf_original,
             bsdf,
+            original,
             alpha_hat,
             throughput,
             regularization: after,
@@ -161,6 +170,13 @@ impl PathVertex {
             Bsdf::Lambertian(l) if self.medium.is_none() => Some(l),
             _ => None,
         }
+    }
+
+    /// The BSDF as the material defines it (textures resolved), before
+    /// regularization.
+    #[inline]
+    pub fn bsdf_original(&self) -> &Bsdf {
+        self.original.as_ref().unwrap_or(&self.bsdf)
     }
 
     /// `wi` in the vertex's frame.
@@ -217,7 +233,7 @@ impl PathVertex {
     /// lobe has no roughness to raise): it need not be rebuilt for the
     /// rule of another subpath.
     pub fn is_regularization_invariant(&self) -> bool {
-        self.bsdf_original.alpha().is_none()
+        self.bsdf.alpha().is_none()
     }
 
     /// f(wi, wo) without a cosine (for density estimation at merges).
@@ -257,7 +273,7 @@ impl PathVertex {
     #[inline]
     fn mis_pdf_local(&self, wi_l: Vec3, wo_l: Vec3) -> f32 {
         match self.alpha_hat {
-            Some(_) => p_hat(&self.bsdf_original, &self.bsdf, wi_l, wo_l),
+            Some(_) => p_hat(self.bsdf_original(), &self.bsdf, wi_l, wo_l),
             None => self.bsdf.pdf(wi_l, wo_l),
         }
     }
@@ -314,7 +330,9 @@ impl PathVertex {
             return None;
         }
         let (mis_pdf, mis_pdf_rev) = match self.alpha_hat {
-            Some(_) if !s.is_specular => p_hat_of_sample(&self.bsdf_original, &self.bsdf, wi_l, &s),
+            Some(_) if !s.is_specular => {
+                p_hat_of_sample(self.bsdf_original(), &self.bsdf, wi_l, &s)
+            }
             _ => (s.pdf, s.pdf_reverse),
         };
         Some(VertexSample {

@@ -153,7 +153,7 @@ impl Iteration<'_> {
                 self.connect_to_camera(&vertex, &state, history, u_roulette, splats);
             }
             if unsampleable {
-                history = history.push(regularization.is_bounded(&vertex.bsdf_original));
+                history = history.push(regularization.is_bounded(vertex.bsdf_original()));
             }
             // Every further vertex makes paths of at least length + 2 segments.
             if length + 2 > max_depth {

@@ -302,7 +302,7 @@ fn weight_sum(it: &Iteration, path: &CompletePath) -> (f64, bool) {
     // (`PathRegularization::admits_light_interior`).
     let bounded: Vec<bool> = light_path
         .iter()
-        .map(|(z, _)| light_rule.is_bounded(&z.bsdf_original))
+        .map(|(z, _)| light_rule.is_bounded(z.bsdf_original()))
         .collect();
     let interior = |j: usize| bounded[(j - 1).min(m)..].iter().copied();
     let regularized = camera

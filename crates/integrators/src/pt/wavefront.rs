@@ -164,19 +164,20 @@ impl PathTracer {
         queues.scattering.clear();
         for &(index, point) in &queues.surfaces {
             let path = &mut queues.paths[index];
-            let wi = -path.walk.direction;
-            let vertex = PathVertex::new(
-                &ctx.scene,
-                point,
-                wi,
-                path.walk.throughput,
-                path.regularization,
-            );
-            path.regularization = vertex.regularization;
             let u = path.sampler.camera_vertex(depth);
+            // Built in the queue's slot, not copied there (half a KiB); the
+            // path takes the vertex's regularization state when it goes on
+            // (`continue_paths`), not here, where reading it back would
+            // wait on the stores that wrote it.
             queues.scattering.push(Scattering {
                 path: index,
-                vertex,
+                vertex: PathVertex::new(
+                    &ctx.scene,
+                    point,
+                    -path.walk.direction,
+                    path.walk.throughput,
+                    path.regularization,
+                ),
                 u,
             });
         }
@@ -325,6 +326,7 @@ fn continue_paths(queues: &mut Queues, depth: u32, level: Level) {
             let Some((specular, mis_pdf)) = sample else {
                 continue;
             };
+            path.regularization = s.vertex.regularization;
             path.bounce = Bounce {
                 specular,
                 mis_pdf,
