@@ -307,7 +307,7 @@ fn continue_paths(queues: &mut Queues, depth: u32, level: Level) {
             lanes.run(level);
         }
         for (j, s) in batch.iter().enumerate() {
-            let mut path = queues.paths[s.path];
+            let path = &mut queues.paths[s.path];
             let step = &s.u.step;
             let sample = if lambertian & (1 << j) != 0 {
                 lanes
@@ -332,8 +332,11 @@ fn continue_paths(queues: &mut Queues, depth: u32, level: Level) {
                 mis_pdf,
                 from: s.vertex.point.p,
             };
-            // Survivors move down over paths already read (s.path >= survivors).
-            queues.paths[survivors] = path;
+            // Survivors move down over paths already read (s.path >=
+            // survivors); until a path ends, each stays where it is.
+            if s.path != survivors {
+                queues.paths[survivors] = queues.paths[s.path];
+            }
             survivors += 1;
         }
     }
