@@ -115,7 +115,7 @@ impl PathVertex {
         // stays as it is. The memo only where a lobe may be widened with its
         // compensation: reaching it costs about 40 instructions. A lobe
         // whose alpha-hat is its own alpha comes back unchanged.
-        let mut tau = regularization.tau();
+        let tau = regularization.tau();
         let (mut original, mut alpha_hat) = (None, None);
         if tau != f64::INFINITY {
             let (widened, hat) = if regularization.compensates() && bsdf.alpha().is_some() {
@@ -128,9 +128,6 @@ impl PathVertex {
                 original = Some(std::mem::replace(&mut bsdf, widened));
             }
         }
-        if alpha_hat.is_none() {
-            tau = f64::INFINITY;
-        }
         Self {
             point,
             frame,
@@ -142,7 +139,11 @@ impl PathVertex {
             throughput,
             regularization: after,
             camera_only,
-            tau,
+            tau: if alpha_hat.is_some() {
+                tau
+            } else {
+                f64::INFINITY
+            },
             medium: crate::medium::of(material),
         }
     }
