@@ -362,6 +362,49 @@ fn weight_sum(it: &Iteration, path: &CompletePath) -> (f64, bool) {
     (sum, regularized)
 }
 
+/// Where regularization widened a vertex's lobe, its MIS densities are
+/// p-hat (paper eq. 13) of the material's own lobe, which the vertex keeps
+/// beside the widened one (`PathVertex::bsdf_original`), not the widened
+/// lobe's density.
+#[test]
+fn a_widened_vertex_weighs_with_p_hat_of_the_material_lobe() {
+    let r = context("glossy-caustic", Algorithm::Bpt, Mode::Uniform, false);
+    let glossy = r
+        .scene
+        .materials
+        .iter()
+        .position(|m| m.surface.microfacet().is_some())
+        .expect("the scene has a rough conductor") as u32;
+    let material_lobe = r.scene.materials[glossy as usize]
+        .surface
+        .bsdf(Vec2::ZERO, &r.scene.textures);
+    let point = SurfacePoint {
+        p: Vec3::ZERO,
+        n_winding: Vec3::Z,
+        ng: Vec3::Z,
+        frame: crate::geometry::Frame::from_normal(Vec3::Z),
+        uv: Vec2::ZERO,
+        primitive: 0,
+        material: glossy,
+        error: crate::geometry::PointError::Vertices(1.0),
+    };
+    // tau = 1/sr widens the scene's alpha = 0.02 conductor a great deal.
+    let rule = PathRegularization::new(Mode::Uniform, Subpath::Camera, 1.0);
+    let wi = Vec3::new(0.3, 0.1, 1.0).normalize();
+    let vertex = PathVertex::new(&r.scene, point, wi, Vec3::ONE, rule);
+    assert!(vertex.alpha_hat.is_some());
+    assert_eq!(*vertex.bsdf_original(), material_lobe);
+    assert_ne!(vertex.bsdf, material_lobe);
+    let mut unlike_the_widened_pdf = 0;
+    for wo in sphere_directions(64).filter(|wo| wo.z > 0.0) {
+        let (wi_l, wo_l) = (vertex.frame.to_local(wi), vertex.frame.to_local(wo));
+        let p_hat = regularization::p_hat(&material_lobe, &vertex.bsdf, wi_l, wo_l);
+        assert_eq!(vertex.mis_pdf(wo).to_bits(), p_hat.to_bits(), "{wo}");
+        unlike_the_widened_pdf += usize::from(p_hat != vertex.bsdf.pdf(wi_l, wo_l));
+    }
+    assert!(unlike_the_widened_pdf > 0);
+}
+
 fn context(scene: &str, algorithm: Algorithm, mode: Mode, virtual_merges: bool) -> SceneContext {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../scenes")
