@@ -273,8 +273,8 @@ impl PathVertex {
     /// [`PathVertex::mis_pdf`] of sampling `wo_l` from `wi_l` (frame coordinates).
     #[inline]
     fn mis_pdf_local(&self, wi_l: Vec3, wo_l: Vec3) -> f32 {
-        match self.alpha_hat {
-            Some(_) => p_hat(self.bsdf_original(), &self.bsdf, wi_l, wo_l),
+        match &self.original {
+            Some(original) => p_hat(original, &self.bsdf, wi_l, wo_l),
             None => self.bsdf.pdf(wi_l, wo_l),
         }
     }
@@ -330,10 +330,8 @@ impl PathVertex {
         if !weight.is_finite() || weight.max_element() <= 0.0 {
             return None;
         }
-        let (mis_pdf, mis_pdf_rev) = match self.alpha_hat {
-            Some(_) if !s.is_specular => {
-                p_hat_of_sample(self.bsdf_original(), &self.bsdf, wi_l, &s)
-            }
+        let (mis_pdf, mis_pdf_rev) = match &self.original {
+            Some(original) if !s.is_specular => p_hat_of_sample(original, &self.bsdf, wi_l, &s),
             _ => (s.pdf, s.pdf_reverse),
         };
         Some(VertexSample {
