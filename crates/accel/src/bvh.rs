@@ -193,17 +193,19 @@ enum Tree {
 pub struct Bvh {
     tree: Tree,
     /// Triangles in obvhs' primitive slot order (zero at sphere slots).
-    triangles: Vec<[Vec3A; 3]>,
+    pub(crate) triangles: Vec<[Vec3A; 3]>,
     /// Caller id of each slot.
-    ids: Vec<u32>,
-    triangle_count: usize,
+    pub(crate) ids: Vec<u32>,
+    pub(crate) triangle_count: usize,
     /// The spheres, by sphere index (caller id minus `triangle_count`).
-    spheres: Vec<Sphere>,
+    pub(crate) spheres: Vec<Sphere>,
     bounds: (Vec3, Vec3),
     /// floor(log2) of the largest coordinate magnitude of the scene.
     scene_exponent: i32,
     /// The instruction set of [`Layout::Bvh8`]'s node and leaf tests.
-    isa: Level,
+    pub(crate) isa: Level,
+    /// Whether batch queries run in packets (`packet.rs`).
+    pub(crate) packets: bool,
     /// Test [`Layout::Bvh8`]'s leaves one triangle at a time with the
     /// scalar test (the reference of the leaf kernel's tests).
     #[cfg(test)]
@@ -229,12 +231,12 @@ impl std::fmt::Debug for Bvh {
 
 /// Per-ray state of both queries, in the triangle test's `t` units (see
 /// [`Bvh::prepare`]).
-struct PreparedRay {
-    transform: RayTransform,
+pub(crate) struct PreparedRay {
+    pub(crate) transform: RayTransform,
     node: NodeRay,
-    t_max: f32,
+    pub(crate) t_max: f32,
     /// Triangle-test `t` to the caller's `t`: multiply by both (exact).
-    to_caller: (f32, f32),
+    pub(crate) to_caller: (f32, f32),
 }
 
 impl Bvh {
@@ -376,6 +378,7 @@ impl Bvh {
             bounds,
             scene_exponent: 0,
             isa: Level::new(),
+            packets: false,
             #[cfg(test)]
             scalar_leaves: false,
         };
@@ -442,6 +445,7 @@ impl Bvh {
         }
         let scene_scale = bounds.0.abs().max(bounds.1.abs()).max_element();
         bvh.scene_exponent = exponent(scene_scale).clamp(-100, 100);
+        bvh.packets = crate::packet::fits(bvh.triangles.len());
         bvh
     }
 
@@ -563,7 +567,18 @@ impl Bvh {
         t_max: f32,
         surface: u32,
     ) -> Option<Hit> {
-        let skip = [surface; 2];
+        self.intersect_skipping(origin, direction, t_max, [surface; 2])
+    }
+
+    /// [`Bvh::intersect_leaving`] not testing the triangles `skip`.
+    #[inline(always)]
+    pub(crate) fn intersect_skipping(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        t_max: f32,
+        skip: [u32; 2],
+    ) -> Option<Hit> {
         if self.spheres.is_empty() {
             self.closest::<false>(origin, direction, t_max, skip, |_, _, _| true)
         } else {
@@ -621,7 +636,7 @@ impl Bvh {
         let test = |slot: usize, t_max: &mut f32, lane: Lane| {
             let id = self.ids[slot];
             if SPHERES && id as usize >= self.triangle_count {
-                if let Some(t) = self.sphere_test(slot, &r, origin, direction, *t_max)
+                if let Some(t) = self.sphere_test(slot, r.to_caller, origin, direction, *t_max)
                     && wins(slot, t, *t_max, best)
                     && accept(slot, 0.0, 0.0)
                 {
@@ -653,19 +668,19 @@ impl Bvh {
     /// The sphere test of the sphere in `slot` for the caller's ray, in
     /// the triangle test's `t` units (see [`Bvh::prepare`]): on the
     /// direction scaled by 2^-k (exact), whose `t` is the triangle test's
-    /// times 2^m.
+    /// times 2^m (`to_caller` of the prepared ray: 2^m, 2^-k).
     #[inline]
-    fn sphere_test(
+    pub(crate) fn sphere_test(
         &self,
         slot: usize,
-        r: &PreparedRay,
+        to_caller: (f32, f32),
         origin: Vec3,
         direction: Vec3,
         t_max: f32,
     ) -> Option<f32> {
         let sphere = &self.spheres[self.ids[slot] as usize - self.triangle_count];
-        let unit = direction * r.to_caller.1;
-        let to_unit = f64::from(r.to_caller.0);
+        let unit = direction * to_caller.1;
+        let to_unit = f64::from(to_caller.0);
         // Inclusive of t_max, as the triangle test (`Bvh::closest`'s ties).
         let t = sphere.intersect(origin, unit, f64::from(t_max.next_up()) * to_unit)? / to_unit;
         let t = t as f32;
@@ -676,7 +691,7 @@ impl Bvh {
     /// is exact up to the f64 rounding; only the power-of-two scalings
     /// differ), kept inside `(0, t_max)` as [`Bvh::refine`] does.
     #[cold]
-    fn refine_sphere(
+    pub(crate) fn refine_sphere(
         &self,
         slot: usize,
         origin: Vec3,
@@ -712,7 +727,7 @@ impl Bvh {
     /// inside `(0, t_max)`, where the f32 test put it. `None` only for a hit
     /// beyond f32 range.
     #[inline(always)]
-    fn refine(
+    pub(crate) fn refine(
         &self,
         slot: usize,
         origin: Vec3,
@@ -826,7 +841,7 @@ impl Bvh {
             // The tests take t_max inclusively; an occluder must be before it.
             let id = self.ids[slot];
             let hit = if SPHERES && id as usize >= self.triangle_count {
-                self.sphere_test(slot, &r, origin, direction, *t_max)
+                self.sphere_test(slot, r.to_caller, origin, direction, *t_max)
                     .is_some_and(|t| t < *t_max)
                     && accept(slot, 0.0, 0.0)
             } else {
@@ -890,7 +905,7 @@ impl Bvh {
     /// the stack and the query's first loads of it waited on those stores
     /// (1.2 % of PT's time on one load, perf).
     #[inline(always)]
-    fn prepare(&self, origin: Vec3, direction: Vec3, t_max: f32) -> Option<PreparedRay> {
+    pub(crate) fn prepare(&self, origin: Vec3, direction: Vec3, t_max: f32) -> Option<PreparedRay> {
         // The checks and reciprocals below take the three components at
         // once (Vec3A is an SSE register): per component they were about
         // 40 instructions of every ray's set-up.

@@ -63,6 +63,7 @@ mod flat;
 mod grid;
 mod leaf;
 mod offset;
+mod packet;
 mod sphere;
 mod traverse;
 mod triangle;
@@ -71,4 +72,5 @@ pub use bvh::{BuildOptions, BuildQuality, Bvh, Hit, Layout, MAX_COORDINATE, NO_S
 pub use bvh8::Isa;
 pub use grid::HashGrid;
 pub use offset::{offset_ray_origin, offset_ray_origin_bounded, offset_ray_origin_scaled};
+pub use packet::BatchRay;
 pub use sphere::{HIT_POINT_RELATIVE_ERROR, Sphere};

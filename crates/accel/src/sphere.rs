@@ -40,6 +40,20 @@ pub const HIT_POINT_RELATIVE_ERROR: f32 = 1.0 / 4_194_304.0;
 /// [`Sphere::hit_point`].
 const HIT_POINT_ABSOLUTE_ERROR: f64 = 1.0 / 1_125_899_906_842_624.0;
 
+/// Relative margin of the f32 culling of spheres in packets
+/// (`packet.rs`), 2^-16. The culling rejects a ray when |f x d|^2 > |d|^2
+/// reach^2 with reach = r + margin (|f|_1 + r), f = origin - centre (the
+/// line passes farther than the radius from the centre), or when f.d >
+/// margin |f|_1 |d|_1 and |f|^2 > r^2 (1 + margin) (the origin is outside
+/// and moves away). Its sums of products carry at most about 8 ulps
+/// (2^-21) of |f| |d| (f is itself rounded once) and its squares a few
+/// more, so 2^-16 of the sizes involved covers every rounding with a
+/// factor of 8 to spare, and the f64 test's own rounding (2^-50 relative)
+/// vanishes beside it: a culled ray is one that [`Sphere::intersect`]
+/// misses at every `t_max`. The cost of the margin is culling nothing
+/// within 1.5e-5 of the sphere.
+pub(crate) const CULL_MARGIN: f32 = 1.0 / 65_536.0;
+
 impl Sphere {
     /// Whether the sphere can be hit: finite centre, finite radius > 0.
     #[must_use]

@@ -5,7 +5,7 @@
 use std::cell::Cell;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use accel::{BuildOptions, Bvh, Hit, NO_SURFACE};
+use accel::{BatchRay, BuildOptions, Bvh, Hit, NO_SURFACE};
 use glam::Vec3;
 use regularization::tau::{alpha_cap, alpha_tau};
 use regularization::{Lobe, Mode};
@@ -190,6 +190,19 @@ impl SceneContext {
     /// (MIS, light tracing) stay those of the pinhole.
     pub fn intersect_camera_ray(&self, origin: Vec3, direction: Vec3) -> Option<Hit> {
         let hit = self.intersect(origin, direction, f32::INFINITY);
+        self.beyond_near_plane(origin, direction, hit)
+    }
+
+    /// The camera ray's hit given its first one, `hit` (from `origin`):
+    /// that one if it lies beyond the near plane, else the closest hit
+    /// from the near plane on ([`SceneContext::intersect_camera_ray`]).
+    #[inline]
+    pub fn beyond_near_plane(
+        &self,
+        origin: Vec3,
+        direction: Vec3,
+        hit: Option<Hit>,
+    ) -> Option<Hit> {
         let t_near = self.camera.near_t(direction);
         match hit {
             Some(h) if h.t < t_near => self
@@ -199,6 +212,35 @@ impl SceneContext {
                     ..h
                 }),
             other => other,
+        }
+    }
+
+    /// [`SceneContext::intersect_leaving`] of every ray of `rays` (leaving
+    /// its `skip[0]`) into `hits`, as one batch query
+    /// (`accel::Bvh::intersect_batch`: the same hits, in packets of rays in
+    /// small scenes).
+    pub fn intersect_batch(&self, rays: &[BatchRay], hits: &mut [Option<Hit>]) {
+        THREAD_RAYS.set(THREAD_RAYS.get() + rays.len() as u64);
+        if self.alpha_tested.is_empty() {
+            self.bvh.intersect_batch(rays, hits);
+        } else {
+            for (r, hit) in rays.iter().zip(hits) {
+                *hit = self.intersect_alpha(r.origin, r.direction, r.t_max);
+            }
+        }
+    }
+
+    /// [`SceneContext::occluded_between`] of every ray of `rays` (between
+    /// its `skip` triangles) into `occluded`, as one batch query
+    /// (`accel::Bvh::occluded_batch`).
+    pub fn occluded_batch(&self, rays: &[BatchRay], occluded: &mut [bool]) {
+        THREAD_RAYS.set(THREAD_RAYS.get() + rays.len() as u64);
+        if self.alpha_tested.is_empty() {
+            self.bvh.occluded_batch(rays, occluded);
+        } else {
+            for (r, occluded) in rays.iter().zip(occluded) {
+                *occluded = self.occluded_alpha(r.origin, r.direction, r.t_max);
+            }
         }
     }
 

@@ -66,6 +66,20 @@ pub struct ShadowRay {
     pub surfaces: [u32; 2],
 }
 
+impl ShadowRay {
+    /// The ray as a query of a batch (what
+    /// [`SceneContext::occluded_between`] asks).
+    #[inline]
+    pub fn batch_ray(&self) -> accel::BatchRay {
+        accel::BatchRay {
+            origin: self.origin,
+            direction: self.direction,
+            t_max: self.t_max,
+            skip: self.surfaces,
+        }
+    }
+}
+
 /// The shadow ray from `vertex` to the light sample: both ends moved off
 /// their surfaces (`accel::offset`), so neither hits its own surface.
 #[inline]

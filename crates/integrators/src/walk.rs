@@ -2,7 +2,7 @@
 //! it goes, and what it carries. Every subpath of every integrator extends
 //! itself the same way: a BSDF sample at the vertex, then Russian roulette.
 
-use accel::{Hit, NO_SURFACE};
+use accel::{BatchRay, Hit, NO_SURFACE};
 use glam::Vec3;
 use microfacet::TransportMode;
 use scene::{Medium, Scene};
@@ -49,6 +49,17 @@ impl Walk {
     #[inline]
     pub fn next_hit(&self, ctx: &SceneContext) -> Option<Hit> {
         ctx.intersect_leaving(self.origin, self.direction, f32::INFINITY, self.surface)
+    }
+
+    /// The next ray as a query of a batch (what [`Walk::next_hit`] asks).
+    #[inline]
+    pub fn next_ray(&self) -> BatchRay {
+        BatchRay {
+            origin: self.origin,
+            direction: self.direction,
+            t_max: f32::INFINITY,
+            skip: [self.surface; 2],
+        }
     }
 
     /// The ray has hit `point` after `distance`: the throughput takes the

@@ -17,7 +17,7 @@ use std::hint::black_box;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use accel::{BuildOptions, Bvh};
+use accel::{BatchRay, BuildOptions, Bvh, NO_SURFACE};
 use serde_json::{Value, json};
 
 use super::files::{self, Query, Ray, SETS};
@@ -33,6 +33,9 @@ pub(super) struct BenchOptions {
     pub layout: accel::Layout,
     /// The instruction set of its node and leaf tests.
     pub isa: accel::Isa,
+    /// Rays per batch query (`Bvh::intersect_batch`, `occluded_batch`);
+    /// 0: one query per ray.
+    pub batch: usize,
 }
 
 /// One ray set's timing and result.
@@ -123,7 +126,14 @@ pub(super) fn run(options: &BenchOptions) -> Result<(), String> {
     let mut timings = Vec::new();
     for &(name, query) in &SETS {
         let rays = files::read_rays(&options.dir, name)?;
-        timings.push(time_set(&bvh, name, query, &rays, options.passes)?);
+        timings.push(time_set(
+            &bvh,
+            name,
+            query,
+            &rays,
+            options.passes,
+            options.batch,
+        )?);
     }
     let md = markdown(&options.dir, triangles.len(), build_s, &timings);
     let doc = json!({
@@ -151,13 +161,30 @@ pub(super) fn time_set(
     query: Query,
     rays: &[Ray],
     passes: usize,
+    batch: usize,
 ) -> Result<SetTiming, String> {
-    let expected = trace(bvh, query, rays);
+    let batch_rays: Vec<BatchRay> = rays
+        .iter()
+        .map(|r| BatchRay {
+            origin: r.origin,
+            direction: r.direction,
+            t_max: r.t_max,
+            skip: [NO_SURFACE; 2],
+        })
+        .collect();
+    let trace = |rays: &[Ray]| {
+        if batch == 0 {
+            trace(bvh, query, rays)
+        } else {
+            trace_batches(bvh, query, &batch_rays, batch)
+        }
+    };
+    let expected = trace(rays);
     let (mut seconds, mut wall_seconds) = (Vec::new(), Vec::new());
     for _ in 0..passes {
         let cpu_start = thread_cpu_seconds();
         let started = Instant::now();
-        let result = trace(bvh, query, black_box(rays));
+        let result = trace(black_box(rays));
         let wall = started.elapsed().as_secs_f64();
         wall_seconds.push(wall);
         seconds.push(match (cpu_start, thread_cpu_seconds()) {
@@ -199,6 +226,32 @@ fn trace(bvh: &Bvh, query: Query, rays: &[Ray]) -> (u64, f64) {
         Query::Any => {
             for r in rays {
                 hits += u64::from(bvh.occluded(r.origin, r.direction, r.t_max));
+            }
+        }
+    }
+    (hits, t_sum)
+}
+
+/// [`trace`] in batch queries of `batch` rays.
+#[inline(never)]
+fn trace_batches(bvh: &Bvh, query: Query, rays: &[BatchRay], batch: usize) -> (u64, f64) {
+    let (mut hits, mut t_sum) = (0, 0.0);
+    let mut found = vec![None; batch];
+    let mut occluded = vec![false; batch];
+    for rays in rays.chunks(batch) {
+        match query {
+            Query::Closest => {
+                let found = &mut found[..rays.len()];
+                bvh.intersect_batch(rays, found);
+                for hit in found.iter().flatten() {
+                    hits += 1;
+                    t_sum += f64::from(hit.t);
+                }
+            }
+            Query::Any => {
+                let occluded = &mut occluded[..rays.len()];
+                bvh.occluded_batch(rays, occluded);
+                hits += occluded.iter().filter(|&&o| o).count() as u64;
             }
         }
     }

@@ -42,7 +42,7 @@ pub const USAGE: &str =
       --resolution WxH      image size (default: the scene's)
       --seed N              seed of the bounces and light samples (default 1)
       --out DIR             output folder
-  rays bench --dir DIR [--passes N] [--layout L] [--isa I]
+  rays bench --dir DIR [--passes N] [--layout L] [--isa I] [--batch N]
                     times accel::Bvh (default build, the renderer's) on a
                     dump, one thread: closest hit for camera and diffuse
                     rays, any hit for shadow rays; median and best Mrays/s
@@ -58,7 +58,10 @@ pub const USAGE: &str =
                             binary, or flat (no tree, up to 64 primitives):
                             accel's layouts
       --isa I               best (default), baseline (SSE4.2), avx2 or avx512:
-                            the instruction set of bvh8's and flat's tests";
+                            the instruction set of bvh8's and flat's tests
+      --batch N             queries of N rays at once (Bvh::intersect_batch,
+                            occluded_batch: packets of rays in scenes of up
+                            to 64 primitives); 0 (default) one ray a query";
 
 /// Timed passes per set when `--passes` is not given.
 const DEFAULT_PASSES: usize = 9;
@@ -189,10 +192,11 @@ fn parse_resolution(value: &str) -> Result<UVec2, String> {
 
 /// Parses `rays bench` flags.
 fn parse_bench(root: &Path, args: &[String]) -> Result<Option<BenchOptions>, String> {
-    let Some(pairs) = flag_values(args, &["--dir", "--passes", "--layout", "--isa"])? else {
+    let Some(pairs) = flag_values(args, &["--dir", "--passes", "--layout", "--isa", "--batch"])?
+    else {
         return Ok(None);
     };
-    let (mut dir, mut passes) = (None, DEFAULT_PASSES);
+    let (mut dir, mut passes, mut batch) = (None, DEFAULT_PASSES, 0);
     let (mut layout, mut isa) = (accel::Layout::default(), accel::Isa::default());
     for (flag, value) in pairs {
         match flag {
@@ -223,6 +227,11 @@ fn parse_bench(root: &Path, args: &[String]) -> Result<Option<BenchOptions>, Str
                     }
                 }
             }
+            "--batch" => {
+                batch = value
+                    .parse::<usize>()
+                    .map_err(|_| format!("--batch: '{value}' is not a whole number"))?;
+            }
             _ => {
                 passes = match value.parse::<usize>() {
                     Ok(n) if n > 0 => n,
@@ -240,6 +249,7 @@ fn parse_bench(root: &Path, args: &[String]) -> Result<Option<BenchOptions>, Str
         passes,
         layout,
         isa,
+        batch,
     }))
 }
 
@@ -326,7 +336,10 @@ mod tests {
         let bvh = accel::Bvh::build_indexed(&positions, &triangles, &[], Default::default());
         let timing = |(name, query): (&'static str, files::Query)| {
             let rays = files::read_rays(&out, name).unwrap();
-            (bench::time_set(&bvh, name, query, &rays, 1).unwrap(), rays)
+            (
+                bench::time_set(&bvh, name, query, &rays, 1, 0).unwrap(),
+                rays,
+            )
         };
         let [(camera, camera_rays), (diffuse, diffuse_rays), (shadow, _)] = files::SETS.map(timing);
         assert_eq!(camera.rays, 16 * 16);

@@ -2,6 +2,7 @@
 //! analytic spheres against f64 brute force, and the photon grid.
 //! One binary per crate (ARCHITECTURE.md, "Tests are statistical").
 
+mod batch;
 mod binned;
 mod bvh;
 mod common;

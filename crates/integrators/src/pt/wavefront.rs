@@ -29,7 +29,7 @@
 //! every bundled kind of scene), which is a stronger agreement than equal
 //! expected values, and the scalar loop stays the readable reference.
 
-use accel::Hit;
+use accel::{BatchRay, Hit};
 use fearless_simd::Level;
 use glam::Vec3;
 use microfacet::TransportMode;
@@ -84,7 +84,10 @@ struct ShadowQuery {
 #[derive(Debug, Default)]
 pub struct Queues {
     paths: Vec<Path>,
+    /// The rays of the extend or the shadow stage, as one batch query.
+    rays: Vec<BatchRay>,
     hits: Vec<Option<Hit>>,
+    occluded: Vec<bool>,
     /// The points the paths that go on reached, with their index.
     surfaces: Vec<(usize, SurfacePoint)>,
     scattering: Vec<Scattering>,
@@ -130,9 +133,9 @@ impl PathTracer {
             if queues.paths.is_empty() {
                 break;
             }
-            extend(ctx, depth, &queues.paths, &mut queues.hits);
+            extend(ctx, depth, queues);
             self.shade(ctx, depth, queues, out);
-            shadow(ctx, &queues.shadow, out);
+            shadow(ctx, queues, out);
             continue_paths(queues, depth, ctx.bvh.simd_level());
         }
     }
@@ -257,29 +260,38 @@ impl PathTracer {
 
 /// Stage 1: the closest hit of every path's ray (camera rays from the
 /// near plane on).
-fn extend(ctx: &SceneContext, depth: u32, paths: &[Path], hits: &mut Vec<Option<Hit>>) {
+fn extend(ctx: &SceneContext, depth: u32, queues: &mut Queues) {
+    let Queues {
+        paths, rays, hits, ..
+    } = queues;
+    rays.clear();
+    rays.extend(paths.iter().map(|path| path.walk.next_ray()));
     hits.clear();
-    hits.extend(paths.iter().map(|path| {
-        let walk = &path.walk;
-        if depth == 1 {
-            ctx.intersect_camera_ray(walk.origin, walk.direction)
-        } else {
-            walk.next_hit(ctx)
+    hits.resize(rays.len(), None);
+    ctx.intersect_batch(rays, hits);
+    if depth == 1 {
+        for (ray, hit) in rays.iter().zip(hits) {
+            *hit = ctx.beyond_near_plane(ray.origin, ray.direction, *hit);
         }
-    }));
+    }
 }
 
 /// Stage 3: the shadow queue's rays; the unoccluded ones add their
 /// contribution.
-fn shadow(ctx: &SceneContext, queue: &[ShadowQuery], out: &mut [Vec3]) {
-    for query in queue {
-        let ShadowRay {
-            origin,
-            direction,
-            t_max,
-            surfaces,
-        } = query.ray;
-        if !ctx.occluded_between(origin, direction, t_max, surfaces) {
+fn shadow(ctx: &SceneContext, queues: &mut Queues, out: &mut [Vec3]) {
+    let Queues {
+        shadow,
+        rays,
+        occluded,
+        ..
+    } = queues;
+    rays.clear();
+    rays.extend(shadow.iter().map(|query| query.ray.batch_ray()));
+    occluded.clear();
+    occluded.resize(rays.len(), false);
+    ctx.occluded_batch(rays, occluded);
+    for (query, &occluded) in shadow.iter().zip(occluded.iter()) {
+        if !occluded {
             out[query.pixel] += query.contribution;
         }
     }
