@@ -215,10 +215,10 @@ impl SceneContext {
         }
     }
 
-    /// [`SceneContext::intersect_leaving`] of every ray of `rays` (leaving
-    /// its `skip[0]`) into `hits`, as one batch query
-    /// (`accel::Bvh::intersect_batch`: the same hits, in packets of rays in
-    /// small scenes).
+    /// The closest hit of every ray of `rays` into `hits`, as one batch
+    /// query (`accel::Bvh::intersect_batch`: for a ray skipping one
+    /// triangle twice, [`SceneContext::intersect_leaving`]'s hit, in
+    /// packets of rays in small scenes), counted like it.
     pub fn intersect_batch(&self, rays: &[BatchRay], hits: &mut [Option<Hit>]) {
         THREAD_RAYS.set(THREAD_RAYS.get() + rays.len() as u64);
         if self.alpha_tested.is_empty() {
