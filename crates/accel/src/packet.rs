@@ -80,23 +80,14 @@ impl Bvh {
     /// If `hits` and `rays` differ in length.
     pub fn intersect_batch(&self, rays: &[BatchRay], hits: &mut [Option<Hit>]) {
         assert_eq!(rays.len(), hits.len(), "one hit per ray");
-        if !self.packets {
-            for (ray, hit) in rays.iter().zip(hits) {
-                *hit = self.intersect_skipping(ray.origin, ray.direction, ray.t_max, ray.skip);
-            }
-            return;
-        }
-        hits.fill(None);
         self.in_packets(
             rays,
+            hits,
             |packet, hits| {
                 let best = dispatch!(self.isa, simd => closest(simd, self, packet));
                 self.finish_closest(rays, packet, best, hits);
             },
-            |ray, hit| {
-                *hit = self.intersect_skipping(ray.origin, ray.direction, ray.t_max, ray.skip);
-            },
-            hits,
+            |ray| self.intersect_skipping(ray.origin, ray.direction, ray.t_max, ray.skip),
         );
     }
 
@@ -108,38 +99,38 @@ impl Bvh {
     /// If `occluded` and `rays` differ in length.
     pub fn occluded_batch(&self, rays: &[BatchRay], occluded: &mut [bool]) {
         assert_eq!(rays.len(), occluded.len(), "one answer per ray");
-        if !self.packets {
-            for (ray, occluded) in rays.iter().zip(occluded) {
-                *occluded = self.occluded_between(ray.origin, ray.direction, ray.t_max, ray.skip);
-            }
-            return;
-        }
-        occluded.fill(false);
         self.in_packets(
             rays,
+            occluded,
             |packet, occluded| {
                 let open = dispatch!(self.isa, simd => any(simd, self, packet));
                 self.finish_any(rays, packet, open, occluded);
             },
-            |ray, occluded| {
-                *occluded = self.occluded_between(ray.origin, ray.direction, ray.t_max, ray.skip);
-            },
-            occluded,
+            |ray| self.occluded_between(ray.origin, ray.direction, ray.t_max, ray.skip),
         );
     }
 
-    /// Hands the rays of `rays` that can hit anything to `packet` in
-    /// packets of one permutation class each, as each fills up, then the
-    /// partly filled ones; the rays of packets left with fewer than
-    /// [`MIN_FILL`] rays go to `single` one by one. Both write their
-    /// answers into `out`.
-    fn in_packets<T>(
+    /// The answers `out` to the queries `rays`: where the scene has
+    /// packets, `packet` writes those of each packet of rays of one
+    /// permutation class, as each fills up, then of the partly filled
+    /// ones; `single` answers the other rays one by one (all of them in
+    /// scenes without packets, those of packets left with fewer than
+    /// [`MIN_FILL`] rays otherwise). Rays that cannot hit anything are
+    /// answered by `T::default()`.
+    fn in_packets<T: Default>(
         &self,
         rays: &[BatchRay],
-        mut packet: impl FnMut(&Packet, &mut [T]),
-        mut single: impl FnMut(&BatchRay, &mut T),
         out: &mut [T],
+        mut packet: impl FnMut(&Packet, &mut [T]),
+        single: impl Fn(&BatchRay) -> T,
     ) {
+        if !self.packets {
+            for (ray, out) in rays.iter().zip(out) {
+                *out = single(ray);
+            }
+            return;
+        }
+        out.fill_with(T::default);
         let mut packets: [Packet; CLASSES] = std::array::from_fn(|_| Packet::default());
         for (i, ray) in rays.iter().enumerate() {
             let Some(r) = self.prepare(ray.origin, ray.direction, ray.t_max) else {
@@ -157,7 +148,7 @@ impl Bvh {
                 packet(open, out);
             } else {
                 for &i in &open.members[..open.count] {
-                    single(&rays[i], &mut out[i]);
+                    out[i] = single(&rays[i]);
                 }
             }
         }
@@ -174,7 +165,7 @@ impl Bvh {
         hits: &mut [Option<Hit>],
     ) {
         let scalar = best.scalar;
-        for &(slot, lanes) in &scalar[..best.scalar_count] {
+        for &(slot, lanes) in scalar.entries() {
             let triangle = &self.triangles[slot as usize];
             for j in bits(lanes) {
                 let r = self.prepared(&rays[packet.members[j]]);
@@ -218,7 +209,7 @@ impl Bvh {
     /// by ray for the rays not yet occluded.
     fn finish_any(&self, rays: &[BatchRay], packet: &Packet, any: Any, occluded: &mut [bool]) {
         let mut open = any.open;
-        for &(slot, lanes) in &any.scalar[..any.scalar_count] {
+        for &(slot, lanes) in any.scalar.entries() {
             let triangle = &self.triangles[slot as usize];
             for j in bits(lanes & open) {
                 let r = self.prepared(&rays[packet.members[j]]);
@@ -345,9 +336,45 @@ fn bits(mut mask: u32) -> impl Iterator<Item = usize> {
     })
 }
 
-/// Triangles whose lanes need the scalar test, at most one entry per
-/// triangle: `(slot, lanes)`.
-type ScalarLanes = [(u32, u32); MAX_SLOTS];
+/// Triangles whose lanes need the scalar test (an edge function of
+/// exactly zero), at most one entry per triangle.
+#[derive(Clone, Copy)]
+struct ScalarLanes {
+    /// `(slot, lanes)`: the triangle's slot and its lanes' bits.
+    entries: [(u32, u32); MAX_SLOTS],
+    count: usize,
+}
+
+impl ScalarLanes {
+    fn new() -> Self {
+        Self {
+            entries: [(0, 0); MAX_SLOTS],
+            count: 0,
+        }
+    }
+
+    /// Notes the `lanes` (bits) of the triangle in `slot`, if any.
+    #[inline(always)]
+    fn note(&mut self, slot: usize, lanes: u32) {
+        if lanes != 0 {
+            self.entries[self.count] = (slot as u32, lanes);
+            self.count += 1;
+        }
+    }
+
+    /// The noted `(slot, lanes)`.
+    fn entries(&self) -> &[(u32, u32)] {
+        &self.entries[..self.count]
+    }
+}
+
+/// The triangles of `bvh`'s slots: `(slot, corners, id)`.
+fn triangles(bvh: &Bvh) -> impl Iterator<Item = (usize, &[Vec3A; 3], u32)> {
+    let ids = bvh.ids.iter().copied();
+    (bvh.triangles.iter().zip(ids).enumerate())
+        .filter(|&(_, (_, id))| (id as usize) < bvh.triangle_count)
+        .map(|(slot, (v, id))| (slot, v, id))
+}
 
 /// Each lane's closest hit so far (the triangle test's units).
 struct Best {
@@ -360,7 +387,6 @@ struct Best {
     /// Its slot, [`NONE`] before a hit.
     slot: [u32; WIDTH],
     scalar: ScalarLanes,
-    scalar_count: usize,
 }
 
 impl Best {
@@ -379,7 +405,6 @@ impl Best {
 struct Any {
     open: u32,
     scalar: ScalarLanes,
-    scalar_count: usize,
 }
 
 /// One triangle's test in every lane of a packet, up to the division.
@@ -496,17 +521,10 @@ fn closest<S: Simd>(simd: S, bvh: &Bvh, p: &Packet) -> Best {
     let mut b2_best = zero;
     let mut id_best = u32x16::splat(simd, 0);
     let mut slot_best = u32x16::splat(simd, NONE);
-    let mut scalar = [(0, 0); MAX_SLOTS];
-    let mut scalar_count = 0;
-    for (slot, (v, &id)) in bvh.triangles.iter().zip(&bvh.ids).enumerate() {
-        if id as usize >= bvh.triangle_count {
-            continue;
-        }
+    let mut scalar = ScalarLanes::new();
+    for (slot, v, id) in triangles(bvh) {
         let edges = lanes.edges(simd, v, id);
-        if edges.scalar != 0 {
-            scalar[scalar_count] = (slot as u32, edges.scalar);
-            scalar_count += 1;
-        }
+        scalar.note(slot, edges.scalar);
         if edges.candidates.to_bitmask() == 0 {
             continue;
         }
@@ -528,7 +546,6 @@ fn closest<S: Simd>(simd: S, bvh: &Bvh, p: &Packet) -> Best {
         id: id_best.into(),
         slot: slot_best.into(),
         scalar,
-        scalar_count,
     }
 }
 
@@ -540,17 +557,10 @@ fn any<S: Simd>(simd: S, bvh: &Bvh, p: &Packet) -> Any {
     let zero = f32x16::splat(simd, 0.0);
     let t_max = f32x16::from_slice(simd, &p.t_max);
     let mut open = lanes.used;
-    let mut scalar = [(0, 0); MAX_SLOTS];
-    let mut scalar_count = 0;
-    for (slot, (v, &id)) in bvh.triangles.iter().zip(&bvh.ids).enumerate() {
-        if id as usize >= bvh.triangle_count {
-            continue;
-        }
+    let mut scalar = ScalarLanes::new();
+    for (slot, v, id) in triangles(bvh) {
         let edges = lanes.edges(simd, v, id);
-        if edges.scalar != 0 {
-            scalar[scalar_count] = (slot as u32, edges.scalar);
-            scalar_count += 1;
-        }
+        scalar.note(slot, edges.scalar);
         let candidates = edges.candidates & open;
         if candidates.to_bitmask() == 0 {
             continue;
@@ -566,7 +576,6 @@ fn any<S: Simd>(simd: S, bvh: &Bvh, p: &Packet) -> Any {
     Any {
         open: open.to_bitmask() as u32 & lanes.used_bits,
         scalar,
-        scalar_count,
     }
 }
 
