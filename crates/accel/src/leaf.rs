@@ -166,15 +166,67 @@ impl<V> BlockRay<V> {
     {
         let v = &block.v[k];
         let [kx, ky, kz] = self.axes;
-        let px = V::simd_from(simd, v[kx]) - self.origin[0];
-        let py = V::simd_from(simd, v[ky]) - self.origin[1];
-        let pz = V::simd_from(simd, v[kz]) - self.origin[2];
-        [
-            self.scale * px + self.shear[0] * pz,
-            self.scale * py + self.shear[1] * pz,
-            self.shear[2] * pz,
-        ]
+        let p = [
+            V::simd_from(simd, v[kx]),
+            V::simd_from(simd, v[ky]),
+            V::simd_from(simd, v[kz]),
+        ];
+        sheared(p, &self.origin, self.scale, &self.shear)
     }
+}
+
+/// `shear * (p - origin)` lane by lane for a corner `p` and a ray's
+/// `origin` in permuted coordinates (`kx`, `ky`, `kz`), without the
+/// products by the matrix's zero entries (module documentation): `x = s
+/// (p - o)[kx] + c.x (p - o)[kz]`, `y` alike, `z = c.z (p - o)[kz]`, with
+/// `s` the scale and `c` the shear column `kz`. Shared by the blocks here
+/// (one ray, a triangle a lane) and the packets of `packet.rs` (one
+/// triangle, a ray a lane), which must give the same bits.
+#[inline(always)]
+pub(crate) fn sheared<S: Simd, V: SimdFloat<S, Element = f32>>(
+    p: [V; 3],
+    origin: &[V; 3],
+    scale: V,
+    shear: &[V; 3],
+) -> [V; 3] {
+    let px = p[0] - origin[0];
+    let py = p[1] - origin[1];
+    let pz = p[2] - origin[2];
+    [
+        scale * px + shear[0] * pz,
+        scale * py + shear[1] * pz,
+        shear[2] * pz,
+    ]
+}
+
+/// The edge functions of the transformed corners `a`, `b`, `c` (Woop et
+/// al. 2013: U, V, W), lane by lane.
+#[inline(always)]
+pub(crate) fn edge_functions<S: Simd, V: SimdFloat<S, Element = f32>>(
+    [a, b, c]: [[V; 3]; 3],
+) -> [V; 3] {
+    [
+        c[0] * b[1] - c[1] * b[0],
+        a[0] * c[1] - a[1] * c[0],
+        b[0] * a[1] - b[1] * a[0],
+    ]
+}
+
+/// `(det, t, b1, b2)` from the edge functions `e` and the corners'
+/// transformed `z`, lane by lane: a true division, then the barycentrics'
+/// blend of `z` (the scalar test's order).
+#[inline(always)]
+pub(crate) fn distance<S: Simd, V: SimdFloat<S, Element = f32>>(
+    simd: S,
+    [e0, e1, e2]: [V; 3],
+    z: [V; 3],
+) -> (V, V, V, V) {
+    let det = e0 + e1 + e2;
+    let inv_det = V::simd_from(simd, 1.0) / det;
+    let b0 = e0 * inv_det;
+    let b1 = e1 * inv_det;
+    let b2 = e2 * inv_det;
+    (det, b0 * z[0] + b1 * z[1] + b2 * z[2], b1, b2)
 }
 
 /// The kernel's verdict on each lane of a block.
@@ -255,9 +307,7 @@ pub(crate) fn intersect<S: Simd, V: Lanes<S, W>, const W: usize>(
     let b = ray.transform(simd, block, 1);
     let c = ray.transform(simd, block, 2);
 
-    let e0 = c[0] * b[1] - c[1] * b[0];
-    let e1 = a[0] * c[1] - a[1] * c[0];
-    let e2 = b[0] * a[1] - b[1] * a[0];
+    let [e0, e1, e2] = edge_functions([a, b, c]);
     let zero = V::simd_from(simd, 0.0);
     let scalar = e0.simd_eq(zero) | e1.simd_eq(zero) | e2.simd_eq(zero);
     let negative = e0.simd_lt(zero) | e1.simd_lt(zero) | e2.simd_lt(zero);
@@ -276,12 +326,7 @@ pub(crate) fn intersect<S: Simd, V: Lanes<S, W>, const W: usize>(
             b2: [0.0; W],
         };
     }
-    let det = e0 + e1 + e2;
-    let inv_det = V::simd_from(simd, 1.0) / det;
-    let b0 = e0 * inv_det;
-    let b1 = e1 * inv_det;
-    let b2 = e2 * inv_det;
-    let t = b0 * a[2] + b1 * b[2] + b2 * c[2];
+    let (det, t, b1, b2) = distance(simd, [e0, e1, e2], [a[2], b[2], c[2]]);
     let valid = !det.simd_eq(zero) & t.simd_gt(zero) & t.simd_le(V::simd_from(simd, t_max));
     LaneHits {
         hit: valid.to_bitmask() as u32 & candidates,

@@ -28,6 +28,7 @@ use fearless_simd::{Select, Simd, SimdBase, SimdMask, dispatch, f32x16, mask32x1
 use glam::{Vec3, Vec3A};
 
 use crate::bvh::{Bvh, Hit, PreparedRay};
+use crate::leaf;
 use crate::sphere::CULL_MARGIN;
 
 /// Rays per packet: one AVX-512 register a coordinate (two AVX2, four SSE).
@@ -456,18 +457,16 @@ impl<S: Simd> Lanes<S> {
         }
     }
 
-    /// `shear * (v - origin)` in every lane, `leaf.rs`'s `transform`.
+    /// `shear * (v - origin)` in every lane (`leaf::sheared`).
     #[inline(always)]
     fn transform(&self, simd: S, v: Vec3A) -> [f32x16<S>; 3] {
         let [kx, ky, kz] = self.axes;
-        let px = f32x16::splat(simd, v[kx]) - self.origin[0];
-        let py = f32x16::splat(simd, v[ky]) - self.origin[1];
-        let pz = f32x16::splat(simd, v[kz]) - self.origin[2];
-        [
-            self.scale * px + self.shear[0] * pz,
-            self.scale * py + self.shear[1] * pz,
-            self.shear[2] * pz,
-        ]
+        let p = [
+            f32x16::splat(simd, v[kx]),
+            f32x16::splat(simd, v[ky]),
+            f32x16::splat(simd, v[kz]),
+        ];
+        leaf::sheared(p, &self.origin, self.scale, &self.shear)
     }
 
     /// The edge functions of triangle `v` (caller id `id`), `leaf.rs`'s
@@ -477,9 +476,7 @@ impl<S: Simd> Lanes<S> {
         let a = self.transform(simd, v[0]);
         let b = self.transform(simd, v[1]);
         let c = self.transform(simd, v[2]);
-        let e0 = c[0] * b[1] - c[1] * b[0];
-        let e1 = a[0] * c[1] - a[1] * c[0];
-        let e2 = b[0] * a[1] - b[1] * a[0];
+        let [e0, e1, e2] = leaf::edge_functions([a, b, c]);
         let zero = f32x16::splat(simd, 0.0);
         let id = u32x16::splat(simd, id);
         let tested = self.used & !(self.skip[0].simd_eq(id) | self.skip[1].simd_eq(id));
@@ -499,14 +496,7 @@ impl<S: Simd> Edges<S> {
     /// `(det, t, b1, b2)` as `leaf.rs` computes them.
     #[inline(always)]
     fn hit(&self, simd: S) -> (f32x16<S>, f32x16<S>, f32x16<S>, f32x16<S>) {
-        let [e0, e1, e2] = self.e;
-        let det = e0 + e1 + e2;
-        let inv_det = f32x16::splat(simd, 1.0) / det;
-        let b0 = e0 * inv_det;
-        let b1 = e1 * inv_det;
-        let b2 = e2 * inv_det;
-        let t = b0 * self.z[0] + b1 * self.z[1] + b2 * self.z[2];
-        (det, t, b1, b2)
+        leaf::distance(simd, self.e, self.z)
     }
 }
 
