@@ -1,6 +1,9 @@
 //! Camera subpaths of the bidirectional core with all their techniques:
 //! emitter hits, next-event estimation, vertex connections and merges.
 
+use std::ops::Range;
+
+use accel::{BatchRay, Hit};
 use glam::Vec3;
 use microfacet::TransportMode;
 use mis::{SubpathRay, SubpathState};
@@ -11,22 +14,77 @@ use super::{Iteration, PhotonMap, WeightedPhoton};
 use crate::lights::LightChoice;
 use crate::medium;
 use crate::nee;
+use crate::sampler::Sampler;
 use crate::vertex::PathVertex;
+use crate::walk::Walk;
+
+/// A camera subpath leaving the camera: its random numbers, its walk, and
+/// what its camera ray hits.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct CameraStart {
+    pub sampler: Sampler,
+    pub walk: Walk,
+    pub hit: Option<Hit>,
+}
+
+/// The camera subpaths of a block of pixels and the buffers of their camera
+/// rays, kept from block to block ([`Iteration::start_camera_paths`]).
+#[derive(Default)]
+pub(super) struct CameraRays {
+    starts: Vec<CameraStart>,
+    rays: Vec<BatchRay>,
+    hits: Vec<Option<Hit>>,
+}
 
 impl Iteration<'_> {
-    /// The camera subpath of pixel `index` (row-major) with all its
-    /// techniques: connections to `light_path` (the light subpath with the
-    /// same index), and merges with the photon map when merging. Returns
-    /// the pixel estimate without light-tracing splats.
+    /// The camera subpaths of pixels `pixels` (row-major indices), their
+    /// camera rays traced as one batch query: neighbouring pixels' rays
+    /// are coherent, and small scenes test them in packets
+    /// (`accel::Bvh::intersect_batch`; the hits of single queries).
+    pub(super) fn start_camera_paths<'b>(
+        &self,
+        pixels: Range<usize>,
+        batch: &'b mut CameraRays,
+    ) -> &'b [CameraStart] {
+        let ctx = self.ctx;
+        let CameraRays { starts, rays, hits } = batch;
+        starts.clear();
+        starts.extend(pixels.map(|index| {
+            let (sampler, walk) = ctx.camera_path_of(self.n, index);
+            CameraStart {
+                sampler,
+                walk,
+                hit: None,
+            }
+        }));
+        rays.clear();
+        rays.extend(starts.iter().map(|start| start.walk.next_ray()));
+        hits.clear();
+        hits.resize(rays.len(), None);
+        ctx.intersect_batch(rays, hits);
+        for (start, hit) in starts.iter_mut().zip(hits.iter()) {
+            start.hit = ctx.beyond_near_plane(start.walk.origin, start.walk.direction, *hit);
+        }
+        starts
+    }
+
+    /// The camera subpath `start` with all its techniques: connections to
+    /// `light_path` (the light subpath with the same index), and merges
+    /// with the photon map when merging. Returns the pixel estimate without
+    /// light-tracing splats.
     pub(super) fn trace_camera_path(
         &self,
-        index: usize,
+        start: &CameraStart,
         light_path: &[LightVertex],
         photon_map: Option<&PhotonMap<WeightedPhoton>>,
     ) -> Vec3 {
         let ctx = self.ctx;
         let max_depth = ctx.config.max_depth;
-        let (sampler, mut walk) = ctx.camera_path_of(self.n, index);
+        let CameraStart {
+            sampler,
+            mut walk,
+            hit: camera_hit,
+        } = *start;
         let mut ray =
             SubpathRay::from_camera(&self.mis, f64::from(ctx.camera.pdf_w(walk.direction)));
         let mut regularization = self.path_regularization(Subpath::Camera);
@@ -42,7 +100,7 @@ impl Iteration<'_> {
                 .then(|| ctx.lights.choose(&ctx.scene, u.u_light, u.uv_light))
                 .flatten();
             let hit = if length == 1 {
-                ctx.intersect_camera_ray(walk.origin, walk.direction)
+                camera_hit
             } else {
                 walk.next_hit(ctx)
             };

@@ -31,6 +31,7 @@ use crate::film::Splats;
 use crate::integrator::{Integrator, Stop};
 use crate::pt::PathTracer;
 use crate::roulette::ShadowRoulette;
+use camera_path::{CameraRays, CameraStart};
 use light_path::LightVertex;
 use photon_map::{Kept, Photon, PhotonMap, PhotonMapBuffers, PhotonRecord, WeightedPhoton};
 pub use ppm::ProgressivePhotonMapper;
@@ -288,17 +289,18 @@ impl Iteration<'_> {
         let splats: Vec<Splats> = estimates
             .par_chunks_mut(LIGHT_BLOCK)
             .enumerate()
-            .map(|(block, chunk)| {
+            .map_init(CameraRays::default, |camera_rays, (block, chunk)| {
                 let mut vertices = Vec::new();
                 let mut splats = Splats::default();
                 if self.stop.requested() {
                     return splats;
                 }
-                for (k, out) in chunk.iter_mut().enumerate() {
-                    let index = block * LIGHT_BLOCK + k;
+                let first = block * LIGHT_BLOCK;
+                let starts = self.start_camera_paths(first..first + chunk.len(), camera_rays);
+                for ((k, out), start) in chunk.iter_mut().enumerate().zip(starts) {
                     vertices.clear();
-                    self.trace_light_path(index as u64, &mut vertices, &mut splats);
-                    *out = self.trace_camera_path(index, &vertices, None);
+                    self.trace_light_path((first + k) as u64, &mut vertices, &mut splats);
+                    *out = self.trace_camera_path(start, &vertices, None);
                 }
                 self.ctx.flush_ray_count();
                 splats
@@ -320,8 +322,8 @@ impl Iteration<'_> {
         }
         paths.build_photon_map(&mut kept.map, self.radius, estimates.len());
         let photon_map = &kept.map;
-        self.camera_pass(estimates, |index| {
-            self.trace_camera_path(index, paths.path(index), Some(photon_map))
+        self.camera_pass(estimates, |index, start| {
+            self.trace_camera_path(start, paths.path(index), Some(photon_map))
         });
         kept.blocks = paths.into_photon_blocks();
         for s in &splats {
@@ -329,17 +331,24 @@ impl Iteration<'_> {
         }
     }
 
-    /// One camera subpath per pixel, `trace(pixel index)`, in parallel blocks.
-    fn camera_pass(&self, estimates: &mut [Vec3], trace: impl Fn(usize) -> Vec3 + Sync) {
+    /// One camera subpath per pixel, `trace(pixel index, its start)`, in
+    /// parallel blocks.
+    fn camera_pass(
+        &self,
+        estimates: &mut [Vec3],
+        trace: impl Fn(usize, &CameraStart) -> Vec3 + Sync,
+    ) {
         estimates
             .par_chunks_mut(LIGHT_BLOCK)
             .enumerate()
-            .for_each(|(block, chunk)| {
+            .for_each_init(CameraRays::default, |camera_rays, (block, chunk)| {
                 if self.stop.requested() {
                     return;
                 }
-                for (k, out) in chunk.iter_mut().enumerate() {
-                    *out = trace(block * LIGHT_BLOCK + k);
+                let first = block * LIGHT_BLOCK;
+                let starts = self.start_camera_paths(first..first + chunk.len(), camera_rays);
+                for ((k, out), start) in chunk.iter_mut().enumerate().zip(starts) {
+                    *out = trace(first + k, start);
                 }
                 self.ctx.flush_ray_count();
             });

@@ -11,7 +11,7 @@ use glam::Vec3;
 use microfacet::TransportMode;
 use regularization::Subpath;
 
-use super::{Bidirectional, Iteration, Photon, PhotonMap, PhotonMapBuffers};
+use super::{Bidirectional, CameraStart, Iteration, Photon, PhotonMap, PhotonMapBuffers};
 use crate::context::SceneContext;
 use crate::integrator::{Integrator, Stop};
 use crate::vertex::PathVertex;
@@ -54,24 +54,29 @@ impl Integrator for ProgressivePhotonMapper {
             // Without connections nothing else reads the light vertices.
             kept.blocks = paths.into_photon_blocks();
             let photon_map = &kept.map;
-            it.camera_pass(estimates, |index| it.trace_gather_path(index, photon_map));
+            it.camera_pass(estimates, |_, start| {
+                it.trace_gather_path(start, photon_map)
+            });
         });
     }
 }
 
 impl Iteration<'_> {
-    /// The camera path of pixel `index` (row-major): emission seen directly
-    /// or through delta lobes, and the density estimate at the first
-    /// non-specular vertex.
-    fn trace_gather_path(&self, index: usize, photon_map: &PhotonMap<Photon>) -> Vec3 {
+    /// The camera path `start`: emission seen directly or through delta
+    /// lobes, and the density estimate at the first non-specular vertex.
+    fn trace_gather_path(&self, start: &CameraStart, photon_map: &PhotonMap<Photon>) -> Vec3 {
         let ctx = self.ctx;
         let max_depth = ctx.config.max_depth;
-        let (sampler, mut walk) = ctx.camera_path_of(self.n, index);
+        let CameraStart {
+            sampler,
+            mut walk,
+            hit: camera_hit,
+        } = *start;
         let mut regularization = self.path_regularization(Subpath::Camera);
         let mut radiance = Vec3::ZERO;
         for length in 1..=max_depth {
             let hit = if length == 1 {
-                ctx.intersect_camera_ray(walk.origin, walk.direction)
+                camera_hit
             } else {
                 walk.next_hit(ctx)
             };
