@@ -197,7 +197,7 @@ impl SceneContext {
     /// that one if it lies beyond the near plane, else the closest hit
     /// from the near plane on ([`SceneContext::intersect_camera_ray`]).
     #[inline]
-    pub fn beyond_near_plane(
+    fn beyond_near_plane(
         &self,
         origin: Vec3,
         direction: Vec3,
@@ -227,6 +227,15 @@ impl SceneContext {
             for (r, hit) in rays.iter().zip(hits) {
                 *hit = self.intersect_alpha(r.origin, r.direction, r.t_max);
             }
+        }
+    }
+
+    /// [`SceneContext::intersect_camera_ray`] of every ray of `rays` (from
+    /// the camera position) into `hits`, as one batch query.
+    pub fn intersect_camera_batch(&self, rays: &[BatchRay], hits: &mut [Option<Hit>]) {
+        self.intersect_batch(rays, hits);
+        for (ray, hit) in rays.iter().zip(hits) {
+            *hit = self.beyond_near_plane(ray.origin, ray.direction, *hit);
         }
     }
 

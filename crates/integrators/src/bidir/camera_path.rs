@@ -61,9 +61,9 @@ impl Iteration<'_> {
         rays.extend(starts.iter().map(|start| start.walk.next_ray()));
         hits.clear();
         hits.resize(rays.len(), None);
-        ctx.intersect_batch(rays, hits);
-        for (start, hit) in starts.iter_mut().zip(hits.iter()) {
-            start.hit = ctx.beyond_near_plane(start.walk.origin, start.walk.direction, *hit);
+        ctx.intersect_camera_batch(rays, hits);
+        for (start, &hit) in starts.iter_mut().zip(hits.iter()) {
+            start.hit = hit;
         }
         starts
     }

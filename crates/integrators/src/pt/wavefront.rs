@@ -270,11 +270,10 @@ fn extend(ctx: &SceneContext, depth: u32, queues: &mut Queues) {
     rays.extend(paths.iter().map(|path| path.walk.next_ray()));
     hits.clear();
     hits.resize(rays.len(), None);
-    ctx.intersect_batch(rays, hits);
     if depth == 1 {
-        for (ray, hit) in rays.iter().zip(hits) {
-            *hit = ctx.beyond_near_plane(ray.origin, ray.direction, *hit);
-        }
+        ctx.intersect_camera_batch(rays, hits);
+    } else {
+        ctx.intersect_batch(rays, hits);
     }
 }
 
