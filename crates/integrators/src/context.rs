@@ -197,12 +197,7 @@ impl SceneContext {
     /// that one if it lies beyond the near plane, else the closest hit
     /// from the near plane on ([`SceneContext::intersect_camera_ray`]).
     #[inline]
-    fn beyond_near_plane(
-        &self,
-        origin: Vec3,
-        direction: Vec3,
-        hit: Option<Hit>,
-    ) -> Option<Hit> {
+    fn beyond_near_plane(&self, origin: Vec3, direction: Vec3, hit: Option<Hit>) -> Option<Hit> {
         let t_near = self.camera.near_t(direction);
         match hit {
             Some(h) if h.t < t_near => self
