@@ -149,22 +149,24 @@ fn fallback_offset(scale: f32) -> f32 {
     FLOAT_SCALE * (scale.max(MIN_SCALE) / ORIGIN)
 }
 
+/// One coordinate of [`offset_ray_origin_scaled`]. Every case is computed
+/// and one is selected, without branches: with a branch per coordinate the
+/// three results went through the stack, and the wavefront path tracer's
+/// next reads of the origin waited on those narrow stores.
 #[inline]
 fn offset_component(p: f32, n: f32, fallback: f32) -> f32 {
-    if !p.is_finite() {
-        return p;
-    }
-    if p.abs() < ORIGIN {
-        return p + fallback * n;
-    }
+    // Near the origin: a fixed offset along n.
+    let near = p + fallback * n;
     // Truncation toward zero, as the chapter's int conversion; |n| <= 1.
     let of_i = (INT_SCALE * n) as i32;
     // Sign-magnitude bits: adding to the magnitude moves away from zero, so a
     // negative coordinate needs the opposite step to move along +n.
-    let step = if p < 0.0 { -of_i } else { of_i };
+    let step = if p < 0.0 { of_i.wrapping_neg() } else { of_i };
     let moved = f32::from_bits((p.to_bits() as i32).wrapping_add(step) as u32);
     // Never step into infinity or NaN at the top of the float range.
-    if moved.is_finite() { moved } else { p }
+    let far = if moved.is_finite() { moved } else { p };
+    let offset = if p.abs() < ORIGIN { near } else { far };
+    if p.is_finite() { offset } else { p }
 }
 
 #[cfg(test)]
